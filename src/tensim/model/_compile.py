@@ -1,0 +1,266 @@
+"""Compiles a :class:`~tensim.structure.Structure` into a MuJoCo model through ``mujoco.MjSpec``.
+
+One body per rigid group (free unless one of its nodes is fixed), rods as capsules, point masses
+as spheres, each cable a spatial tendon between two anchor sites plus an unlimited tendon
+actuator through which the cable law applies its tension. Names are deterministic: bodies after
+their group, geoms after their rod (``mass_<node>`` for point masses), tendons and actuators
+after their cable, anchor sites ``<cable>_0`` and ``<cable>_1``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+
+import mujoco
+import numpy as np
+
+from tensim.structure import Structure, mass_properties
+from tensim.structure._mass import MassProperties
+
+log = logging.getLogger(__name__)
+
+# Robot geoms outrank the ground, so robot-ground contacts use the rod's own friction.
+_ROBOT_PRIORITY = 1
+_CONTACT_TIMECONST = 0.02  # s, MuJoCo's default contact time constant
+
+
+class ModelError(ValueError):
+    """A structure cannot be compiled into a sound MuJoCo model."""
+
+
+@dataclasses.dataclass(frozen=True)
+class WorldOptions:
+    """The world the structure is placed in.
+
+    Attributes:
+        timestep: physics step [s].
+        gravity: (3,) gravitational acceleration [m/s^2].
+        ground: add an infinite ground plane at z = 0.
+        min_inertia_ratio: a body whose smallest principal moment is below this fraction of
+            its largest gets the small moments raised to it (thin single rods: MuJoCo spins up
+            bodies with a tiny axial inertia); see ``thin_body``.
+        thin_body: ``"regularize"`` (raise the moments and log it) or ``"refuse"`` (raise an error).
+    """
+
+    timestep: float = 1e-3
+    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    ground: bool = True
+    min_inertia_ratio: float = 0.01
+    thin_body: str = "regularize"
+
+    def __post_init__(self) -> None:
+        if not 0 < self.timestep <= 0.05:
+            raise ValueError(f"timestep must be in (0, 0.05] s, got {self.timestep}")
+        if self.thin_body not in ("regularize", "refuse"):
+            raise ValueError(f"thin_body must be 'regularize' or 'refuse', got {self.thin_body!r}")
+        if not 0 <= self.min_inertia_ratio < 1:
+            raise ValueError("min_inertia_ratio must be in [0, 1)")
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelIndex:
+    """Ids looked up once after compilation.
+
+    Attributes:
+        cables: cable names, in structure order.
+        tendon: (n_cables,) tendon id of each cable.
+        actuator: (n_cables,) actuator id of each cable.
+        bodies: rigid-body names, in group order.
+        body: (n_bodies,) MuJoCo body id of each rigid body.
+        node_body: node name -> MuJoCo body id (0 for world-fixed nodes).
+        node_local: node name -> (3,) node position in its body's frame [m].
+    """
+
+    cables: tuple[str, ...]
+    tendon: np.ndarray
+    actuator: np.ndarray
+    bodies: tuple[str, ...]
+    body: np.ndarray
+    node_body: dict[str, int]
+    node_local: dict[str, np.ndarray]
+
+    def cable_id(self, name: str) -> int:
+        """Position of cable ``name`` in the per-cable arrays."""
+        try:
+            return self.cables.index(name)
+        except ValueError:
+            raise KeyError(f"unknown cable {name!r}; cables: {list(self.cables)}") from None
+
+
+@dataclasses.dataclass(frozen=True)
+class CompiledModel:
+    """A structure compiled to MuJoCo, with its per-cable parameters as arrays.
+
+    Attributes:
+        structure: the description it came from.
+        world: the world options used.
+        model: the MuJoCo model.
+        index: id lookups.
+        stiffness, damping: (n_cables,) cable k [N/m] and b [N s/m].
+        rest_length: (n_cables,) initial rest lengths [m].
+        max_speed, max_tension, min_rest_length, min_length: (n_cables,) motor limits.
+        inertia_adjusted: names of bodies whose inertia was regularized.
+    """
+
+    structure: Structure
+    world: WorldOptions
+    model: mujoco.MjModel
+    index: ModelIndex
+    stiffness: np.ndarray
+    damping: np.ndarray
+    rest_length: np.ndarray
+    max_speed: np.ndarray
+    max_tension: np.ndarray
+    min_rest_length: np.ndarray
+    min_length: np.ndarray
+    inertia_adjusted: tuple[str, ...] = ()
+
+    @property
+    def n_cables(self) -> int:
+        """Number of cables."""
+        return len(self.index.cables)
+
+
+def _restitution_dampratio(restitution: float) -> float:
+    """Damping ratio of MuJoCo's contact spring that gives this coefficient of restitution."""
+    if restitution <= 0:
+        return 1.0
+    log_e = math.log(restitution)
+    return -log_e / math.sqrt(math.pi**2 + log_e**2)
+
+
+def _regularize(name: str, props: MassProperties, world: WorldOptions) -> tuple[np.ndarray, bool]:
+    """Inertia tensor with tiny principal moments raised to ``min_inertia_ratio`` of the largest."""
+    moments, axes = np.linalg.eigh(props.inertia)
+    floor = world.min_inertia_ratio * moments[-1]
+    if moments[0] >= floor:
+        return props.inertia, False
+    if world.thin_body == "refuse":
+        raise ModelError(
+            f"rigid body {name!r}: smallest principal inertia {moments[0]:.3g} kg m^2 is below "
+            f"{world.min_inertia_ratio} of the largest ({moments[-1]:.3g}); MuJoCo spins such thin "
+            "bodies up. Use thin_body='regularize', add point masses at the rod ends, or join rods."
+        )
+    raised = np.maximum(moments, floor)
+    log.info("rigid body %r: principal inertia raised from %s to %s kg m^2 (thin rod)",
+             name, moments, raised)
+    return axes @ np.diag(raised) @ axes.T, True
+
+
+def compile_structure(structure: Structure, world: WorldOptions | None = None) -> CompiledModel:
+    """Builds the MuJoCo model of ``structure`` in ``world``.
+
+    Raises:
+        ModelError: a rigid body would be unsound (see ``WorldOptions.thin_body``).
+    """
+    world = world or WorldOptions()
+    spec = mujoco.MjSpec()
+    spec.modelname = structure.name
+    spec.option.timestep = world.timestep
+    spec.option.gravity = list(world.gravity)
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    spec.compiler.autolimits = True
+    spec.worldbody.add_light(pos=[0, 0, 5], dir=[0, 0, -1])
+    if world.ground:
+        spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1],
+                                rgba=[0.85, 0.85, 0.8, 1])
+    rods = {r.name: r for r in structure.rods}
+    masses = {p.node: p for p in structure.point_masses}
+    node_body: dict[str, str] = {}
+    node_local: dict[str, np.ndarray] = {}
+    adjusted = []
+    for group in structure.rigid_groups():
+        props = mass_properties(structure, group)
+        inertia, changed = _regularize(group.name, props, world)
+        if changed:
+            adjusted.append(group.name)
+        body = spec.worldbody.add_body(name=group.name, pos=props.com.tolist())
+        if not group.fixed:
+            body.add_freejoint(name=f"{group.name}_free")
+        body.explicitinertial = True
+        body.mass = props.mass
+        body.ipos = [0, 0, 0]
+        body.fullinertia = [inertia[0, 0], inertia[1, 1], inertia[2, 2],
+                            inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+        for node in group.nodes:
+            node_body[node] = group.name
+            node_local[node] = structure.position(node) - props.com
+        for name in group.rods:
+            rod = rods[name]
+            ends = [node_local[n] for n in rod.nodes]
+            body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                          fromto=np.concatenate(ends).tolist(), size=[rod.radius, 0, 0],
+                          friction=[rod.friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
+                          solref=[_CONTACT_TIMECONST, _restitution_dampratio(rod.restitution)],
+                          rgba=[0.25, 0.25, 0.3, 1])
+        for node in group.nodes:
+            if node in masses:
+                ends = [r for r in structure.rods if node in r.nodes]
+                # a sphere inside a rod's end cap adds no surface, only duplicate contacts
+                covered = any(r.radius >= masses[node].radius for r in ends)
+                friction = max((r.friction for r in ends), default=1.0)
+                body.add_geom(name=f"mass_{node}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                              pos=node_local[node].tolist(), size=[masses[node].radius, 0, 0],
+                              friction=[friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
+                              contype=0 if covered else 1, conaffinity=0 if covered else 1,
+                              rgba=[0.7, 0.45, 0.2, 1])
+    for node in structure.nodes:
+        if node.name not in node_body:  # a fixed anchor point in the world
+            node_body[node.name] = "world"
+            node_local[node.name] = structure.position(node.name)
+    bodies = {b.name: b for b in spec.bodies}
+    for cable in structure.cables:
+        tendon = spec.add_tendon(name=cable.name, rgba=[0.8, 0.1, 0.1, 1], width=0.002)
+        for end, (node, anchor) in enumerate(zip(cable.nodes, structure.anchors(cable),
+                                                 strict=True)):
+            body = bodies[node_body[node]]
+            local = anchor - (structure.position(node) - node_local[node])
+            body.add_site(name=f"{cable.name}_{end}", pos=local.tolist(), size=[0.002, 0, 0])
+            tendon.wrap_site(f"{cable.name}_{end}")
+        actuator = spec.add_actuator(name=cable.name, target=cable.name,
+                                     trntype=mujoco.mjtTrn.mjTRN_TENDON)
+        actuator.gainprm[0] = 1.0  # ctrl is the signed tendon force: -tension [N]
+    model = spec.compile()
+    return _assemble(structure, world, model, node_body, node_local, tuple(adjusted))
+
+
+def _assemble(structure: Structure, world: WorldOptions, model: mujoco.MjModel,
+              node_body: dict[str, str], node_local: dict[str, np.ndarray],
+              adjusted: tuple[str, ...]) -> CompiledModel:
+    cables = structure.cables
+    names = tuple(c.name for c in cables)
+    groups = tuple(g.name for g in structure.rigid_groups())
+
+    def ids(kind: mujoco.mjtObj, items: tuple[str, ...]) -> np.ndarray:
+        return np.array([mujoco.mj_name2id(model, kind, n) for n in items], dtype=np.int32)
+
+    index = ModelIndex(
+        cables=names,
+        tendon=ids(mujoco.mjtObj.mjOBJ_TENDON, names),
+        actuator=ids(mujoco.mjtObj.mjOBJ_ACTUATOR, names),
+        bodies=groups,
+        body=ids(mujoco.mjtObj.mjOBJ_BODY, groups),
+        node_body={n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b)
+                   for n, b in node_body.items()},
+        node_local={n: np.asarray(p, dtype=float) for n, p in node_local.items()},
+    )
+
+    def column(get: object) -> np.ndarray:
+        return np.array([get(c) for c in cables], dtype=float)  # type: ignore[operator]
+
+    return CompiledModel(
+        structure=structure,
+        world=world,
+        model=model,
+        index=index,
+        stiffness=column(lambda c: c.stiffness),
+        damping=column(lambda c: c.damping),
+        rest_length=column(structure.rest_length),
+        max_speed=column(lambda c: c.motor.max_speed),
+        max_tension=column(lambda c: c.motor.max_tension),
+        min_rest_length=column(lambda c: c.motor.min_rest_length),
+        min_length=column(lambda c: c.motor.min_length),
+        inertia_adjusted=adjusted,
+    )

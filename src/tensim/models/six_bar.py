@@ -1,0 +1,55 @@
+"""The six-strut icosahedron ("expanded octahedron") of ReCTeR and SUPERball: 6 rods, 24 cables.
+
+Three pairs of parallel struts along x, y and z; each pair is half a strut length apart, the
+form in which equal cable force densities are in equilibrium (cable length = strut * sqrt(6)/4,
+strut force density = -1.5 x the cable's). Scale: 1 m struts as on ReCTeR.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from tensim.structure import Cable, Motor, Node, PointMass, Rod, Structure
+
+STRUT_LENGTH = 1.0  # m
+ROD_RADIUS = 0.01  # m
+ROD_LINEAR_DENSITY = 0.2  # kg/m
+END_MASS = 0.05  # kg, end caps
+STIFFNESS = 500.0  # N/m
+DAMPING = 5.0  # N s/m
+PRETENSION = 15.0  # N, the same in every cable
+
+
+def six_bar_nodes(strut_length: float = STRUT_LENGTH) -> dict[str, np.ndarray]:
+    """The 12 node positions [m], centred at the origin; nodes ``<axis><pair><end>``."""
+    h, s = strut_length / 2, strut_length / 4
+    nodes = {}
+    for axis, perm in (("x", (2, 0, 1)), ("y", (1, 2, 0)), ("z", (0, 1, 2))):
+        for pair, offset in enumerate((-s, s)):
+            for end, along in enumerate((-h, h)):
+                local = np.array([0.0, offset, along])  # strut along local z at y = offset
+                nodes[f"{axis}{pair}{end}"] = local[list(perm)]
+    return nodes
+
+
+def six_bar(height: float = 0.05) -> Structure:
+    """The six-bar resting above the ground: its lowest nodes ``height`` metres up."""
+    positions = six_bar_nodes()
+    lift = height - min(p[2] for p in positions.values())
+    nodes = tuple(Node(n, tuple(p + [0, 0, lift])) for n, p in positions.items())
+    rods = tuple(
+        Rod(f"rod_{axis}{pair}", (f"{axis}{pair}0", f"{axis}{pair}1"), ROD_RADIUS,
+            linear_density=ROD_LINEAR_DENSITY, friction=1.0, tags=(f"rod_{axis}{pair}",))
+        for axis in "xyz" for pair in (0, 1)
+    )
+    cable_length = STRUT_LENGTH * np.sqrt(6) / 4
+    cables = []
+    for a, b in itertools.combinations(positions, 2):
+        if abs(np.linalg.norm(positions[a] - positions[b]) - cable_length) < 1e-9:
+            cables.append(Cable(f"cable_{a}_{b}", (a, b), STIFFNESS, damping=DAMPING,
+                                pretension=PRETENSION, motor=Motor(max_speed=0.2,
+                                                                   max_tension=500.0)))
+    masses = tuple(PointMass(n, END_MASS, 0.02) for n in positions)
+    return Structure("six_bar", nodes, rods, tuple(cables), masses)

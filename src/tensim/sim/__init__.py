@@ -1,0 +1,37 @@
+"""Simulation: the fixed-step loop, cables and motors, external forces and recording."""
+
+from tensim.sim._drive import MODE_IMPEDANCE, MODE_REST, CableDrive, compiled_available
+from tensim.sim._laws import cable_tension, impedance_rest_target, impedance_setpoint, motor_step
+from tensim.sim._loads import NodeLoad, ramp_hold_release
+from tensim.sim._simulation import (
+    COM,
+    Controller,
+    Simulation,
+    SimulationError,
+    SimulationResult,
+    StabilityLimits,
+    simulate,
+)
+from tensim.sim._timeseries import UNITS, TimeSeries
+
+__all__ = [
+    "COM",
+    "MODE_IMPEDANCE",
+    "MODE_REST",
+    "UNITS",
+    "CableDrive",
+    "Controller",
+    "NodeLoad",
+    "Simulation",
+    "SimulationError",
+    "SimulationResult",
+    "StabilityLimits",
+    "TimeSeries",
+    "cable_tension",
+    "compiled_available",
+    "impedance_rest_target",
+    "impedance_setpoint",
+    "motor_step",
+    "ramp_hold_release",
+    "simulate",
+]

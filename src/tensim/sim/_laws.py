@@ -1,0 +1,72 @@
+"""The cable, motor and impedance laws: each one pure, vectorised function.
+
+These are the reference definitions. The compiled callback (``_cable.c``) mirrors them
+operation for operation, and the tests check the two against each other.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def cable_tension(length: np.ndarray, velocity: np.ndarray, rest_length: np.ndarray,
+                  stiffness: np.ndarray, damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Paper eq. (1)-(2): a tension-only Hooke spring with linear damping.
+
+    f = k (x - l) + b xdot while x > l, else 0, and never negative.
+
+    Args:
+        length: (n,) anchor-to-anchor length x [m].
+        velocity: (n,) its rate xdot [m/s].
+        rest_length: (n,) rest length l [m].
+        stiffness: (n,) k [N/m].
+        damping: (n,) b [N s/m].
+
+    Returns:
+        (spring, applied): the load-cell reading k max(0, x - l) and the applied force f [N].
+    """
+    stretch = length - rest_length
+    taut = stretch > 0.0
+    spring = np.where(taut, stiffness * stretch, 0.0)
+    applied = np.where(taut, np.maximum(spring + damping * velocity, 0.0), 0.0)
+    return spring, applied
+
+
+def impedance_setpoint(length: np.ndarray, velocity: np.ndarray, offset_tension: np.ndarray,
+                       stiffness_gain: np.ndarray, damping_gain: np.ndarray,
+                       target_length: np.ndarray, target_velocity: np.ndarray) -> np.ndarray:
+    """Paper eq. (3), clamped: T_set = max(0, T0 + K (L - L*) + B (V - V*)) [N]."""
+    return np.maximum(
+        0.0,
+        offset_tension + stiffness_gain * (length - target_length)
+        + damping_gain * (velocity - target_velocity),
+    )
+
+
+def impedance_rest_target(rest_length: np.ndarray, setpoint: np.ndarray, measured: np.ndarray,
+                          stiffness: np.ndarray) -> np.ndarray:
+    """Rest length that would turn the measured tension into the setpoint: l - (T_set - T)/k."""
+    return rest_length - (setpoint - measured) / stiffness
+
+
+def motor_step(rest_length: np.ndarray, target: np.ndarray, length: np.ndarray,
+               stiffness: np.ndarray, max_speed: np.ndarray, max_tension: np.ndarray,
+               min_rest_length: np.ndarray, min_length: np.ndarray, dt: float) -> np.ndarray:
+    """One motor update: the rest length moves toward ``target`` under the motor's limits.
+
+    - speed: it changes by at most max_speed * dt;
+    - force: it does not reel in past the rest length x - max_tension/k at which the static
+      tension k (x - l) reaches max_tension (and never lets out because of this rule);
+    - floors: it does not reel in while x <= min_length, and stays >= min_rest_length.
+
+    Returns:
+        (n,) the new rest lengths [m].
+    """
+    reach = max_speed * dt
+    step = np.minimum(np.maximum(target - rest_length, -reach), reach)
+    new = rest_length + step
+    reel = step < 0.0
+    force_floor = np.minimum(rest_length, length - max_tension / stiffness)
+    new = np.where(reel, np.maximum(new, force_floor), new)
+    new = np.where(reel & (length <= min_length), rest_length, new)
+    return np.maximum(new, min_rest_length)

@@ -1,0 +1,62 @@
+"""Time-varying external forces at nodes, as piecewise-linear schedules."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class NodeLoad:
+    """A world-frame force at a node, linear between knots and held outside them.
+
+    Attributes:
+        node: the node it pushes on.
+        times: (k,) knot times, strictly increasing [s].
+        forces: (k, 3) force at each knot, world frame [N].
+    """
+
+    node: str
+    times: np.ndarray
+    forces: np.ndarray
+
+    def __post_init__(self) -> None:
+        times = np.ascontiguousarray(self.times, dtype=float).reshape(-1)
+        forces = np.ascontiguousarray(self.forces, dtype=float).reshape(-1, 3)
+        if times.size == 0 or forces.shape[0] != times.size:
+            raise ValueError(f"load at {self.node!r}: need k >= 1 times and (k, 3) forces, got "
+                             f"{times.size} times and {forces.shape[0]} forces")
+        if np.any(np.diff(times) <= 0) or not np.all(np.isfinite(forces)):
+            raise ValueError(f"load at {self.node!r}: times must increase, forces be finite")
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "forces", forces)
+
+    def force_at(self, t: float) -> np.ndarray:
+        """(3,) the force at time t [N]."""
+        return np.array([np.interp(t, self.times, self.forces[:, a]) for a in range(3)])
+
+    def scaled(self, factor: float) -> NodeLoad:
+        """The same schedule with every force multiplied by ``factor``."""
+        return dataclasses.replace(self, forces=self.forces * factor)
+
+    def at(self, node: str) -> NodeLoad:
+        """The same schedule applied at another node."""
+        return dataclasses.replace(self, node=node)
+
+
+def ramp_hold_release(node: str, direction: tuple[float, float, float], peak: float,
+                      start: float, rise: float, hold: float, fall: float) -> NodeLoad:
+    """A force that ramps from 0 to ``peak`` newtons, holds, and ramps back to 0.
+
+    Args:
+        node: where it acts.
+        direction: (3,) direction, normalised here.
+        peak: force magnitude at the plateau [N].
+        start, rise, hold, fall: phase start time and phase durations [s].
+    """
+    unit = np.asarray(direction, dtype=float)
+    unit = unit / np.linalg.norm(unit)
+    times = np.cumsum([start, rise, hold, fall])
+    magnitude = np.array([0.0, peak, peak, 0.0])
+    return NodeLoad(node, times, magnitude[:, None] * unit[None, :])

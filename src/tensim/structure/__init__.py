@@ -1,0 +1,32 @@
+"""Structure descriptions: nodes, rods, cables, point masses and tags, as plain validated data.
+
+Nothing here imports MuJoCo; :mod:`tensim.model` compiles a structure into a MuJoCo model.
+"""
+
+from tensim.structure._errors import StructureError
+from tensim.structure._mass import MassProperties, mass_properties
+from tensim.structure._records import Cable, Motor, Node, PointMass, Rod
+from tensim.structure._structure import RigidGroup, Structure
+from tensim.structure._yaml import (
+    load_structure,
+    save_structure,
+    structure_from_dict,
+    structure_to_dict,
+)
+
+__all__ = [
+    "Cable",
+    "MassProperties",
+    "Motor",
+    "Node",
+    "PointMass",
+    "RigidGroup",
+    "Rod",
+    "Structure",
+    "StructureError",
+    "load_structure",
+    "mass_properties",
+    "save_structure",
+    "structure_from_dict",
+    "structure_to_dict",
+]

@@ -1,0 +1,213 @@
+"""Plain, validated records that describe a tensegrity structure (no MuJoCo here).
+
+All quantities are SI: metres, kilograms, newtons, seconds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+from tensim.structure._errors import StructureError
+
+
+def _check(condition: bool, item: str, message: str) -> None:
+    if not condition:
+        raise StructureError(message, item=item)
+
+
+def _vec3(value: Sequence[float], item: str, field: str) -> tuple[float, float, float]:
+    try:
+        out = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        raise StructureError(f"{field} must be three numbers, got {value!r}", item=item) from None
+    _check(len(out) == 3, item, f"{field} must be three numbers [m], got {len(out)}")
+    _check(all(math.isfinite(v) for v in out), item, f"{field} must be finite, got {value!r}")
+    return out  # type: ignore[return-value]
+
+
+def _tags(value: Sequence[str], item: str) -> tuple[str, ...]:
+    if isinstance(value, str):
+        raise StructureError("tags must be a list of strings, got a single string", item=item)
+    return tuple(str(t) for t in value)
+
+
+@dataclasses.dataclass(frozen=True)
+class Node:
+    """A named point of the structure where rods, cables and masses meet.
+
+    Attributes:
+        name: unique node name.
+        position: (3,) initial position in the world frame [m].
+        tags: labels used to select nodes.
+        fixed: welded to the world (a test fixture or an anchor), not free to move.
+    """
+
+    name: str
+    position: tuple[float, float, float]
+    tags: tuple[str, ...] = ()
+    fixed: bool = False
+
+    def __post_init__(self) -> None:
+        _check(bool(self.name), "node", "every node needs a non-empty name")
+        object.__setattr__(self, "position", _vec3(self.position, f"node {self.name!r}", "position"))
+        object.__setattr__(self, "tags", _tags(self.tags, f"node {self.name!r}"))
+
+
+@dataclasses.dataclass(frozen=True)
+class Rod:
+    """A rigid compression member between two nodes, modelled as a solid cylinder.
+
+    Give its mass as either ``linear_density`` [kg/m] or ``density`` [kg/m^3].
+
+    Attributes:
+        name: unique rod name.
+        nodes: the two end nodes.
+        radius: rod radius [m].
+        linear_density: mass per length [kg/m].
+        density: volumetric density [kg/m^3], used when linear_density is None.
+        friction: Coulomb friction coefficient against the ground [-].
+        restitution: fraction of normal velocity kept after an impact [0, 1).
+        tags: labels used to select rods.
+    """
+
+    name: str
+    nodes: tuple[str, str]
+    radius: float
+    linear_density: float | None = None
+    density: float | None = None
+    friction: float = 1.0
+    restitution: float = 0.0
+    tags: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        item = f"rod {self.name!r}"
+        _check(bool(self.name), "rod", "every rod needs a non-empty name")
+        _check(len(self.nodes) == 2, item, f"nodes must be two node names, got {self.nodes!r}")
+        object.__setattr__(self, "nodes", (str(self.nodes[0]), str(self.nodes[1])))
+        _check(self.nodes[0] != self.nodes[1], item, "a rod needs two different nodes")
+        _check(self.radius > 0, item, f"radius must be > 0 m, got {self.radius}")
+        _check(
+            (self.linear_density is None) != (self.density is None),
+            item,
+            "give exactly one of linear_density [kg/m] or density [kg/m^3]",
+        )
+        for field in ("linear_density", "density"):
+            value = getattr(self, field)
+            _check(value is None or value > 0, item, f"{field} must be > 0, got {value}")
+        _check(self.friction >= 0, item, f"friction must be >= 0, got {self.friction}")
+        _check(
+            0 <= self.restitution < 1, item, f"restitution must be in [0, 1), got {self.restitution}"
+        )
+        object.__setattr__(self, "tags", _tags(self.tags, item))
+
+    def mass_per_length(self) -> float:
+        """Mass per length [kg/m]."""
+        if self.linear_density is not None:
+            return self.linear_density
+        assert self.density is not None
+        return self.density * math.pi * self.radius**2
+
+
+@dataclasses.dataclass(frozen=True)
+class PointMass:
+    """A concentrated mass (motor, board, spool) at a node, modelled as a small solid sphere.
+
+    Attributes:
+        node: the node it sits on.
+        mass: mass [kg].
+        radius: sphere radius [m]; it also collides with the ground.
+    """
+
+    node: str
+    mass: float
+    radius: float = 0.005
+
+    def __post_init__(self) -> None:
+        item = f"point mass at {self.node!r}"
+        _check(self.mass > 0, item, f"mass must be > 0 kg, got {self.mass}")
+        _check(self.radius > 0, item, f"radius must be > 0 m, got {self.radius}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Motor:
+    """Limits of the motor that winds a cable's rest length.
+
+    Attributes:
+        max_speed: fastest rest-length change [m/s].
+        max_tension: the motor stops reeling in once the static tension k(x - l) would exceed
+            this [N].
+        min_rest_length: floor on the rest length [m].
+        min_length: the motor stops reeling in once the actual length is at or below this [m].
+    """
+
+    max_speed: float = 0.07
+    max_tension: float = 50.0
+    min_rest_length: float = 0.01
+    min_length: float = 0.01
+
+    def __post_init__(self) -> None:
+        for field in ("max_speed", "max_tension"):
+            value = getattr(self, field)
+            _check(value > 0, "motor", f"{field} must be > 0, got {value}")
+        for field in ("min_rest_length", "min_length"):
+            value = getattr(self, field)
+            _check(value >= 0, "motor", f"{field} must be >= 0 m, got {value}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Cable:
+    """A tension-only spring-cable between two nodes (paper eq. 1-2), wound by a motor.
+
+    Give either ``pretension`` (the rest length then follows from the build-time anchor-to-anchor
+    length) or ``rest_length``.
+
+    Attributes:
+        name: unique cable name.
+        nodes: the two end nodes.
+        stiffness: spring stiffness k [N/m].
+        damping: linear damping b [N s/m].
+        pretension: tension at build time [N].
+        rest_length: rest length l [m].
+        anchor_offset: each anchor sits this far from its node toward the other end [m]
+            (e.g. on the surface of the node's sphere).
+        motor: the motor's limits.
+        tags: labels used to select cables.
+    """
+
+    name: str
+    nodes: tuple[str, str]
+    stiffness: float
+    damping: float = 0.0
+    pretension: float | None = None
+    rest_length: float | None = None
+    anchor_offset: float = 0.0
+    motor: Motor = dataclasses.field(default_factory=Motor)
+    tags: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        item = f"cable {self.name!r}"
+        _check(bool(self.name), "cable", "every cable needs a non-empty name")
+        _check(len(self.nodes) == 2, item, f"nodes must be two node names, got {self.nodes!r}")
+        object.__setattr__(self, "nodes", (str(self.nodes[0]), str(self.nodes[1])))
+        _check(self.nodes[0] != self.nodes[1], item, "a cable needs two different nodes")
+        _check(self.stiffness > 0, item, f"stiffness must be > 0 N/m, got {self.stiffness}")
+        _check(self.damping >= 0, item, f"damping must be >= 0 N s/m, got {self.damping}")
+        _check(
+            (self.pretension is None) != (self.rest_length is None),
+            item,
+            "give exactly one of pretension [N] or rest_length [m]",
+        )
+        _check(
+            self.pretension is None or self.pretension >= 0,
+            item,
+            f"pretension must be >= 0 N, got {self.pretension}",
+        )
+        _check(
+            self.rest_length is None or self.rest_length > 0,
+            item,
+            f"rest_length must be > 0 m, got {self.rest_length}",
+        )
+        _check(self.anchor_offset >= 0, item, "anchor_offset must be >= 0 m")
+        object.__setattr__(self, "tags", _tags(self.tags, item))

@@ -1,0 +1,210 @@
+"""A whole tensegrity structure: nodes, rods, point masses and cables, checked together."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable
+
+import numpy as np
+
+from tensim.structure._errors import StructureError
+from tensim.structure._records import Cable, Node, PointMass, Rod
+
+
+@dataclasses.dataclass(frozen=True)
+class RigidGroup:
+    """Rods (and the nodes they join) that share nodes and so move as one rigid body.
+
+    Attributes:
+        name: deterministic body name.
+        rods: names of the rods in the group (empty for a lone point-mass node).
+        nodes: names of the nodes in the group.
+        fixed: welded to the world.
+    """
+
+    name: str
+    rods: tuple[str, ...]
+    nodes: tuple[str, ...]
+    fixed: bool
+
+
+@dataclasses.dataclass(frozen=True)
+class Structure:
+    """A tensegrity structure in its build pose (all positions in the world frame, metres).
+
+    Rods that share a node form one rigid body, as in the original toolkit. A node that no rod
+    touches must carry a point mass (it becomes a body of its own) or be fixed.
+
+    Attributes:
+        name: structure name.
+        nodes: the nodes.
+        rods: the rods.
+        cables: the cables.
+        point_masses: concentrated masses at nodes.
+    """
+
+    name: str
+    nodes: tuple[Node, ...]
+    rods: tuple[Rod, ...] = ()
+    cables: tuple[Cable, ...] = ()
+    point_masses: tuple[PointMass, ...] = ()
+
+    def __post_init__(self) -> None:
+        for field in ("nodes", "rods", "cables", "point_masses"):
+            object.__setattr__(self, field, tuple(getattr(self, field)))
+        _unique((n.name for n in self.nodes), "node")
+        _unique((r.name for r in self.rods), "rod")
+        _unique((c.name for c in self.cables), "cable")
+        _unique((p.node for p in self.point_masses), "point mass at node")
+        known = {n.name for n in self.nodes}
+        members = [(f"rod {r.name!r}", r.nodes) for r in self.rods]
+        members += [(f"cable {c.name!r}", c.nodes) for c in self.cables]
+        members += [(f"point mass at {p.node!r}", (p.node,)) for p in self.point_masses]
+        for item, ends in members:
+            for end in ends:
+                if end not in known:
+                    raise StructureError(f"unknown node {end!r}; known nodes: {sorted(known)}",
+                                         item=item)
+        for rod in self.rods:
+            if self.distance(*rod.nodes) <= 0:
+                raise StructureError("zero-length rod: its two nodes coincide",
+                                     item=f"rod {rod.name!r}")
+        for cable in self.cables:
+            self._check_cable(cable)
+        on_rods = {n for r in self.rods for n in r.nodes}
+        massive = {p.node for p in self.point_masses}
+        for node in self.nodes:
+            if node.name not in on_rods and node.name not in massive and not node.fixed:
+                raise StructureError(
+                    "node touches no rod and carries no point mass; add a mass or mark it fixed",
+                    item=f"node {node.name!r}",
+                )
+
+    def _check_cable(self, cable: Cable) -> None:
+        item = f"cable {cable.name!r}"
+        length = self.cable_length(cable)
+        if length <= 0:
+            raise StructureError(
+                f"anchor_offset {cable.anchor_offset} m leaves no length between the anchors",
+                item=item,
+            )
+        rest = self.rest_length(cable)
+        if rest <= 0:
+            raise StructureError(
+                f"pretension {cable.pretension} N needs a non-positive rest length ({rest:.4g} m "
+                f"for a {length:.4g} m cable of stiffness {cable.stiffness} N/m); expected "
+                f"pretension < stiffness * length = {cable.stiffness * length:.4g} N",
+                item=item,
+            )
+
+    # -- lookups -----------------------------------------------------------------------------
+
+    def node(self, name: str) -> Node:
+        """The node called ``name``."""
+        for node in self.nodes:
+            if node.name == name:
+                return node
+        raise KeyError(name)
+
+    def cable(self, name: str) -> Cable:
+        """The cable called ``name``."""
+        for cable in self.cables:
+            if cable.name == name:
+                return cable
+        raise KeyError(name)
+
+    def position(self, name: str) -> np.ndarray:
+        """(3,) build-pose position of a node [m]."""
+        return np.asarray(self.node(name).position, dtype=float)
+
+    def distance(self, a: str, b: str) -> float:
+        """Node-to-node distance in the build pose [m]."""
+        return float(np.linalg.norm(self.position(a) - self.position(b)))
+
+    def tagged(self, tag: str) -> tuple[Cable, ...]:
+        """The cables that carry ``tag``."""
+        return tuple(c for c in self.cables if tag in c.tags)
+
+    # -- cable geometry ----------------------------------------------------------------------
+
+    def anchors(self, cable: Cable) -> tuple[np.ndarray, np.ndarray]:
+        """The cable's two anchor points in the build pose, (3,) each [m]."""
+        p0, p1 = self.position(cable.nodes[0]), self.position(cable.nodes[1])
+        span = p1 - p0
+        unit = span / np.linalg.norm(span) if np.linalg.norm(span) > 0 else np.zeros(3)
+        return p0 + cable.anchor_offset * unit, p1 - cable.anchor_offset * unit
+
+    def cable_length(self, cable: Cable) -> float:
+        """Anchor-to-anchor length in the build pose [m] (x in paper eq. 2)."""
+        a, b = self.anchors(cable)
+        span = self.distance(*cable.nodes)
+        return float(np.linalg.norm(b - a)) if span > 2 * cable.anchor_offset else -1.0
+
+    def rest_length(self, cable: Cable) -> float:
+        """Initial rest length [m]: given, or length - pretension / stiffness."""
+        if cable.rest_length is not None:
+            return cable.rest_length
+        assert cable.pretension is not None
+        return self.cable_length(cable) - cable.pretension / cable.stiffness
+
+    # -- rigid bodies ------------------------------------------------------------------------
+
+    def rigid_groups(self) -> tuple[RigidGroup, ...]:
+        """Partitions rods into rigid bodies (rods sharing a node), in a deterministic order.
+
+        A group is named after the first tag that all its rods carry and no other rod does,
+        else ``rigid_<k>``; a lone point-mass node gives a group named after the node.
+        """
+        parent = {n.name: n.name for n in self.nodes}
+
+        def find(x: str) -> str:
+            while parent[x] != x:
+                parent[x] = parent[parent[x]]
+                x = parent[x]
+            return x
+
+        for rod in self.rods:
+            parent[find(rod.nodes[0])] = find(rod.nodes[1])
+        order: dict[str, list[Rod]] = {}
+        for rod in self.rods:
+            order.setdefault(find(rod.nodes[0]), []).append(rod)
+        fixed = {n.name for n in self.nodes if n.fixed}
+        groups = []
+        for k, (root, rods) in enumerate(order.items()):
+            nodes = tuple(n.name for n in self.nodes if find(n.name) == root)
+            name = self._group_name(rods) or f"rigid_{k}"
+            groups.append(RigidGroup(name, tuple(r.name for r in rods), nodes,
+                                     any(n in fixed for n in nodes)))
+        on_rods = {n for r in self.rods for n in r.nodes}
+        for pm in self.point_masses:
+            if pm.node not in on_rods:
+                groups.append(RigidGroup(pm.node, (), (pm.node,), pm.node in fixed))
+        _unique((g.name for g in groups), "rigid body")
+        return tuple(groups)
+
+    def _group_name(self, rods: list[Rod]) -> str | None:
+        inside = {r.name for r in rods}
+        for tag in rods[0].tags:
+            if all(tag in r.tags for r in rods) and not any(
+                tag in r.tags for r in self.rods if r.name not in inside
+            ):
+                return tag
+        return None
+
+    def total_mass(self) -> float:
+        """Mass of all rods and point masses [kg]."""
+        rods = sum(r.mass_per_length() * self.distance(*r.nodes) for r in self.rods)
+        return rods + sum(p.mass for p in self.point_masses)
+
+    def replace_cables(self, **changes: object) -> Structure:
+        """A copy with every cable's fields changed (e.g. ``stiffness=300.0``)."""
+        cables = tuple(dataclasses.replace(c, **changes) for c in self.cables)  # type: ignore[arg-type]
+        return dataclasses.replace(self, cables=cables)
+
+
+def _unique(names: Iterable[str], what: str) -> None:
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise StructureError(f"duplicate {what} name {name!r}", item=f"{what} {name!r}")
+        seen.add(name)

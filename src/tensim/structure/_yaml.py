@@ -1,0 +1,128 @@
+"""Reading and writing structures as YAML files.
+
+The file is a mapping with ``name``, ``nodes``, ``rods``, ``cables``, ``point_masses`` (lists of
+mappings whose keys are the record fields) and an optional ``defaults`` mapping with ``rod``,
+``cable`` and ``point_mass`` entries merged under every item of that kind. Cables take a nested
+``motor`` mapping. All values are SI units. See ``docs/structure-format.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from tensim.structure._errors import StructureError
+from tensim.structure._records import Cable, Motor, Node, PointMass, Rod
+from tensim.structure._structure import Structure
+
+_SECTIONS = {"nodes": Node, "rods": Rod, "cables": Cable, "point_masses": PointMass}
+_DEFAULTS = {"rod": "rods", "cable": "cables", "point_mass": "point_masses"}
+_TOP = {"name", "defaults", *_SECTIONS}
+
+
+def _fields(cls: type) -> list[str]:
+    return [f.name for f in dataclasses.fields(cls)]
+
+
+def _build(cls: type, raw: Any, item: str) -> Any:
+    if not isinstance(raw, dict):
+        raise StructureError(f"expected a mapping of {_fields(cls)}, got {raw!r}", item=item)
+    unknown = sorted(set(raw) - set(_fields(cls)))
+    if unknown:
+        raise StructureError(f"unknown field {unknown[0]!r}; expected one of {_fields(cls)}",
+                             item=item)
+    values = dict(raw)
+    if cls is Cable and "motor" in values:
+        values["motor"] = _build(Motor, values["motor"], f"{item} motor")
+    try:
+        return cls(**values)
+    except StructureError as err:
+        raise StructureError(err.detail, item=err.item or item) from None
+    except TypeError as err:  # a required field is missing
+        raise StructureError(f"{err}; expected fields {_fields(cls)}", item=item) from None
+
+
+def _merge(default: dict[str, Any], raw: Any) -> Any:
+    if not isinstance(raw, dict):
+        return raw
+    merged = {**default, **raw}
+    if isinstance(default.get("motor"), dict) and isinstance(raw.get("motor"), dict):
+        merged["motor"] = {**default["motor"], **raw["motor"]}
+    return merged
+
+
+def structure_from_dict(data: Any) -> Structure:
+    """Builds a structure from the plain mapping a YAML file holds.
+
+    Raises:
+        StructureError: naming the item and what was expected.
+    """
+    if not isinstance(data, dict):
+        raise StructureError("expected a mapping with 'name', 'nodes', 'rods', 'cables'")
+    unknown = sorted(set(data) - _TOP)
+    if unknown:
+        raise StructureError(f"unknown top-level field {unknown[0]!r}; expected {sorted(_TOP)}")
+    defaults = data.get("defaults") or {}
+    bad = sorted(set(defaults) - set(_DEFAULTS))
+    if bad:
+        raise StructureError(f"unknown defaults entry {bad[0]!r}; expected {sorted(_DEFAULTS)}")
+    sections: dict[str, tuple[Any, ...]] = {}
+    for section, cls in _SECTIONS.items():
+        items = data.get(section) or []
+        if not isinstance(items, list):
+            raise StructureError(f"'{section}' must be a list of mappings")
+        default = next((d for k, d in defaults.items() if _DEFAULTS[k] == section), {})
+        sections[section] = tuple(
+            _build(cls, _merge(default, raw), f"{section}[{i}]"
+                   + (f" {raw.get('name')!r}" if isinstance(raw, dict) and "name" in raw else ""))
+            for i, raw in enumerate(items)
+        )
+    return Structure(name=str(data.get("name", "structure")), **sections)
+
+
+def structure_to_dict(structure: Structure) -> dict[str, Any]:
+    """The plain mapping written to YAML (lists instead of tuples, no None fields)."""
+
+    def plain(record: Any) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for key, value in dataclasses.asdict(record).items():
+            if value is None or value == ():
+                continue
+            out[key] = list(value) if isinstance(value, tuple) else value
+        return out
+
+    return {
+        "name": structure.name,
+        **{section: [plain(r) for r in getattr(structure, section)] for section in _SECTIONS},
+    }
+
+
+def load_structure(path: str | os.PathLike[str]) -> Structure:
+    """Reads a structure from a YAML file.
+
+    Raises:
+        StructureError: naming the file, the item and what was expected.
+    """
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise StructureError(f"not valid YAML: {err}", source=str(path)) from None
+    try:
+        return structure_from_dict(data)
+    except StructureError as err:
+        raise err.with_source(str(path)) from None
+
+
+def save_structure(structure: Structure, path: str | os.PathLike[str]) -> None:
+    """Writes a structure to a YAML file atomically (never a half-written file)."""
+    path = Path(path)
+    text = yaml.safe_dump(structure_to_dict(structure), sort_keys=False)
+    with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False, suffix=".tmp") as f:
+        f.write(text)
+    os.replace(f.name, path)
