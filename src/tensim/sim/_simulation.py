@@ -121,10 +121,10 @@ class Simulation:
         Returns:
             The recorded samples, the current state included as the first one.
         """
-        n_samples = int(math.floor(duration / (self.record_steps * self.dt) + 1e-9))
+        n_samples = math.floor(duration / (self.record_steps * self.dt) + 1e-9)
         recorder = _Recorder(self, n_samples + 1)
         recorder.take(self)
-        every = max(1, int(round(1.0 / (self.record_steps * self.dt))))
+        every = max(1, round(1.0 / (self.record_steps * self.dt)))
         for k in range(n_samples):
             self.step(self.record_steps)
             recorder.take(self)

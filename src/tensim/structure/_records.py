@@ -51,7 +51,8 @@ class Node:
 
     def __post_init__(self) -> None:
         _check(bool(self.name), "node", "every node needs a non-empty name")
-        object.__setattr__(self, "position", _vec3(self.position, f"node {self.name!r}", "position"))
+        position = _vec3(self.position, f"node {self.name!r}", "position")
+        object.__setattr__(self, "position", position)
         object.__setattr__(self, "tags", _tags(self.tags, f"node {self.name!r}"))
 
 
@@ -97,9 +98,8 @@ class Rod:
             value = getattr(self, field)
             _check(value is None or value > 0, item, f"{field} must be > 0, got {value}")
         _check(self.friction >= 0, item, f"friction must be >= 0, got {self.friction}")
-        _check(
-            0 <= self.restitution < 1, item, f"restitution must be in [0, 1), got {self.restitution}"
-        )
+        _check(0 <= self.restitution < 1, item,
+               f"restitution must be in [0, 1), got {self.restitution}")
         object.__setattr__(self, "tags", _tags(self.tags, item))
 
     def mass_per_length(self) -> float:

@@ -1,0 +1,109 @@
+"""Speed benchmark: simulated seconds per wall second, controlled loop vs MuJoCo alone.
+
+For each case the full tensim loop (cable callback, motors, controller, recording at 100 Hz,
+stability checks) runs from a settled state; then MuJoCo alone replays exactly the same
+actuator inputs with ``mujoco.rollout`` (no callback, no Python per step), which is the
+engine's limit for that trajectory. Both run single-threaded.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from tensim.model import compile_structure
+from tensim.models import preset
+from tensim.sim import Simulation, compiled_available
+
+SETTLE_S = 1.0
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchCase:
+    """One benchmark figure set.
+
+    Attributes:
+        name: case name.
+        real_time_factor: tensim loop, simulated s per wall s.
+        engine_alone_real_time_factor: MuJoCo alone on the same inputs.
+        us_per_step: tensim loop cost per physics step [us].
+        engine_us_per_step: MuJoCo alone per step [us].
+    """
+
+    name: str
+    real_time_factor: float
+    engine_alone_real_time_factor: float
+    us_per_step: float
+    engine_us_per_step: float
+
+    @property
+    def ratio(self) -> float:
+        """tensim rate / engine-alone rate."""
+        return self.real_time_factor / self.engine_alone_real_time_factor
+
+
+def _best(fn: Callable[[], float], repeats: int) -> float:
+    return min(fn() for _ in range(repeats))
+
+
+def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
+                controlled: bool = True) -> BenchCase:
+    """Benchmarks preset ``name`` for ``duration`` simulated seconds (best of ``repeats``)."""
+    model = preset(name)
+    compiled = compile_structure(model.build())
+    m = compiled.model
+    with Simulation(compiled, controller=model.controller() if controlled else None) as sim:
+        sim.step(int(SETTLE_S / sim.dt))
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        start = np.empty(mujoco.mj_stateSize(m, spec))
+        mujoco.mj_getState(m, sim.data, start, spec)
+        warmstart = sim.data.qacc_warmstart[None].copy()
+        drive, steps = sim.drive, sim._steps
+        motors = (drive.rest.copy(), drive.peak.copy(), drive.last_time.copy())
+        n_steps = round(duration / sim.dt)
+
+        def restart() -> None:
+            mujoco.mj_setState(m, sim.data, start, spec)
+            drive.rest[:], drive.peak[:], drive.last_time[:] = motors
+            sim._steps = steps
+
+        # the actuator inputs of this run, for the engine-alone replay
+        restart()
+        ctrl = np.empty((1, n_steps, m.nu))
+        for k in range(n_steps):
+            mujoco.mj_step(m, sim.data)
+            ctrl[0, k] = sim.data.ctrl
+
+        def loop() -> float:
+            restart()
+            t0 = time.perf_counter()
+            sim.run(duration)
+            return time.perf_counter() - t0
+
+        wall = _best(loop, repeats)
+    data = mujoco.MjData(m)
+
+    def engine() -> float:
+        t0 = time.perf_counter()
+        rollout.rollout(m, data, start, ctrl, initial_warmstart=warmstart)
+        return time.perf_counter() - t0
+
+    engine_wall = _best(engine, repeats)
+    return BenchCase(f"{name}{'' if controlled else ' (passive)'}", duration / wall,
+                     duration / engine_wall, wall / n_steps * 1e6, engine_wall / n_steps * 1e6)
+
+
+def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, object]:
+    """The benchmark cases: controlled Tetraspine3 and a passive six-bar."""
+    cases = [bench_model("tetraspine3", duration, repeats),
+             bench_model("six_bar", duration, repeats, controlled=False)]
+    return {
+        "compiled_callback": compiled_available(),
+        "duration_s": duration,
+        "cases": [{**dataclasses.asdict(c), "ratio_to_engine": c.ratio} for c in cases],
+    }

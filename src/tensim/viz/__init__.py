@@ -1,0 +1,5 @@
+"""Plots of recorded runs."""
+
+from tensim.viz.plots import plot_cable_tensions, plot_lengths, plot_path
+
+__all__ = ["plot_cable_tensions", "plot_lengths", "plot_path"]

@@ -1,0 +1,102 @@
+"""Figures a researcher would put in a paper: cable tensions over time, setpoint vs actual."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+from tensim._files import atomic_path
+from tensim.sim import TimeSeries
+
+
+def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
+                        title: str = "", columns: int = 3,
+                        shade: tuple[float, float] | None = None) -> Path:
+    """One panel per cable: measured (load-cell) tension, and the commanded tension T_set.
+
+    Args:
+        series: a recorded run.
+        path: PNG file to write (atomically).
+        cables: which cables, in panel order (all by default).
+        title: figure title.
+        columns: panels per row.
+        shade: (start, stop) time span to shade, e.g. when an external force acts [s].
+    """
+    cables = list(cables or series.items("tension"))
+    rows = math.ceil(len(cables) / columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 2.4 * rows), sharex=True,
+                             squeeze=False)
+    for ax, name in zip(axes.flat, cables, strict=False):
+        ax.plot(series.time, series[f"tension/{name}"], color="black", lw=1.0, label="measured")
+        setpoint = f"setpoint/{name}"
+        if setpoint in series.channels:
+            ax.plot(series.time, series[setpoint], color="tab:blue", lw=0.8, ls="--",
+                    label="commanded")
+        if shade is not None:
+            ax.axvspan(*shade, color="tab:orange", alpha=0.12, lw=0)
+        ax.set_title(name, fontsize=9)
+        ax.set_ylabel("tension [N]", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    for ax in axes.flat[len(cables):]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("time [s]", fontsize=8)
+    axes.flat[0].legend(fontsize=7, loc="best")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
+                 columns: int = 3) -> Path:
+    """One panel per cable: anchor-to-anchor length and motor rest length [m]."""
+    cables = list(cables or series.items("length"))
+    rows = math.ceil(len(cables) / columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 2.2 * rows), sharex=True,
+                             squeeze=False)
+    for ax, name in zip(axes.flat, cables, strict=False):
+        ax.plot(series.time, series[f"length/{name}"], color="black", lw=1.0, label="length")
+        ax.plot(series.time, series[f"rest_length/{name}"], color="tab:red", lw=0.8,
+                label="rest length")
+        ax.set_title(name, fontsize=9)
+        ax.set_ylabel("[m]", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    for ax in axes.flat[len(cables):]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("time [s]", fontsize=8)
+    axes.flat[0].legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_path(series: TimeSeries, path: Path, items: Sequence[str]) -> Path:
+    """Top view (x, y) of the bodies' paths [m]; start marked with a circle."""
+    fig, ax = plt.subplots(figsize=(5, 5))
+    for name in items:
+        x, y = series[f"pos_x/{name}"], series[f"pos_y/{name}"]
+        ax.plot(x, y, lw=1.0, label=name)
+        ax.plot(x[:1], y[:1], "o", color=ax.lines[-1].get_color(), ms=4)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _save(fig: plt.Figure, path: Path) -> Path:
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+    return path
