@@ -3,7 +3,7 @@
 The file is a mapping with ``name``, ``nodes``, ``rods``, ``cables``, ``point_masses`` (lists of
 mappings whose keys are the record fields) and an optional ``defaults`` mapping with ``rod``,
 ``cable`` and ``point_mass`` entries merged under every item of that kind. Cables take a nested
-``motor`` mapping. All values are SI units. See ``docs/structure-format.md``.
+``motor`` mapping. All values are SI units (the README lists every field).
 """
 
 from __future__ import annotations
