@@ -38,7 +38,7 @@ def six_bar(height: float = 0.05) -> Structure:
     """The six-bar resting above the ground: its lowest nodes ``height`` metres up."""
     positions = six_bar_nodes()
     lift = height - min(p[2] for p in positions.values())
-    nodes = tuple(Node(n, tuple([*p, 0, 0, lift])) for n, p in positions.items())
+    nodes = tuple(Node(n, tuple(p + np.array([0.0, 0.0, lift]))) for n, p in positions.items())
     rods = tuple(
         Rod(f"rod_{axis}{pair}", (f"{axis}{pair}0", f"{axis}{pair}1"), ROD_RADIUS,
             linear_density=ROD_LINEAR_DENSITY, friction=1.0, tags=(f"rod_{axis}{pair}",))
