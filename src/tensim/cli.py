@@ -89,12 +89,28 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 def _cmd_experiment(args: argparse.Namespace) -> int:
     from tensim.experiments import run_disturbance, write_disturbance
 
-    if args.name != "disturbance":
-        raise SystemExit(f"tensim: unknown experiment {args.name!r}; experiments: disturbance")
     out = Path(args.out)
+    if args.name == "timestep":
+        return _timestep(out, args.quiet)
+    if args.name != "disturbance":
+        raise SystemExit(f"tensim: unknown experiment {args.name!r}; experiments: "
+                         "disturbance, timestep")
     result, summary = run_disturbance(dt=args.dt, progress=_Progress("disturbance", args.quiet))
     write_disturbance(out, result, summary)
     _report(summary, out)
+    return 0
+
+
+def _timestep(out: Path, quiet: bool) -> int:
+    from tensim.experiments.timestep import run_timestep_study, write_timestep_study
+
+    summary = run_timestep_study(None if quiet else lambda m: print(m, file=sys.stderr))
+    write_timestep_study(out, summary)
+    print(f"wrote {out}/ (summary.json, timestep.png)")
+    for hz, value in summary["max_change_percent"].items():
+        print(f"  {hz:>5} Hz: worst cable's max-tension change {value:.2f} % vs 1000 Hz")
+    for tc, value in summary["contact_max_change_percent"].items():
+        print(f"  contact time constant {tc} s: worst change {value:.2f} %")
     return 0
 
 
@@ -145,7 +161,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_cmd_simulate)
 
     p = sub.add_parser("experiment", help="run one of the paper's experiments")
-    p.add_argument("name", help="experiment: disturbance")
+    p.add_argument("name", help="experiment: disturbance, timestep")
     p.add_argument("--dt", type=float, default=1e-3, help="physics step [s]")
     p.add_argument("--out", default=None, help="output folder (default runs/NAME)")
     p.set_defaults(run=_cmd_experiment)

@@ -23,7 +23,6 @@ log = logging.getLogger(__name__)
 
 # Robot geoms outrank the ground, so robot-ground contacts use the rod's own friction.
 _ROBOT_PRIORITY = 1
-_CONTACT_TIMECONST = 0.02  # s, MuJoCo's default contact time constant
 
 
 class ModelError(ValueError):
@@ -42,6 +41,8 @@ class WorldOptions:
             its largest gets the small moments raised to it (thin single rods: MuJoCo spins up
             bodies with a tiny axial inertia); see ``thin_body``.
         thin_body: ``"regularize"`` (raise the moments and log it) or ``"refuse"`` (raise an error).
+        contact_timeconst: time constant of MuJoCo's soft contact [s] (0.02 is MuJoCo's default;
+            keep it >= 2 timesteps).
     """
 
     timestep: float = 1e-3
@@ -49,6 +50,7 @@ class WorldOptions:
     ground: bool = True
     min_inertia_ratio: float = 0.01
     thin_body: str = "regularize"
+    contact_timeconst: float = 0.02
 
     def __post_init__(self) -> None:
         if not 0 < self.timestep <= 0.05:
@@ -57,6 +59,8 @@ class WorldOptions:
             raise ValueError(f"thin_body must be 'regularize' or 'refuse', got {self.thin_body!r}")
         if not 0 <= self.min_inertia_ratio < 1:
             raise ValueError("min_inertia_ratio must be in [0, 1)")
+        if self.contact_timeconst <= 0:
+            raise ValueError(f"contact_timeconst must be > 0 s, got {self.contact_timeconst}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -165,7 +169,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None) -
     spec.worldbody.add_light(pos=[0, 0, 5], dir=[0, 0, -1])
     if world.ground:
         spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1],
-                                rgba=[0.85, 0.85, 0.8, 1])
+                                solref=[world.contact_timeconst, 1.0], rgba=[0.85, 0.85, 0.8, 1])
     rods = {r.name: r for r in structure.rods}
     masses = {p.node: p for p in structure.point_masses}
     node_body: dict[str, str] = {}
@@ -193,7 +197,8 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None) -
             body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                           fromto=np.concatenate(ends).tolist(), size=[rod.radius, 0, 0],
                           friction=[rod.friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
-                          solref=[_CONTACT_TIMECONST, _restitution_dampratio(rod.restitution)],
+                          solref=[world.contact_timeconst,
+                                  _restitution_dampratio(rod.restitution)],
                           rgba=[0.25, 0.25, 0.3, 1])
         for node in group.nodes:
             if node in masses:
@@ -205,6 +210,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None) -
                               pos=node_local[node].tolist(), size=[masses[node].radius, 0, 0],
                               friction=[friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
                               contype=0 if covered else 1, conaffinity=0 if covered else 1,
+                              solref=[world.contact_timeconst, 1.0],
                               rgba=[0.7, 0.45, 0.2, 1])
     for node in structure.nodes:
         if node.name not in node_body:  # a fixed anchor point in the world

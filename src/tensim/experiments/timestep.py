@@ -1,0 +1,98 @@
+"""How much the physics step and the contact solver change the predicted cable forces.
+
+The disturbance test runs at 250, 1000 and 4000 Hz; each cable's maximum tension is compared
+with the 1000 Hz run. The same comparison at 1000 Hz, varying the contact time constant, gives
+the sensitivity to the contact solver's settings.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from tensim._files import atomic_path, write_json
+from tensim.experiments.disturbance import run_disturbance
+from tensim.model import WorldOptions
+
+RATES_HZ = (250, 1000, 4000)
+REFERENCE_HZ = 1000
+CONTACT_TIMECONSTS_S = (0.01, 0.02, 0.04)  # 0.02 s is the default
+
+
+def _percent_change(values: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    return 100.0 * (values - reference) / reference
+
+
+def run_timestep_study(progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Runs the study and returns its summary (JSON-ready)."""
+    peaks: dict[str, np.ndarray] = {}
+    cables: tuple[str, ...] = ()
+    rtf: dict[str, float] = {}
+    for hz in RATES_HZ:
+        if progress:
+            progress(f"disturbance test at {hz} Hz")
+        result, _ = run_disturbance(dt=1.0 / hz)
+        peaks[str(hz)], cables, rtf[str(hz)] = result.peak_tension, result.cables, \
+            result.real_time_factor
+    contact: dict[str, np.ndarray] = {}
+    for tc in CONTACT_TIMECONSTS_S:
+        if tc == WorldOptions().contact_timeconst:
+            contact[str(tc)] = peaks[str(REFERENCE_HZ)]
+            continue
+        if progress:
+            progress(f"disturbance test with contact time constant {tc} s")
+        result, _ = run_disturbance(world=WorldOptions(contact_timeconst=tc))
+        contact[str(tc)] = result.peak_tension
+    reference = peaks[str(REFERENCE_HZ)]
+    per_cable = {hz: _percent_change(p, reference) for hz, p in peaks.items()
+                 if hz != str(REFERENCE_HZ)}
+    per_contact = {tc: _percent_change(p, reference) for tc, p in contact.items()
+                   if tc != str(WorldOptions().contact_timeconst)}
+
+    def named(values: np.ndarray) -> dict[str, float]:
+        return {c: round(float(v), 4) for c, v in zip(cables, values, strict=True)}
+
+    return {
+        "experiment": "timestep",
+        "model": "tetraspine3",
+        "reference_hz": REFERENCE_HZ,
+        "max_tension_N": {hz: named(p) for hz, p in peaks.items()},
+        "change_percent": {hz: named(v) for hz, v in per_cable.items()},
+        "max_change_percent": {hz: round(float(np.abs(v).max()), 4)
+                               for hz, v in per_cable.items()},
+        "contact_timeconst_change_percent": {tc: named(v) for tc, v in per_contact.items()},
+        "contact_max_change_percent": {tc: round(float(np.abs(v).max()), 4)
+                                       for tc, v in per_contact.items()},
+        "max_system_tension_N": {hz: round(float(p.max()), 4) for hz, p in peaks.items()},
+        "real_time_factor": {hz: round(v, 2) for hz, v in rtf.items()},
+    }
+
+
+def write_timestep_study(out: Path, summary: dict[str, Any]) -> Path:
+    """Writes ``summary.json`` and a bar chart of each cable's change."""
+    out.mkdir(parents=True, exist_ok=True)
+    changes = summary["change_percent"]
+    cables = list(next(iter(changes.values())))
+    x = np.arange(len(cables))
+    fig, ax = plt.subplots(figsize=(10, 3.5))
+    width = 0.8 / len(changes)
+    for k, (hz, values) in enumerate(changes.items()):
+        ax.bar(x + k * width, [values[c] for c in cables], width, label=f"{hz} Hz")
+    ax.axhline(0, color="black", lw=0.6)
+    ax.set_xticks(x + width / 2, cables, rotation=45, ha="right", fontsize=8)
+    ax.set_ylabel(f"max tension change vs {summary['reference_hz']} Hz [%]")
+    ax.legend()
+    ax.grid(alpha=0.3, axis="y")
+    fig.tight_layout()
+    with atomic_path(out / "timestep.png") as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+    write_json(out / "summary.json", {**summary, "figures": ["timestep.png"]})
+    return out
