@@ -145,7 +145,7 @@ def _regularize(name: str, props: MassProperties, world: WorldOptions) -> tuple[
         raise ModelError(
             f"rigid body {name!r}: smallest principal inertia {moments[0]:.3g} kg m^2 is below "
             f"{world.min_inertia_ratio} of the largest ({moments[-1]:.3g}); MuJoCo spins such thin "
-            "bodies up. Use thin_body='regularize', add point masses at the rod ends, or join rods."
+            "bodies up. Use thin_body='regularize', thicken the rod, or join it to other rods."
         )
     raised = np.maximum(moments, floor)
     log.info("rigid body %r: principal inertia raised from %s to %s kg m^2 (thin rod)",

@@ -82,6 +82,8 @@ class Structure:
 
     def _check_cable(self, cable: Cable) -> None:
         item = f"cable {cable.name!r}"
+        if self.distance(*cable.nodes) <= 0:
+            raise StructureError("zero-length cable: its two nodes coincide", item=item)
         length = self.cable_length(cable)
         if length <= 0:
             raise StructureError(

@@ -1,0 +1,234 @@
+"""Open-loop sine gaits on the impedance law's target velocity V* (paper section IV-B).
+
+A :class:`SineGait` gives every driven cable ``V*_i(t) = offset_i + amplitude_i sin(2π f_i t +
+phase_i)``. The hand-tuned Tetraspine gait of the paper has the inner cables at the inverse sign
+of the outer ones and the rear joint π behind the front one: :func:`tetraspine_sine` builds it
+for a spine of any length. :class:`SineController` samples the gait at the physics step and
+writes it into a simulation's V* table. The table helpers here are shared with
+:mod:`tensim.control.cpg`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from collections.abc import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from tensim.control.impedance import ImpedanceController
+from tensim.sim import Simulation
+from tensim.structure import Cable, Structure
+
+_JOINT_TAG = re.compile(r"joint_(\d+)")
+
+
+# -- helpers shared by the gait generators --------------------------------------------------------
+
+
+def joint_index(cable: Cable) -> int:
+    """The spine joint a cable spans, from its ``joint_<j>`` tag.
+
+    Raises:
+        ValueError: the cable has no ``joint_<j>`` tag, or more than one.
+    """
+    joints = [int(m.group(1)) for tag in cable.tags if (m := _JOINT_TAG.fullmatch(tag))]
+    if len(joints) != 1:
+        raise ValueError(f"cable {cable.name!r} needs exactly one 'joint_<j>' tag to place it "
+                         f"on the spine, has tags {cable.tags!r}")
+    return joints[0]
+
+
+def sample_times(duration: float, sample_dt: float) -> np.ndarray:
+    """Sample times 0, dt, 2 dt, ... up to ``duration`` inclusive [s].
+
+    Args:
+        duration: covered time [s], > 0.
+        sample_dt: sampling period [s], > 0.
+
+    Raises:
+        ValueError: a non-positive or non-finite duration or period.
+    """
+    if not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be a finite time > 0 s, got {duration}")
+    if not (math.isfinite(sample_dt) and sample_dt > 0):
+        raise ValueError(f"sample_dt must be a finite period > 0 s, got {sample_dt}")
+    n = math.floor(duration / sample_dt + 1e-9) + 1
+    return np.arange(n) * sample_dt
+
+
+def check_driven(impedance: ImpedanceController, cables: Iterable[str]) -> None:
+    """Raises ValueError if a cable given a V* is not under the impedance law (V* is unused)."""
+    missing = [c for c in cables if c not in impedance.gains]
+    if missing:
+        raise ValueError(f"cables {missing} get a target velocity but have no impedance gains, "
+                         "so V* would have no effect; add them to the ImpedanceController")
+
+
+def write_target_velocity(sim: Simulation, cables: Sequence[str], table: np.ndarray,
+                          table_dt: float) -> None:
+    """Writes a gait's V* table into ``sim.drive``; cables not named get V* = 0.
+
+    Args:
+        sim: the simulation.
+        cables: the names of ``table``'s columns.
+        table: (rows, len(cables)) target velocities [m/s], row r for t in [r, r+1)·table_dt.
+        table_dt: row period [s].
+
+    Raises:
+        KeyError: an unknown cable.
+        ValueError: a table that does not match ``cables``.
+    """
+    table = np.asarray(table, dtype=float)
+    if table.ndim != 2 or table.shape[1] != len(cables):
+        raise ValueError(f"table must be (rows, {len(cables)}), got {table.shape}")
+    full = np.zeros((table.shape[0], sim.compiled.n_cables))
+    for column, name in enumerate(cables):
+        full[:, sim.index.cable_id(name)] = table[:, column]
+    sim.drive.set_target_velocity(full, table_dt)
+
+
+def _per_cable(value: float | Sequence[float], n: int, what: str) -> tuple[float, ...]:
+    values = (float(value),) * n if np.ndim(value) == 0 else tuple(float(v) for v in value)
+    if len(values) != n:
+        raise ValueError(f"{what} needs one value per cable ({n}), got {len(values)}")
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{what} must be finite, got {values}")
+    return values
+
+
+# -- the gait -------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class SineGait:
+    """Per-cable sine waves V*_i(t) = offset_i + amplitude_i sin(2π frequency_i t + phase_i).
+
+    Scalars are broadcast to every cable (after construction every field is a per-cable
+    tuple). A negative amplitude inverts a cable's wave.
+
+    Attributes:
+        cables: names of the driven cables.
+        amplitude: per-cable amplitude [m/s].
+        frequency: per-cable frequency [Hz], >= 0.
+        phase: per-cable phase [rad].
+        offset: per-cable constant added to V* [m/s].
+    """
+
+    cables: tuple[str, ...]
+    amplitude: float | tuple[float, ...]
+    frequency: float | tuple[float, ...]
+    phase: float | tuple[float, ...] = 0.0
+    offset: float | tuple[float, ...] = 0.0
+
+    def __post_init__(self) -> None:
+        cables = tuple(str(c) for c in self.cables)
+        if not cables:
+            raise ValueError("a sine gait needs at least one cable")
+        if len(set(cables)) != len(cables):
+            raise ValueError(f"duplicate cable names in {cables}")
+        object.__setattr__(self, "cables", cables)
+        for field in ("amplitude", "frequency", "phase", "offset"):
+            object.__setattr__(self, field, _per_cable(getattr(self, field), len(cables), field))
+        if min(self.frequency) < 0:
+            raise ValueError(f"frequency must be >= 0 Hz, got {self.frequency}")
+
+    def table(self, times: np.ndarray) -> np.ndarray:
+        """V* at ``times`` [s]: (len(times), len(cables)) [m/s], columns in ``cables`` order."""
+        t = np.asarray(times, dtype=float).reshape(-1, 1)
+        angle = 2 * np.pi * np.asarray(self.frequency) * t + np.asarray(self.phase)
+        return np.asarray(self.offset) + np.asarray(self.amplitude) * np.sin(angle)
+
+
+def tagged_sine(structure: Structure, amplitude: float, frequency: float, *,
+                sign: Mapping[str, float] | None = None, phase: Mapping[str, float] | None = None,
+                offset: float = 0.0, cables: Sequence[str] | None = None) -> SineGait:
+    """A shared sine wave whose sign and phase each cable takes from its tags.
+
+    A cable's wave is ``s (offset + amplitude sin(2π f t + p))`` with ``s`` the product of
+    ``sign[tag]`` and ``p`` the sum of ``phase[tag]`` over the cable's tags.
+
+    Args:
+        structure: the robot.
+        amplitude: shared amplitude [m/s].
+        frequency: shared frequency [Hz].
+        sign: tag -> sign factor (e.g. ``{"inner": -1}``).
+        phase: tag -> phase added [rad] (e.g. ``{"joint_2": -math.pi}``).
+        offset: shared V* offset [m/s], signed like the wave.
+        cables: the driven cables; None drives every cable of ``structure``.
+    """
+    sign, phase = sign or {}, phase or {}
+    chosen = [structure.cable(n) for n in cables] if cables is not None else structure.cables
+    signs = [math.prod(sign.get(t, 1.0) for t in c.tags) for c in chosen]
+    phases = [math.fsum(phase.get(t, 0.0) for t in c.tags) for c in chosen]
+    return SineGait(tuple(c.name for c in chosen), tuple(s * amplitude for s in signs),
+                    frequency, tuple(phases), tuple(s * offset for s in signs))
+
+
+def tetraspine_sine(structure: Structure, amplitude: float, frequency: float, *,
+                    phase: float = 0.0, offset: float = 0.0,
+                    joint_lag: float = math.pi) -> SineGait:
+    """The paper's hand-tuned Tetraspine gait: inner = −outer, each joint π behind the one ahead.
+
+    Outer cables get ``offset + amplitude sin(2π f t + phase − (j − j0) joint_lag)`` at joint j
+    (j0 the front joint); inner cables the same wave with the inverse sign. With the default
+    lag of π on Tetraspine3 the rear joint runs π behind the front joint.
+
+    Args:
+        structure: a Tetraspine (cables tagged "inner"/"outer" and "joint_<j>").
+        amplitude: outer-cable amplitude [m/s].
+        frequency: [Hz].
+        phase: front-joint outer-cable phase [rad].
+        offset: outer-cable V* offset [m/s].
+        joint_lag: phase by which each joint runs behind the one in front of it [rad].
+
+    Raises:
+        ValueError: a cable is not tagged inner or outer, or has no joint tag.
+    """
+    for cable in structure.cables:
+        if ("inner" in cable.tags) == ("outer" in cable.tags):
+            raise ValueError(f"cable {cable.name!r} must be tagged exactly one of 'inner' or "
+                             f"'outer', has {cable.tags!r}")
+    joints = sorted({joint_index(c) for c in structure.cables})
+    lags = {f"joint_{j}": phase - (j - joints[0]) * joint_lag for j in joints}
+    return tagged_sine(structure, amplitude, frequency, sign={"inner": -1.0}, phase=lags,
+                       offset=offset)
+
+
+# -- the controller -------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class SineController:
+    """A sine gait on top of impedance laws.
+
+    ``configure`` sets the impedance gains, then the V* table (the impedance controller's
+    constant target velocity is replaced; cables outside the gait get V* = 0). Past
+    ``duration`` the drive holds the last row, so simulate at most ``duration``.
+
+    Attributes:
+        gait: the sine waves.
+        impedance: the impedance laws; every gait cable must have gains.
+        duration: time covered by the V* table [s].
+        sample_steps: table period in physics steps (1: V* sampled at every step).
+    """
+
+    gait: SineGait
+    impedance: ImpedanceController
+    duration: float
+    sample_steps: int = 1
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.duration) and self.duration > 0):
+            raise ValueError(f"duration must be a finite time > 0 s, got {self.duration}")
+        if int(self.sample_steps) != self.sample_steps or self.sample_steps < 1:
+            raise ValueError(f"sample_steps must be an integer >= 1, got {self.sample_steps}")
+        check_driven(self.impedance, self.gait.cables)
+
+    def configure(self, sim: Simulation) -> None:
+        """Writes the impedance gains and the sampled gait into ``sim.drive``."""
+        self.impedance.configure(sim)
+        table_dt = self.sample_steps * sim.dt
+        times = sample_times(self.duration, table_dt)
+        write_target_velocity(sim, self.gait.cables, self.gait.table(times), table_dt)
