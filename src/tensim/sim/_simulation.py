@@ -18,6 +18,7 @@ from tensim.sim._timeseries import TimeSeries
 
 _CABLE_QUANTITIES = ("tension", "setpoint", "applied", "length", "velocity", "rest_length")
 _POSE_QUANTITIES = ("pos_x", "pos_y", "pos_z", "quat_w", "quat_x", "quat_y", "quat_z")
+_CHECK_EVERY = 5  # records between stability checks in run()
 COM = "com"  # the item name of the whole robot's centre of mass in recorded pose channels
 
 
@@ -73,6 +74,8 @@ class Simulation:
         self.limits = limits or StabilityLimits()
         self.drive = CableDrive(compiled, self.data, loads, backend)
         self._steps = 0
+        self._qvel = self.data.qvel
+        self._bad_acc = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
         if controller is not None:
             controller.configure(self)
         mujoco.mj_forward(self.model, self.data)  # the cable update at t = 0
@@ -102,13 +105,15 @@ class Simulation:
         Raises:
             SimulationError: the state is non-finite or running away.
         """
-        if nstep <= 0:
-            return
+        if nstep > 0:
+            self._advance(nstep)
+            self.check()
+
+    def _advance(self, nstep: int) -> None:
         # the first step repeats the t = 0 cable update of mj_forward, so it does not count
         extra = 1 if self._steps == 0 and self.data.time == 0.0 else 0
         mujoco.mj_step(self.model, self.data, nstep=nstep + extra)
         self._steps += nstep
-        self.check()
 
     def run(self, duration: float, progress: Callable[[float, float], None] | None = None
             ) -> TimeSeries:
@@ -126,7 +131,9 @@ class Simulation:
         recorder.take(self)
         every = max(1, round(1.0 / (self.record_steps * self.dt)))
         for k in range(n_samples):
-            self.step(self.record_steps)
+            self._advance(self.record_steps)
+            if k % _CHECK_EVERY == 0 or k == n_samples - 1:
+                self.check()
             recorder.take(self)
             if progress is not None and (k + 1) % every == 0:
                 progress((k + 1) * self.record_steps * self.dt, duration)
@@ -136,10 +143,9 @@ class Simulation:
 
     def check(self) -> None:
         """Raises :class:`SimulationError` naming the body or cable if the state ran away."""
-        d = self.data
-        speed = np.abs(d.qvel).max(initial=0.0)
-        force = np.abs(self.drive.applied).max(initial=0.0)
-        bad_acc = d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
+        speed = np.abs(self._qvel).max(initial=0.0)
+        force = self.drive.applied.max(initial=0.0)  # tension-only: never negative
+        bad_acc = self._bad_acc.number
         if speed < self.limits.max_speed and force < self.limits.max_tension and not bad_acc:
             return  # also False for NaN, which lands below
         raise SimulationError(self._diagnose(bool(bad_acc)))
@@ -160,29 +166,38 @@ class Simulation:
 
 
 class _Recorder:
-    """Preallocated sample buffers for one :meth:`Simulation.run`."""
+    """Preallocated sample buffers for one :meth:`Simulation.run`.
+
+    The MjData and drive arrays are bound once; a sample is a handful of in-place copies.
+    """
 
     def __init__(self, sim: Simulation, n: int):
-        self.n, self.k = n, 0
+        self.k, self._sim = 0, sim
+        n_cables, n_bodies = sim.compiled.n_cables, len(sim.index.bodies)
         self.time = np.zeros(n)
-        self.cables = {q: np.zeros((n, sim.compiled.n_cables)) for q in _CABLE_QUANTITIES}
-        self.pos = np.zeros((n, len(sim.index.bodies) + 1, 3))
-        self.quat = np.zeros((n, len(sim.index.bodies), 4))
+        self.cables = {q: np.zeros((n, n_cables)) for q in _CABLE_QUANTITIES}
+        self.pos = np.zeros((n, n_bodies + 1, 3))
+        self.quat = np.zeros((n, n_bodies, 4))
+        d, drive = sim.data, sim.drive
+        self._copies = [(self.cables["tension"], drive.tension),
+                        (self.cables["setpoint"], drive.setpoint),
+                        (self.cables["applied"], drive.applied),
+                        (self.cables["rest_length"], drive.rest)]
+        self._takes = [(self.cables["length"], d.ten_length, drive.tendon),
+                       (self.cables["velocity"], d.ten_velocity, drive.tendon),
+                       (self.quat, d.xquat, sim.index.body)]
+        self._xpos, self._com, self._body = d.xpos, d.subtree_com, sim.index.body
 
     def take(self, sim: Simulation) -> None:
-        d, drive, k = sim.data, sim.drive, self.k
+        k = self.k
         self.time[k] = sim.time
-        c = self.cables
-        c["tension"][k], c["setpoint"][k], c["applied"][k] = (
-            drive.tension, drive.setpoint, drive.applied)
-        c["length"][k] = d.ten_length[drive.tendon]
-        c["velocity"][k] = d.ten_velocity[drive.tendon]
-        c["rest_length"][k] = drive.rest
-        self.pos[k, :-1] = d.xpos[sim.index.body]
-        self.pos[k, -1] = d.subtree_com[0]
-        self.quat[k] = d.xquat[sim.index.body]
+        for buffer, source in self._copies:
+            buffer[k] = source
+        for buffer, source, ids in self._takes:
+            np.take(source, ids, axis=0, out=buffer[k])
+        np.take(self._xpos, self._body, axis=0, out=self.pos[k, :-1])
+        self.pos[k, -1] = self._com[0]
         self.k += 1
-        self._sim = sim
 
     def series(self) -> TimeSeries:
         k, index = self.k, self._sim.index
