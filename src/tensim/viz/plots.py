@@ -3,16 +3,38 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 
 from tensim._files import atomic_path
 from tensim.sim import TimeSeries
+
+
+def _cable_panels(cables: Sequence[str], columns: int, ylabel: str, height: float,
+                  draw: Callable[[Axes, str], None]) -> Figure:
+    """A grid with one panel per cable, drawn by ``draw(ax, cable)``, labelled and tidied."""
+    rows = math.ceil(len(cables) / columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, height * rows), sharex=True,
+                             squeeze=False)
+    for ax, name in zip(axes.flat, cables, strict=False):
+        draw(ax, name)
+        ax.set_title(name, fontsize=9)
+        ax.set_ylabel(ylabel, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    for ax in axes.flat[len(cables):]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("time [s]", fontsize=8)
+    axes.flat[0].legend(fontsize=7, loc="best")
+    return fig
 
 
 def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
@@ -28,11 +50,8 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
         columns: panels per row.
         shade: (start, stop) time span to shade, e.g. when an external force acts [s].
     """
-    cables = list(cables or series.items("tension"))
-    rows = math.ceil(len(cables) / columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 2.4 * rows), sharex=True,
-                             squeeze=False)
-    for ax, name in zip(axes.flat, cables, strict=False):
+
+    def draw(ax: Axes, name: str) -> None:
         ax.plot(series.time, series[f"tension/{name}"], color="black", lw=1.0, label="measured")
         setpoint = f"setpoint/{name}"
         if setpoint in series.channels:
@@ -40,15 +59,9 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
                     label="commanded")
         if shade is not None:
             ax.axvspan(*shade, color="tab:orange", alpha=0.12, lw=0)
-        ax.set_title(name, fontsize=9)
-        ax.set_ylabel("tension [N]", fontsize=8)
-        ax.tick_params(labelsize=7)
-        ax.grid(alpha=0.3)
-    for ax in axes.flat[len(cables):]:
-        ax.set_visible(False)
-    for ax in axes[-1]:
-        ax.set_xlabel("time [s]", fontsize=8)
-    axes.flat[0].legend(fontsize=7, loc="best")
+
+    fig = _cable_panels(list(cables or series.items("tension")), columns, "tension [N]", 2.4,
+                        draw)
     if title:
         fig.suptitle(title)
     fig.tight_layout()
@@ -58,23 +71,13 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
 def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
                  columns: int = 3) -> Path:
     """One panel per cable: anchor-to-anchor length and motor rest length [m]."""
-    cables = list(cables or series.items("length"))
-    rows = math.ceil(len(cables) / columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 2.2 * rows), sharex=True,
-                             squeeze=False)
-    for ax, name in zip(axes.flat, cables, strict=False):
+
+    def draw(ax: Axes, name: str) -> None:
         ax.plot(series.time, series[f"length/{name}"], color="black", lw=1.0, label="length")
         ax.plot(series.time, series[f"rest_length/{name}"], color="tab:red", lw=0.8,
                 label="rest length")
-        ax.set_title(name, fontsize=9)
-        ax.set_ylabel("[m]", fontsize=8)
-        ax.tick_params(labelsize=7)
-        ax.grid(alpha=0.3)
-    for ax in axes.flat[len(cables):]:
-        ax.set_visible(False)
-    for ax in axes[-1]:
-        ax.set_xlabel("time [s]", fontsize=8)
-    axes.flat[0].legend(fontsize=7)
+
+    fig = _cable_panels(list(cables or series.items("length")), columns, "[m]", 2.2, draw)
     fig.tight_layout()
     return _save(fig, path)
 
@@ -95,7 +98,7 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str]) -> Path:
     return _save(fig, path)
 
 
-def _save(fig: plt.Figure, path: Path) -> Path:
+def _save(fig: Figure, path: Path) -> Path:
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=120, format="png")
     plt.close(fig)
