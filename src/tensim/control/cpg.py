@@ -42,7 +42,13 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from tensim.control.impedance import ImpedanceController
-from tensim.control.sine import check_driven, joint_index, sample_times, write_target_velocity
+from tensim.control.sine import (
+    check_driven,
+    joint_index,
+    per_item,
+    sample_times,
+    write_target_velocity,
+)
 from tensim.sim import Simulation
 from tensim.structure import Cable, Structure
 
@@ -89,12 +95,7 @@ class Coupling:
 
 
 def _per_oscillator(value: float | Sequence[float], n: int, what: str) -> tuple[float, ...]:
-    values = (float(value),) * n if np.ndim(value) == 0 else tuple(float(v) for v in value)
-    if len(values) != n:
-        raise ValueError(f"{what} needs one value per oscillator ({n}), got {len(values)}")
-    if not all(math.isfinite(v) for v in values):
-        raise ValueError(f"{what} must be finite, got {values}")
-    return values
+    return per_item(value, n, what, "oscillator")
 
 
 @dataclasses.dataclass(frozen=True)

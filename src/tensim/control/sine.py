@@ -89,10 +89,16 @@ def write_target_velocity(sim: Simulation, cables: Sequence[str], table: np.ndar
     sim.drive.set_target_velocity(full, table_dt)
 
 
-def _per_cable(value: float | Sequence[float], n: int, what: str) -> tuple[float, ...]:
+def per_item(value: float | Sequence[float], n: int, what: str, item: str = "cable"
+             ) -> tuple[float, ...]:
+    """A scalar broadcast to ``n`` items, or ``n`` given values; all finite.
+
+    Raises:
+        ValueError: wrong count or a non-finite value, naming ``what``.
+    """
     values = (float(value),) * n if np.ndim(value) == 0 else tuple(float(v) for v in value)
     if len(values) != n:
-        raise ValueError(f"{what} needs one value per cable ({n}), got {len(values)}")
+        raise ValueError(f"{what} needs one value per {item} ({n}), got {len(values)}")
     if not all(math.isfinite(v) for v in values):
         raise ValueError(f"{what} must be finite, got {values}")
     return values
@@ -130,7 +136,7 @@ class SineGait:
             raise ValueError(f"duplicate cable names in {cables}")
         object.__setattr__(self, "cables", cables)
         for field in ("amplitude", "frequency", "phase", "offset"):
-            object.__setattr__(self, field, _per_cable(getattr(self, field), len(cables), field))
+            object.__setattr__(self, field, per_item(getattr(self, field), len(cables), field))
         if min(self.frequency) < 0:
             raise ValueError(f"frequency must be >= 0 Hz, got {self.frequency}")
 

@@ -265,20 +265,10 @@ class CableDrive:
             return
         d.xfrc_applied[self.load_body] = 0.0
         for body, point, load in zip(self.load_body, self.load_point, self.loads, strict=True):
-            force = _interpolate(load.times, load.forces, d.time)
+            force = load.force_at(d.time)
             rot = d.xmat[body]  # row-major 3x3, summed as the C code does (no BLAS rounding)
             arm = (rot[0::3] * point[0] + rot[1::3] * point[1] + rot[2::3] * point[2]
                    + d.xpos[body] - d.xipos[body])
             d.xfrc_applied[body, :3] += force
             d.xfrc_applied[body, 3:] += np.cross(arm, force)
 
-
-def _interpolate(times: np.ndarray, forces: np.ndarray, t: float) -> np.ndarray:
-    """Piecewise-linear force at time t, held outside the knots, rounded as in ``_cable.c``."""
-    if t <= times[0]:
-        return forces[0].copy()
-    if t >= times[-1]:
-        return forces[-1].copy()
-    k = int(np.searchsorted(times, t, side="right")) - 1
-    s = (t - times[k]) / (times[k + 1] - times[k])
-    return forces[k] + s * (forces[k + 1] - forces[k])

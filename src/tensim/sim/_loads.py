@@ -33,8 +33,15 @@ class NodeLoad:
         object.__setattr__(self, "forces", forces)
 
     def force_at(self, t: float) -> np.ndarray:
-        """(3,) the force at time t [N]."""
-        return np.array([np.interp(t, self.times, self.forces[:, a]) for a in range(3)])
+        """(3,) the force at time t [N], rounded exactly as the compiled callback computes it."""
+        times, forces = self.times, self.forces
+        if t <= times[0]:
+            return forces[0].copy()
+        if t >= times[-1]:
+            return forces[-1].copy()
+        k = int(np.searchsorted(times, t, side="right")) - 1
+        s = (t - times[k]) / (times[k + 1] - times[k])
+        return forces[k] + s * (forces[k + 1] - forces[k])
 
     def scaled(self, factor: float) -> NodeLoad:
         """The same schedule with every force multiplied by ``factor``."""
