@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from tensim.control.cpg import (
+from tensim.control import (
     Bounds,
     Coupling,
     CPGController,

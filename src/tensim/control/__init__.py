@@ -1,23 +1,42 @@
-"""Controllers: the per-cable impedance law, and the gait generators (CPG, sine) that drive V*."""
+"""Controllers: the per-cable impedance law, the gait generators (CPG, sine) that drive its
+target velocity V*, sampled V* tables, and controller files."""
 
 from tensim.control.cpg import (
-    Bounds,
     Coupling,
     CPGController,
     CPGNetwork,
-    CPGParameters,
     CPGTrajectory,
     GaitError,
-    Parameter,
     SolverSettings,
     integrate,
-    shared_body_pairs,
     solve,
+)
+from tensim.control.files import (
+    ControllerConfig,
+    ControllerFileError,
+    controller_path,
+    load_controller,
+    resolve_controller,
+    save_controller,
+    shipped_controllers,
+)
+from tensim.control.impedance import ImpedanceController, ImpedanceGains
+from tensim.control.parameters import Bounds, Parameter, ParameterLayout
+from tensim.control.sine import SineController, SineGait, tagged_sine, tetraspine_sine
+from tensim.control.spine import (
+    CPGParameters,
+    SpineCPG,
+    shared_body_pairs,
     spine_network,
     spine_parameters,
 )
-from tensim.control.impedance import ImpedanceController, ImpedanceGains
-from tensim.control.sine import SineController, SineGait, tagged_sine, tetraspine_sine
+from tensim.control.velocity_table import (
+    TableController,
+    VelocityFileError,
+    VelocityTable,
+    load_velocity_table,
+    save_velocity_table,
+)
 
 __all__ = [
     "Bounds",
@@ -25,16 +44,30 @@ __all__ = [
     "CPGNetwork",
     "CPGParameters",
     "CPGTrajectory",
+    "ControllerConfig",
+    "ControllerFileError",
     "Coupling",
     "GaitError",
     "ImpedanceController",
     "ImpedanceGains",
     "Parameter",
+    "ParameterLayout",
     "SineController",
     "SineGait",
     "SolverSettings",
+    "SpineCPG",
+    "TableController",
+    "VelocityFileError",
+    "VelocityTable",
+    "controller_path",
     "integrate",
+    "load_controller",
+    "load_velocity_table",
+    "resolve_controller",
+    "save_controller",
+    "save_velocity_table",
     "shared_body_pairs",
+    "shipped_controllers",
     "solve",
     "spine_network",
     "spine_parameters",

@@ -12,97 +12,21 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from tensim.control._common import (
+    check_driven,
+    joint_index,
+    per_item,
+    sample_times,
+    write_target_velocity,
+)
 from tensim.control.impedance import ImpedanceController
+from tensim.control.velocity_table import VelocityTable
 from tensim.sim import Simulation
-from tensim.structure import Cable, Structure
-
-_JOINT_TAG = re.compile(r"joint_(\d+)")
-
-
-# -- helpers shared by the gait generators --------------------------------------------------------
-
-
-def joint_index(cable: Cable) -> int:
-    """The spine joint a cable spans, from its ``joint_<j>`` tag.
-
-    Raises:
-        ValueError: the cable has no ``joint_<j>`` tag, or more than one.
-    """
-    joints = [int(m.group(1)) for tag in cable.tags if (m := _JOINT_TAG.fullmatch(tag))]
-    if len(joints) != 1:
-        raise ValueError(f"cable {cable.name!r} needs exactly one 'joint_<j>' tag to place it "
-                         f"on the spine, has tags {cable.tags!r}")
-    return joints[0]
-
-
-def sample_times(duration: float, sample_dt: float) -> np.ndarray:
-    """Sample times 0, dt, 2 dt, ... up to ``duration`` inclusive [s].
-
-    Args:
-        duration: covered time [s], > 0.
-        sample_dt: sampling period [s], > 0.
-
-    Raises:
-        ValueError: a non-positive or non-finite duration or period.
-    """
-    if not (math.isfinite(duration) and duration > 0):
-        raise ValueError(f"duration must be a finite time > 0 s, got {duration}")
-    if not (math.isfinite(sample_dt) and sample_dt > 0):
-        raise ValueError(f"sample_dt must be a finite period > 0 s, got {sample_dt}")
-    n = math.floor(duration / sample_dt + 1e-9) + 1
-    return np.arange(n) * sample_dt
-
-
-def check_driven(impedance: ImpedanceController, cables: Iterable[str]) -> None:
-    """Raises ValueError if a cable given a V* is not under the impedance law (V* is unused)."""
-    missing = [c for c in cables if c not in impedance.gains]
-    if missing:
-        raise ValueError(f"cables {missing} get a target velocity but have no impedance gains, "
-                         "so V* would have no effect; add them to the ImpedanceController")
-
-
-def write_target_velocity(sim: Simulation, cables: Sequence[str], table: np.ndarray,
-                          table_dt: float) -> None:
-    """Writes a gait's V* table into ``sim.drive``; cables not named get V* = 0.
-
-    Args:
-        sim: the simulation.
-        cables: the names of ``table``'s columns.
-        table: (rows, len(cables)) target velocities [m/s], row r for t in [r, r+1)·table_dt.
-        table_dt: row period [s].
-
-    Raises:
-        KeyError: an unknown cable.
-        ValueError: a table that does not match ``cables``.
-    """
-    table = np.asarray(table, dtype=float)
-    if table.ndim != 2 or table.shape[1] != len(cables):
-        raise ValueError(f"table must be (rows, {len(cables)}), got {table.shape}")
-    full = np.zeros((table.shape[0], sim.compiled.n_cables))
-    for column, name in enumerate(cables):
-        full[:, sim.index.cable_id(name)] = table[:, column]
-    sim.drive.set_target_velocity(full, table_dt)
-
-
-def per_item(value: float | Sequence[float], n: int, what: str, item: str = "cable"
-             ) -> tuple[float, ...]:
-    """A scalar broadcast to ``n`` items, or ``n`` given values; all finite.
-
-    Raises:
-        ValueError: wrong count or a non-finite value, naming ``what``.
-    """
-    values = (float(value),) * n if np.ndim(value) == 0 else tuple(float(v) for v in value)
-    if len(values) != n:
-        raise ValueError(f"{what} needs one value per {item} ({n}), got {len(values)}")
-    if not all(math.isfinite(v) for v in values):
-        raise ValueError(f"{what} must be finite, got {values}")
-    return values
-
+from tensim.structure import Structure
 
 # -- the gait -------------------------------------------------------------------------------------
 
@@ -145,6 +69,10 @@ class SineGait:
         t = np.asarray(times, dtype=float).reshape(-1, 1)
         angle = 2 * np.pi * np.asarray(self.frequency) * t + np.asarray(self.phase)
         return np.asarray(self.offset) + np.asarray(self.amplitude) * np.sin(angle)
+
+    def velocity_table(self, duration: float, period: float) -> VelocityTable:
+        """V* sampled every ``period`` from 0 to ``duration`` inclusive [s]."""
+        return VelocityTable(self.cables, period, self.table(sample_times(duration, period)))
 
 
 def tagged_sine(structure: Structure, amplitude: float, frequency: float, *,

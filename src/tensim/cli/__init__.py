@@ -1,0 +1,61 @@
+"""The ``tensim`` command line: thin calls into the library.
+
+Each subcommand lives in its own module of this package with a ``register(subparsers)``
+function that adds its parser and sets ``run`` (a function of the parsed arguments that
+returns the exit status). Modules import the heavy parts of the library inside ``run``, so
+``tensim --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+from collections.abc import Callable, Sequence
+
+from tensim import __version__
+
+# subcommand modules, in the order ``tensim --help`` lists them
+COMMAND_MODULES = (
+    "tensim.cli.models",
+    "tensim.cli.simulate",
+    "tensim.cli.experiment",
+    "tensim.cli.export",
+    "tensim.cli.bench",
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every subcommand."""
+    parser = argparse.ArgumentParser(prog="tensim", description="Model, simulate, control and "
+                                     "learn gaits for tensegrity robots on MuJoCo.")
+    parser.add_argument("--version", action="version", version=f"tensim {__version__}")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``tensim`` console script; errors in the input exit with status 2."""
+    from tensim.control import ControllerFileError, GaitError
+    from tensim.model import ModelError
+    from tensim.sim import SimulationError
+    from tensim.structure import StructureError
+
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    args = build_parser().parse_args(argv)
+    run: Callable[[argparse.Namespace], int] = args.run
+    try:
+        return run(args)
+    except (StructureError, ModelError, SimulationError, ControllerFileError, GaitError,
+            KeyError, ValueError, FileNotFoundError) as err:
+        message = err.args[0] if isinstance(err, KeyError) and err.args else err
+        print(f"tensim: error: {message}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,30 @@
+"""``tensim bench``: speed against MuJoCo alone on identical inputs."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="speed benchmark against MuJoCo alone")
+    p.add_argument("--json", default=None, help="also write the figures to this JSON file")
+    p.add_argument("--duration", type=float, default=10.0, help="simulated time per case [s]")
+    p.add_argument("--repeats", type=int, default=3, help="best of this many runs")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from tensim._files import write_json
+    from tensim.bench import run_benchmarks
+
+    report = run_benchmarks(args.duration, args.repeats)
+    print(f"{'case':<20} {'tensim x real time':>19} {'MuJoCo alone':>13} {'ratio':>7} "
+          f"{'us/step':>8} {'engine us/step':>15}")
+    for case in report["cases"]:
+        print(f"{case['name']:<20} {case['real_time_factor']:>19.1f} "
+              f"{case['engine_alone_real_time_factor']:>13.1f} {case['ratio_to_engine']:>7.2f} "
+              f"{case['us_per_step']:>8.1f} {case['engine_us_per_step']:>15.1f}")
+    if args.json:
+        write_json(Path(args.json), report)
+    return 0

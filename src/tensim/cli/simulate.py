@@ -1,0 +1,61 @@
+"""``tensim simulate``: run a preset or structure file, optionally under a controller file."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from tensim.cli._common import (
+    Progress,
+    add_controller_option,
+    add_world_options,
+    load_model,
+    print_summary,
+    world_from_args,
+)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("simulate", help="simulate a preset or structure file")
+    p.add_argument("model", help="preset name or structure .yaml file")
+    p.add_argument("--duration", type=float, default=None,
+                   help="simulated time [s] (default: the controller's gait duration, or 10)")
+    add_world_options(p)
+    add_controller_option(p)
+    p.add_argument("--velocity-input", default=None, metavar="FILE",
+                   help="play back an exported V* table (from export-trajectory) instead of "
+                        "the controller's gait")
+    p.add_argument("--record-dt", type=float, default=0.01, help="recording period [s]")
+    p.add_argument("--out", default="runs/simulate", help="output folder")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from tensim.control import load_velocity_table, resolve_controller
+    from tensim.model import compile_structure
+    from tensim.runs import write_run
+    from tensim.sim import simulate
+    from tensim.viz import plot_cable_tensions, plot_path
+
+    structure = load_model(args.model)
+    config = resolve_controller(args.model, structure, args.controller)
+    if args.velocity_input and config is None:
+        raise ValueError("--velocity-input needs impedance laws: give --controller")
+    if args.velocity_input:
+        config = config.with_gait(load_velocity_table(args.velocity_input))
+    duration = args.duration or (config.duration if config and config.gait else 10.0)
+    compiled = compile_structure(structure, world_from_args(args))
+    controller = config.build(compiled.model.opt.timestep) if config else None
+    result = simulate(compiled, duration, controller=controller, record_dt=args.record_dt,
+                      progress=Progress(args.model, args.quiet))
+    summary = {"model": args.model, "controller": args.controller, **result.summary()}
+    out = Path(args.out)
+    figures = ["path.png"]
+    if compiled.n_cables:
+        plot_cable_tensions(result.trajectory, out / "tensions.png",
+                            title=f"{args.model}: cable tensions")
+        figures.insert(0, "tensions.png")
+    plot_path(result.trajectory, out / "path.png", compiled.index.bodies)
+    write_run(out, result, {**summary, "figures": figures})
+    print_summary(summary, out)
+    return 0
