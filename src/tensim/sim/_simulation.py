@@ -115,13 +115,15 @@ class Simulation:
         mujoco.mj_step(self.model, self.data, nstep=nstep + extra)
         self._steps += nstep
 
-    def run(self, duration: float, progress: Callable[[float, float], None] | None = None
-            ) -> TimeSeries:
+    def run(self, duration: float, progress: Callable[[float, float], None] | None = None,
+            on_record: Callable[[Simulation], None] | None = None) -> TimeSeries:
         """Simulates ``duration`` seconds more, recording every ``record_dt``.
 
         Args:
             duration: simulated time [s].
             progress: called as progress(done_s, total_s) about every simulated second.
+            on_record: called with this simulation after each sample (every ``record_dt``),
+                e.g. to log extra signals or to update an external force in between.
 
         Returns:
             The recorded samples, the current state included as the first one.
@@ -135,6 +137,8 @@ class Simulation:
             if k % _CHECK_EVERY == 0 or k == n_samples - 1:
                 self.check()
             recorder.take(self)
+            if on_record is not None:
+                on_record(self)
             if progress is not None and (k + 1) % every == 0:
                 progress((k + 1) * self.record_steps * self.dt, duration)
         return recorder.series()

@@ -1,5 +1,10 @@
 """Plots of recorded runs."""
 
-from tensim.viz.plots import plot_cable_tensions, plot_lengths, plot_path
+from tensim.viz.plots import (
+    plot_cable_tensions,
+    plot_lengths,
+    plot_path,
+    plot_velocity_input,
+)
 
-__all__ = ["plot_cable_tensions", "plot_lengths", "plot_path"]
+__all__ = ["plot_cable_tensions", "plot_lengths", "plot_path", "plot_velocity_input"]

@@ -14,6 +14,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from tensim._files import atomic_path
+from tensim.control.velocity_table import VelocityTable
 from tensim.sim import TimeSeries
 
 
@@ -82,9 +83,11 @@ def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None
     return _save(fig, path)
 
 
-def plot_path(series: TimeSeries, path: Path, items: Sequence[str]) -> Path:
+def plot_path(series: TimeSeries, path: Path, items: Sequence[str], title: str = "") -> Path:
     """Top view (x, y) of the bodies' paths [m]; start marked with a circle."""
     fig, ax = plt.subplots(figsize=(5, 5))
+    if title:
+        ax.set_title(title, fontsize=10)
     for name in items:
         x, y = series[f"pos_x/{name}"], series[f"pos_y/{name}"]
         ax.plot(x, y, lw=1.0, label=name)
@@ -94,6 +97,25 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str]) -> Path:
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_velocity_input(table: VelocityTable, path: Path, *,
+                        cables: Sequence[str] | None = None, columns: int = 3,
+                        until: float | None = None) -> Path:
+    """One panel per cable: the target velocity V* it was commanded (held between samples)."""
+    stop = table.values.shape[0] if until is None else min(
+        table.values.shape[0], int(until / table.period + 1e-9) + 1)
+    times = table.times[:stop]
+
+    def draw(ax: Axes, name: str) -> None:
+        ax.step(times, table.values[:stop, table.cables.index(name)] * 1000.0, where="post",
+                color="tab:green", lw=0.9, label="V*")
+        ax.axhline(0.0, color="black", lw=0.5)
+
+    chosen = [c for c in (cables or table.cables) if c in table.cables]
+    fig = _cable_panels(chosen, columns, "V* [mm/s]", 2.0, draw)
     fig.tight_layout()
     return _save(fig, path)
 

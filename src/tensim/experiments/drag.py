@@ -1,0 +1,184 @@
+"""The quasi-static drag test (paper section IV-A): the force to drag the robot at a steady speed.
+
+A tow point moves along the ground plane at constant speed and pulls a node of the robot
+through a horizontal spring-damper line (a string only pulls, so the force is never negative).
+Once the robot slides steadily, the line force equals the ground's total sliding friction; with
+the pull horizontal, the normal forces add up to m g, so Coulomb friction predicts
+F = μ m g whatever the robot's pose. The ratio F / (m g) is the effective friction coefficient
+to match against the hardware's drag force.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import mujoco
+import numpy as np
+
+from tensim._files import atomic_path
+from tensim.model import WorldOptions, compile_structure
+from tensim.models import preset
+from tensim.runs import write_run
+from tensim.sim import Simulation, SimulationResult
+from tensim.viz import plot_cable_tensions
+
+
+@dataclasses.dataclass(frozen=True)
+class DragSettings:
+    """How the robot is towed.
+
+    Attributes:
+        node: the node the tow line pulls.
+        direction: unit pull direction in the ground plane (x, y).
+        speed: tow-point speed [m/s].
+        settle: time before the tow starts [s] (the robot settles on the ground).
+        duration: total simulated time [s].
+        stiffness: tow-line stiffness [N/m].
+        damping: tow-line damping [N s/m].
+        steady_from: start of the averaging window, as a time after the tow starts [s].
+        record_dt: recording period, also the period the line force is updated at [s].
+    """
+
+    node: str = "s0_tip"
+    direction: tuple[float, float] = (1.0, 0.0)
+    speed: float = 0.05
+    settle: float = 2.0
+    duration: float = 14.0
+    stiffness: float = 200.0
+    damping: float = 40.0
+    steady_from: float = 4.0
+    record_dt: float = 0.002
+
+    def __post_init__(self) -> None:
+        norm = math.hypot(*self.direction)
+        if not norm > 0:
+            raise ValueError(f"direction must be a non-zero (x, y) vector, got {self.direction}")
+        object.__setattr__(self, "direction", (self.direction[0] / norm,
+                                               self.direction[1] / norm))
+        for field in ("speed", "stiffness", "record_dt", "duration"):
+            if not getattr(self, field) > 0:
+                raise ValueError(f"{field} must be > 0, got {getattr(self, field)}")
+        if not self.settle + self.steady_from < self.duration:
+            raise ValueError(f"the averaging window starts at {self.settle + self.steady_from} "
+                             f"s, after the run ends ({self.duration} s)")
+
+
+class _Tow:
+    """Updates the tow-line force on the pulled body after every recorded sample."""
+
+    def __init__(self, sim: Simulation, settings: DragSettings):
+        index = sim.index
+        self.settings = settings
+        self.body = index.node_body[settings.node]
+        self.local = index.node_local[settings.node]
+        self.d = np.array([*settings.direction, 0.0])
+        self.start: np.ndarray | None = None
+        self.times: list[float] = []
+        self.forces: list[float] = []
+        self.point = np.zeros(3)
+        self.velocity = np.zeros(6)
+
+    def _node(self, sim: Simulation) -> tuple[np.ndarray, float]:
+        d = sim.data
+        point = d.xpos[self.body] + d.xmat[self.body].reshape(3, 3) @ self.local
+        mujoco.mj_objectVelocity(sim.model, d, mujoco.mjtObj.mjOBJ_BODY, self.body,
+                                 self.velocity, 0)
+        omega, v_origin = self.velocity[:3], self.velocity[3:]
+        v_point = v_origin + np.cross(omega, point - d.xpos[self.body])
+        return point, float(v_point @ self.d)
+
+    def __call__(self, sim: Simulation) -> None:
+        s, t = self.settings, sim.time
+        point, speed = self._node(sim)
+        force = 0.0
+        if t >= s.settle:
+            if self.start is None:
+                self.start = point.copy()
+            travelled = s.speed * (t - s.settle)
+            stretch = travelled - float((point - self.start) @ self.d)
+            force = max(0.0, s.stiffness * stretch + s.damping * (s.speed - speed))
+        f = force * self.d
+        xfrc = sim.data.xfrc_applied[self.body]
+        xfrc[:3] = f
+        xfrc[3:] = np.cross(point - sim.data.xipos[self.body], f)
+        self.times.append(t)
+        self.forces.append(force)
+
+
+def run_drag(model: str = "tetraspine3", settings: DragSettings | None = None, *,
+             world: WorldOptions | None = None, duration: float | None = None,
+             progress: Callable[[float, float], None] | None = None
+             ) -> tuple[SimulationResult, dict[str, Any]]:
+    """Drags ``model`` (under its own impedance controller, V* = 0) and measures the force."""
+    settings = settings or DragSettings()
+    if duration is not None:
+        settings = dataclasses.replace(settings, duration=duration)
+    p = preset(model)
+    structure = p.build()
+    compiled = compile_structure(structure, world or WorldOptions())
+    with Simulation(compiled, controller=p.controller(), record_dt=settings.record_dt) as sim:
+        tow = _Tow(sim, settings)
+        tow(sim)
+        start = time.perf_counter()
+        trajectory = sim.run(settings.duration, progress, on_record=tow)
+        wall = time.perf_counter() - start
+        result = SimulationResult(trajectory, sim.drive.peak.copy(), wall, settings.duration,
+                                  sim.dt, sim.index.cables)
+    times, forces = np.array(tow.times), np.array(tow.forces)
+    window = times >= settings.settle + settings.steady_from
+    m = compiled.model
+    weight = mujoco.mj_getTotalmass(m) * float(np.linalg.norm(m.opt.gravity))
+    friction = float(np.mean([r.friction for r in structure.rods]))
+    drag = float(forces[window].mean())
+    com_x = trajectory["pos_x/com"]
+    steady_speed = float(np.polyfit(times[window], com_x[window], 1)[0]) if window.sum() > 2 \
+        else math.nan
+    summary = {
+        "experiment": "drag", "model": model, **result.summary(),
+        "drag_force_N": round(drag, 5),
+        "drag_force_std_N": round(float(forces[window].std()), 5),
+        "coulomb_force_N": round(friction * weight, 5),
+        "effective_friction": round(drag / weight, 5),
+        "rod_friction": friction,
+        "weight_N": round(weight, 5),
+        "tow_speed_m_per_s": settings.speed,
+        "com_speed_m_per_s": round(steady_speed, 5),
+        "settings": dataclasses.asdict(settings),
+        "time_s": times.tolist()[:: max(1, round(0.01 / settings.record_dt))],
+        "tow_force_N": forces.round(5).tolist()[:: max(1, round(0.01 / settings.record_dt))],
+    }
+    return result, summary
+
+
+def write_drag(out: Path, result: SimulationResult, summary: dict[str, Any]) -> Path:
+    """Writes the tow force over time, the cable tensions, trajectory and summary."""
+    out.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(7, 3.2))
+    ax.plot(summary["time_s"], summary["tow_force_N"], color="black", lw=1.0, label="tow line")
+    ax.axhline(summary["coulomb_force_N"], color="tab:red", ls="--", lw=1.0,
+               label=f"μ m g = {summary['coulomb_force_N']:.3f} N")
+    s = summary["settings"]
+    ax.axvspan(s["settle"] + s["steady_from"], s["duration"], color="tab:blue", alpha=0.1,
+               label=f"steady: mean {summary['drag_force_N']:.3f} N")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("drag force [N]")
+    ax.set_title(f"Drag at {s['speed']} m/s: effective friction "
+                 f"{summary['effective_friction']:.4f}", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    with atomic_path(out / "drag_force.png") as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+    plot_cable_tensions(result.trajectory, out / "tensions.png",
+                        title="Tetraspine3 drag test: cable tensions")
+    return write_run(out, result, {**summary, "figures": ["drag_force.png", "tensions.png"]})

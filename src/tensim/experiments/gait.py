@@ -1,0 +1,115 @@
+"""Gait experiments (paper Figs. 4 and 5): a controller file's gait on Tetraspine3.
+
+``sine`` runs the hand-tuned style sine gait, ``cpg`` the simulator-tuned CPG gait that moves
+the robot sideways. Both report every cable's tensions (measured and commanded), the V* each
+cable was given, the robot's path and how far and in which direction it moved.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tensim.control import ControllerConfig, load_controller
+from tensim.model import WorldOptions, compile_structure
+from tensim.models import preset
+from tensim.runs import write_run
+from tensim.sim import COM, SimulationResult, TimeSeries, simulate
+from tensim.viz import plot_cable_tensions, plot_path, plot_velocity_input
+
+CABLE_ORDER = tuple(f"{kind}_{j}" for j in (1, 2) for kind in (
+    "outer_top", "outer_left", "outer_right", "inner_top", "inner_left", "inner_right"))
+SETTLE_S = 1.0  # the robot settles under gravity first; displacement counts from here
+_DIRECTIONS = ((0.0, "forward (+x)"), (90.0, "left (+y)"), (180.0, "backward (-x)"),
+               (-90.0, "right (-y)"), (-180.0, "backward (-x)"))
+
+
+def locomotion(series: TimeSeries, start: float = SETTLE_S, item: str = COM) -> dict[str, Any]:
+    """How far and where ``item`` (default the centre of mass) moved in the ground plane.
+
+    Args:
+        series: a recorded run.
+        start: time the displacement counts from [s] (after settling).
+        item: a recorded body name, or ``com``.
+
+    Returns:
+        ``planar_displacement_m`` (x-y distance), ``forward_displacement_m`` (x),
+        ``sideways_displacement_m`` (y, + = the robot's left), ``direction_deg`` (of the x-y
+        displacement from +x, counter-clockwise), ``direction`` (the nearest of forward,
+        left, backward, right) and ``average_speed_m_per_s``.
+    """
+    t = series.time
+    k0 = int(np.searchsorted(t, min(start, t[-1]) - 1e-9))
+    dx = float(series[f"pos_x/{item}"][-1] - series[f"pos_x/{item}"][k0])
+    dy = float(series[f"pos_y/{item}"][-1] - series[f"pos_y/{item}"][k0])
+    angle = math.degrees(math.atan2(dy, dx))
+    label = min(_DIRECTIONS, key=lambda d: abs(d[0] - angle))[1]
+    span = float(t[-1] - t[k0])
+    distance = math.hypot(dx, dy)
+    return {"planar_displacement_m": round(distance, 6),
+            "forward_displacement_m": round(dx, 6),
+            "sideways_displacement_m": round(dy, 6),
+            "direction_deg": round(angle, 2),
+            "direction": label,
+            "average_speed_m_per_s": round(distance / span, 6) if span > 0 else 0.0,
+            "displacement_from_s": float(t[k0])}
+
+
+def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tetraspine3",
+             duration: float | None = None, world: WorldOptions | None = None,
+             progress: Callable[[float, float], None] | None = None
+             ) -> tuple[SimulationResult, dict[str, Any], ControllerConfig]:
+    """Runs a gait from a controller file (or config) on a preset.
+
+    Args:
+        name: experiment name for the summary (``sine``, ``cpg``).
+        controller: controller file path, shipped name, or a loaded config.
+        model: the preset.
+        duration: simulated time [s] (None: the gait's duration).
+        world: physics step, ground, ...
+        progress: called as progress(done_s, total_s).
+
+    Returns:
+        The result, its summary and the controller config used.
+    """
+    structure = preset(model).build()
+    config = controller if isinstance(controller, ControllerConfig) else \
+        load_controller(controller, structure)
+    if config.gait is None:
+        raise ValueError(f"controller {controller!r} has no gait: the {name} experiment needs "
+                         "one (see `tensim models` for the shipped gait files)")
+    duration = duration or config.duration
+    compiled = compile_structure(structure, world or WorldOptions())
+    result = simulate(compiled, duration, controller=config.build(compiled.model.opt.timestep),
+                      progress=progress)
+    summary: dict[str, Any] = {
+        "experiment": name, "model": model,
+        "controller": controller if isinstance(controller, str) else "(in memory)",
+        "gait": type(config.gait).__name__,
+        "command_period_s": config.command_period,
+        **result.summary(), **locomotion(result.trajectory)}
+    return result, summary, config
+
+
+def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
+               config: ControllerConfig) -> Path:
+    """Writes tensions (Fig. 4/5 style), V* inputs, path, trajectory and summary."""
+    cables = [c for c in CABLE_ORDER if c in result.cables] or list(result.cables)
+    name = summary.get("experiment", "gait")
+    plot_cable_tensions(result.trajectory, out / "tensions.png", cables=cables, columns=3,
+                        title=f"Tetraspine3 {name} gait: measured tension (black), commanded "
+                              "(dashed)")
+    table = config.velocity_table(result.dt_s)
+    figures = ["tensions.png", "velocity_input.png", "path.png"]
+    if table is not None:
+        plot_velocity_input(table, out / "velocity_input.png", cables=cables,
+                            until=result.duration_s)
+    plot_path(result.trajectory, out / "path.png",
+              [*(b for b in result.trajectory.items("pos_x") if b != COM), COM],
+              title=f"moved {summary['planar_displacement_m']:.3f} m, "
+                    f"{summary['direction']}")
+    return write_run(out, result, {**summary, "figures": figures})
