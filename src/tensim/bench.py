@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
+from tensim.control import load_controller
 from tensim.model import compile_structure
 from tensim.models import preset
 from tensim.sim import Simulation, compiled_available
@@ -52,12 +53,26 @@ def _best(fn: Callable[[], float], repeats: int) -> float:
 
 
 def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
-                controlled: bool = True) -> BenchCase:
-    """Benchmarks preset ``name`` for ``duration`` simulated seconds (best of ``repeats``)."""
+                controlled: bool = True, controller_file: str | None = None) -> BenchCase:
+    """Benchmarks preset ``name`` for ``duration`` simulated seconds (best of ``repeats``).
+
+    Args:
+        name: the preset.
+        duration: simulated time per run [s].
+        repeats: runs; the best counts.
+        controlled: drive the cables with the preset's impedance controller.
+        controller_file: drive them with this controller file's gait instead (its V* table
+            is computed before the timed loop, as in any simulation).
+    """
     model = preset(name)
-    compiled = compile_structure(model.build())
+    structure = model.build()
+    compiled = compile_structure(structure)
     m = compiled.model
-    with Simulation(compiled, controller=model.controller() if controlled else None) as sim:
+    controller = model.controller() if controlled else None
+    if controller_file is not None:
+        config = load_controller(controller_file, structure)
+        controller = config.with_duration(SETTLE_S + duration).build(m.opt.timestep)
+    with Simulation(compiled, controller=controller) as sim:
         sim.step(int(SETTLE_S / sim.dt))
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
         start = np.empty(mujoco.mj_stateSize(m, spec))
@@ -94,13 +109,15 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
         return time.perf_counter() - t0
 
     engine_wall = _best(engine, repeats)
-    return BenchCase(f"{name}{'' if controlled else ' (passive)'}", duration / wall,
+    label = f" ({controller_file})" if controller_file else "" if controlled else " (passive)"
+    return BenchCase(f"{name}{label}", duration / wall,
                      duration / engine_wall, wall / n_steps * 1e6, engine_wall / n_steps * 1e6)
 
 
 def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, object]:
-    """The benchmark cases: controlled Tetraspine3 and a passive six-bar."""
+    """The cases: Tetraspine3 under impedance control and on its CPG gait; a passive six-bar."""
     cases = [bench_model("tetraspine3", duration, repeats),
+             bench_model("tetraspine3", duration, repeats, controller_file="tetraspine3_cpg"),
              bench_model("six_bar", duration, repeats, controlled=False)]
     return {
         "compiled_callback": compiled_available(),

@@ -19,10 +19,10 @@ def run(args: argparse.Namespace) -> int:
     from tensim.bench import run_benchmarks
 
     report = run_benchmarks(args.duration, args.repeats)
-    print(f"{'case':<20} {'tensim x real time':>19} {'MuJoCo alone':>13} {'ratio':>7} "
+    print(f"{'case':<34} {'tensim x real time':>19} {'MuJoCo alone':>13} {'ratio':>7} "
           f"{'us/step':>8} {'engine us/step':>15}")
     for case in report["cases"]:
-        print(f"{case['name']:<20} {case['real_time_factor']:>19.1f} "
+        print(f"{case['name']:<34} {case['real_time_factor']:>19.1f} "
               f"{case['engine_alone_real_time_factor']:>13.1f} {case['ratio_to_engine']:>7.2f} "
               f"{case['us_per_step']:>8.1f} {case['engine_us_per_step']:>15.1f}")
     if args.json:

@@ -48,6 +48,11 @@ def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[
         write_gait(out, result, summary, config)
         print(f"moved {summary['planar_displacement_m']:.3f} m toward "
               f"{summary['direction']} ({summary['direction_deg']:.0f} deg from +x)")
+        if "body_sideways_m" in summary:
+            side = summary["body_sideways_m"]
+            print(f"in the robot's own frame: {summary['body_forward_m']:.3f} m forward, "
+                  f"{abs(side):.3f} m to its {'left' if side > 0 else 'right'}; heading "
+                  f"turned {summary['heading_change_deg']:.0f} deg")
         return summary
 
     return run

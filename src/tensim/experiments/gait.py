@@ -38,9 +38,11 @@ def locomotion(series: TimeSeries, start: float = SETTLE_S, item: str = COM) -> 
 
     Returns:
         ``planar_displacement_m`` (x-y distance), ``forward_displacement_m`` (x),
-        ``sideways_displacement_m`` (y, + = the robot's left), ``direction_deg`` (of the x-y
-        displacement from +x, counter-clockwise), ``direction`` (the nearest of forward,
-        left, backward, right) and ``average_speed_m_per_s``.
+        ``sideways_displacement_m`` (y, + = the robot's left at the start), ``direction_deg``
+        (of the x-y displacement from +x, counter-clockwise), ``direction`` (the nearest of
+        forward, left, backward, right) and ``average_speed_m_per_s``, all in the world
+        frame; and ``body_forward_m``, ``body_sideways_m`` (+ = the robot's left) and
+        ``heading_change_deg`` along the robot's own turning axes (see :func:`_body_frame`).
     """
     t = series.time
     k0 = int(np.searchsorted(t, min(start, t[-1]) - 1e-9))
@@ -50,13 +52,41 @@ def locomotion(series: TimeSeries, start: float = SETTLE_S, item: str = COM) -> 
     label = min(_DIRECTIONS, key=lambda d: abs(d[0] - angle))[1]
     span = float(t[-1] - t[k0])
     distance = math.hypot(dx, dy)
-    return {"planar_displacement_m": round(distance, 6),
+    return {**_body_frame(series, k0, item),
+            "planar_displacement_m": round(distance, 6),
             "forward_displacement_m": round(dx, 6),
             "sideways_displacement_m": round(dy, 6),
             "direction_deg": round(angle, 2),
             "direction": label,
             "average_speed_m_per_s": round(distance / span, 6) if span > 0 else 0.0,
             "displacement_from_s": float(t[k0])}
+
+
+def _body_frame(series: TimeSeries, k0: int, item: str) -> dict[str, Any]:
+    """Displacement along the robot's own axes, which turn with it.
+
+    The heading is the spine axis in the ground plane, from the last recorded body to the first
+    (for a spine preset: rear segment to front segment). Each step of ``item``'s path is split
+    into its components along the heading (forward) and 90° to its left (sideways) at that time,
+    so a robot that walks sideways while turning still counts as walking sideways.
+    """
+    bodies = [b for b in series.items("pos_x") if b != COM]
+    if len(bodies) < 2:
+        return {}
+    front, rear = bodies[0], bodies[-1]
+    hx = series[f"pos_x/{front}"][k0:] - series[f"pos_x/{rear}"][k0:]
+    hy = series[f"pos_y/{front}"][k0:] - series[f"pos_y/{rear}"][k0:]
+    heading = np.unwrap(np.arctan2(hy, hx))
+    mid = 0.5 * (heading[1:] + heading[:-1])
+    step_x = np.diff(series[f"pos_x/{item}"][k0:])
+    step_y = np.diff(series[f"pos_y/{item}"][k0:])
+    forward = float(np.sum(step_x * np.cos(mid) + step_y * np.sin(mid)))
+    sideways = float(np.sum(-step_x * np.sin(mid) + step_y * np.cos(mid)))
+    angle = math.degrees(math.atan2(sideways, forward))
+    label = min(_DIRECTIONS, key=lambda d: abs(d[0] - angle))[1].split(" ")[0]
+    return {"body_forward_m": round(forward, 6), "body_sideways_m": round(sideways, 6),
+            "body_direction": f"{label} (robot frame)",
+            "heading_change_deg": round(math.degrees(heading[-1] - heading[0]), 2)}
 
 
 def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tetraspine3",
