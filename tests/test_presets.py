@@ -9,7 +9,9 @@ from tensim.model import compile_structure
 from tensim.models import PRESETS, preset
 from tensim.sim import simulate
 
-DECLARED_CABLES = {"tetraspine3": 12, "tetraspine": 66, "six_bar": 24, "prism3": 9}
+DECLARED_CABLES = {"tetraspine3": 12, "tetraspine": 66, "six_bar": 24, "prism3": 9,
+                   "prism4": 12, "prism5": 15, "superball": 24, "tetrahedral_complex": 40,
+                   "octahedral_complex": 40}
 # six_bar runs 20 s: a six-bar with bare thin rods was reported to blow up within 20 s
 DURATION = {"six_bar": 20.0}
 

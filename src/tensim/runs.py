@@ -1,18 +1,97 @@
-"""Run folders: the recorded time series, a summary and figures, each written atomically."""
+"""Run folders: the recorded time series, a log, a report and a summary, each written atomically.
+
+Every command that writes a run folder ends with :func:`write_run` (one simulation) or
+:func:`finish_run` (studies and searches that keep only a summary and figures). Both write
+``tensim.log`` (this process's tensim warnings and progress lines since the last run folder),
+``report.html`` (:func:`tensim.viz.report.write_report`) and then ``summary.json``, last, so its
+presence means the folder is complete.
+"""
 
 from __future__ import annotations
 
+import collections
+import logging
+import platform
+import sys
 from pathlib import Path
 from typing import Any
 
 from tensim import __version__
-from tensim._files import write_json
-from tensim.sim import SimulationResult
+from tensim._files import write_json, write_text
+from tensim.sim import SimulationResult, TimeSeries
+
+PROGRESS_LOGGER = "tensim.progress"  # progress lines: to the run log only, never the console
+_MAX_LINES = 20_000
+
+
+class RunLog(logging.Handler):
+    """Keeps this process's tensim log records (warnings, progress lines) for the next run folder.
+
+    Attached to the ``tensim`` logger (records at the level it passes, WARNING unless the
+    application sets another) and to the progress logger (INFO, not propagated).
+    """
+
+    def __init__(self) -> None:
+        super().__init__(logging.INFO)
+        self.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+        self.lines: collections.deque[str] = collections.deque(maxlen=_MAX_LINES)
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.lines.append(self.format(record))
+        if self._only_handler(record) and logging.lastResort is not None \
+                and record.levelno >= logging.lastResort.level:
+            logging.lastResort.handle(record)  # as Python would have without this handler
+
+    def _only_handler(self, record: logging.LogRecord) -> bool:
+        """Whether no other handler sees ``record`` (so Python's last resort would print it)."""
+        logger: logging.Logger | None = logging.getLogger(record.name)
+        while logger is not None:
+            if any(h is not self for h in logger.handlers):
+                return False
+            logger = logger.parent if logger.propagate else None
+        return record.name != PROGRESS_LOGGER
+
+    def write(self, path: Path) -> Path:
+        """Writes the header and the lines kept since the last write, atomically; clears them."""
+        command = " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]) if sys.argv else ""
+        header = [f"tensim {__version__}, Python {platform.python_version()}, "
+                  f"{platform.system()} {platform.machine()}", f"command: {command}"]
+        write_text(path, "\n".join([*header, *self.lines]) + "\n")
+        self.lines.clear()
+        return path
+
+
+def _install() -> RunLog:
+    log = RunLog()
+    logging.getLogger("tensim").addHandler(log)
+    progress = logging.getLogger(PROGRESS_LOGGER)
+    progress.setLevel(logging.INFO)
+    progress.propagate = False
+    progress.addHandler(log)
+    return log
+
+
+RUN_LOG = _install()
+
+
+def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = None) -> Path:
+    """Writes ``tensim.log``, ``report.html`` and then ``summary.json`` into ``out``.
+
+    Call it last, after the folder's figures and data files are written; ``series`` is the
+    run's trajectory if it has one (else the report reads trajectory.parquet, if any).
+    """
+    from tensim.viz.report import write_report
+
+    out.mkdir(parents=True, exist_ok=True)
+    summary = {**summary, "tensim_version": __version__}
+    RUN_LOG.write(out / "tensim.log")
+    write_report(out, summary, series=series)
+    write_json(out / "summary.json", summary)
+    return out
 
 
 def write_run(out: Path, result: SimulationResult, summary: dict[str, Any]) -> Path:
-    """Writes ``trajectory.parquet`` then ``summary.json`` (last, so its presence means done)."""
+    """Writes ``trajectory.parquet``, then finishes the folder (:func:`finish_run`)."""
     out.mkdir(parents=True, exist_ok=True)
     result.trajectory.to_parquet(out / "trajectory.parquet")
-    write_json(out / "summary.json", {**summary, "tensim_version": __version__})
-    return out
+    return finish_run(out, summary, result.trajectory)

@@ -22,6 +22,11 @@ COMMAND_MODULES = (
     "tensim.cli.simulate",
     "tensim.cli.experiment",
     "tensim.cli.export",
+    "tensim.cli.view",
+    "tensim.cli.render",
+    "tensim.cli.io",
+    "tensim.cli.learn",
+    "tensim.cli.hardware",
     "tensim.cli.bench",
 )
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import logging
+import math
 import sys
 import time
 from pathlib import Path
@@ -13,39 +15,73 @@ from tensim.structure import Structure
 
 
 class Progress:
-    """A one-line progress bar on stderr: work done, rate and time left.
+    """A one-line progress bar on stderr: work done, rate and time left; and the run log.
 
-    On a terminal the line is redrawn in place; in a log file one line is written every tenth
-    of the work. ``quiet`` turns it off.
+    On a terminal the line is redrawn in place (at most ten times a second); elsewhere one line
+    is written every tenth of the work. ``quiet`` turns the bar off. Either way a plain line
+    goes to the run log (``tensim.runs.RUN_LOG``, written into the run folder as tensim.log)
+    every tenth of the work and at the end.
     """
 
     def __init__(self, label: str, quiet: bool = False, unit: str = "s sim",
                  rate_label: str = "x real time"):
+        from tensim.runs import PROGRESS_LOGGER
+
         self._clock = time.perf_counter
         self.label, self.quiet, self.start = label, quiet, self._clock()
         self.unit, self.rate_label = unit, rate_label
         self.tty = sys.stderr.isatty()
-        self._last_line = -1.0
+        self._last_line = -1.0  # work done at the last non-terminal line
+        self._last_logged = 0.0  # work done at the last run-log line
+        self._last_draw = -math.inf  # clock time of the last terminal redraw
+        self._log = logging.getLogger(PROGRESS_LOGGER)
         self.extra = ""
 
     def __call__(self, done: float, total: float) -> None:
+        now = self._clock()
+        finished = done >= total
+        line = self.line(done, total, now - self.start)
+        if finished or done - self._last_logged >= total / 10:
+            self._last_logged = done
+            self._log.info(line)
         if self.quiet:
             return
-        elapsed = self._clock() - self.start
+        if self.tty:
+            if not finished and now - self._last_draw < 0.1:
+                return
+            self._last_draw = now
+            print(f"\r{line}", end="\n" if finished else "", file=sys.stderr, flush=True)
+        elif finished or done - self._last_line >= total / 10:
+            self._last_line = done
+            print(line, file=sys.stderr, flush=True)
+
+    def line(self, done: float, total: float, elapsed: float) -> str:
+        """The bar's text after ``elapsed`` seconds [s] with ``done`` of ``total`` done."""
         rate = done / elapsed if elapsed > 0 else 0.0
-        left = (total - done) / rate if rate > 0 else 0.0
         width = 30
         filled = min(width, int(width * done / total)) if total > 0 else width
-        if not self.tty:  # a log file: a line every tenth of the work
-            if done < total and done - self._last_line < total / 10:
-                return
-            self._last_line = done
+        if done >= total:
+            timing = f"done in {_duration(elapsed)}"
+        else:
+            timing = f"{_duration((total - done) / rate)} left" if rate > 0 else "? left"
         extra = f", {self.extra}" if self.extra else ""
-        print(f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {done:5.1f}/{total:.1f} "
-              f"{self.unit}, {rate:5.1f}{self.rate_label}, {left:4.1f} s left{extra}", end="",
-              file=sys.stderr, flush=True)
-        if done >= total or not self.tty:
-            print(file=sys.stderr)
+        return (f"{self.label} [{'#' * filled}{'.' * (width - filled)}] {done:5.1f}/{total:.1f} "
+                f"{self.unit}, {_rate(rate)}{self.rate_label}, {timing}{extra}")
+
+
+def _rate(rate: float) -> str:
+    """A rate with three significant digits, without exponents."""
+    return f"{rate:5.0f}" if rate >= 100 else f"{rate:5.3g}"
+
+
+def _duration(seconds: float) -> str:
+    """``seconds`` as '4.2 s', '3 min 12 s' or '2 h 05 min'."""
+    if seconds < 60:
+        return f"{seconds:.1f} s"
+    minutes, secs = divmod(round(seconds), 60)
+    if minutes < 60:
+        return f"{minutes} min {secs:02d} s"
+    return f"{minutes // 60} h {minutes % 60:02d} min"
 
 
 def load_model(name: str) -> Structure:
@@ -81,11 +117,23 @@ def print_summary(summary: dict[str, Any], out: Path) -> None:
 def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None:
     """Adds the options that describe the simulated world (physics step, ...)."""
     parser.add_argument("--dt", type=float, default=dt, help="physics step [s]")
+    parser.add_argument("--terrain", default=None, metavar="NAME[:key=value,...]",
+                        help="ground: flat, slope, hills, rough, stairs, blocks, wall or "
+                             "heightfield, e.g. 'rough:roughness=0.02,seed=3' or "
+                             "'wall:height=0.1,friction=0.5' (default flat, or the experiment's "
+                             "own; see docs/terrain.md)")
 
 
 def world_from_args(args: argparse.Namespace) -> WorldOptions:
-    """The WorldOptions that :func:`add_world_options`' options describe."""
-    return WorldOptions(timestep=args.dt)
+    """The WorldOptions that :func:`add_world_options`' options describe.
+
+    Raises:
+        TerrainError: ``--terrain`` is not a valid terrain string.
+    """
+    from tensim.terrain import Flat, parse_terrain
+
+    text = getattr(args, "terrain", None)
+    return WorldOptions(timestep=args.dt, terrain=parse_terrain(text) if text else Flat())
 
 
 def add_controller_option(parser: argparse.ArgumentParser, default: str | None = None) -> None:

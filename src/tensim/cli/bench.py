@@ -11,6 +11,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", default=None, help="also write the figures to this JSON file")
     p.add_argument("--duration", type=float, default=10.0, help="simulated time per case [s]")
     p.add_argument("--repeats", type=int, default=3, help="best of this many runs")
+    p.add_argument("--learning", action="store_true", help="also learning throughput: "
+                   "evaluations/s of Tetraspine3 trials with 1 and 2 worker processes")
     p.set_defaults(run=run)
 
 
@@ -25,6 +27,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"{case['name']:<34} {case['real_time_factor']:>19.1f} "
               f"{case['engine_alone_real_time_factor']:>13.1f} {case['ratio_to_engine']:>7.2f} "
               f"{case['us_per_step']:>8.1f} {case['engine_us_per_step']:>15.1f}")
+    if args.learning:
+        from tensim.learn.bench import bench_learning, format_learning
+
+        report["learning"] = bench_learning(args.duration)
+        print(format_learning(report["learning"]))
     if args.json:
         write_json(Path(args.json), report)
     return 0

@@ -70,6 +70,51 @@ def _drag(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     return summary
 
 
+def _scenario_args(args: argparse.Namespace, name: str) -> dict[str, Any]:
+    """The 12-segment scenarios' common arguments; no --terrain keeps the scenario's own."""
+    world = world_from_args(args)
+    return {"terrain": world.terrain if args.terrain else None, "controller": args.controller,
+            "duration": args.duration, "world": world,
+            "progress": Progress(name, args.quiet)}
+
+
+def _climb(args: argparse.Namespace, out: Path) -> dict[str, Any]:
+    from tensim.experiments.climb import run_climb, write_climb
+
+    result, summary, config, terrain = run_climb(**_scenario_args(args, "climb"))
+    write_climb(out, result, summary, config, terrain)
+    print(f"segments rose up to {summary['height_reached_m']:.3f} m"
+          + (f" (wall {summary['wall_height_m']} m): {summary['segments_on_wall']} on the wall, "
+             f"{summary['segments_past_wall']} past it" if "wall_height_m" in summary else "")
+          + f"; moved {summary['planar_displacement_m']:.3f} m toward {summary['direction']}")
+    return summary
+
+
+def _sidewind(args: argparse.Namespace, out: Path) -> dict[str, Any]:
+    from tensim.experiments.sidewind import run_sidewind, write_sidewind
+
+    result, summary, config, terrain = run_sidewind(**_scenario_args(args, "sidewind"))
+    write_sidewind(out, result, summary, config, terrain)
+    side = summary["body_sideways_m"]
+    print(f"moved {summary['planar_displacement_m']:.3f} m toward {summary['direction']}; in "
+          f"its own frame {summary['body_forward_m']:.3f} m forward, {abs(side):.3f} m to its "
+          f"{'left' if side > 0 else 'right'} (sideways share {summary['sideways_share']:.2f}), "
+          f"heading turned {summary['heading_change_deg']:.0f} deg")
+    return summary
+
+
+def _goal(args: argparse.Namespace, out: Path) -> dict[str, Any]:
+    from tensim.experiments.goal import run_goal, write_goal
+
+    result, summary, config, terrain = run_goal(**_scenario_args(args, "goal"))
+    write_goal(out, result, summary, config, terrain)
+    print(f"target {tuple(summary['target_xy_m'])} m: distance {summary['start_distance_m']:.3f}"
+          f" -> {summary['final_distance_m']:.3f} m (progress {summary['goal_progress_m']:.3f} m"
+          f", closest {summary['closest_distance_m']:.3f} m, "
+          f"{'reached' if summary['reached'] else 'not reached'})")
+    return summary
+
+
 # name -> (one-line help, runner(args, out) -> summary)
 EXPERIMENTS: dict[str, tuple[str, Callable[[argparse.Namespace, Path], dict[str, Any]]]] = {
     "disturbance": ("steady push on the front segment, held by the others (paper Fig. 3)",
@@ -81,6 +126,9 @@ EXPERIMENTS: dict[str, tuple[str, Callable[[argparse.Namespace, Path], dict[str,
     "cpg": ("simulator-tuned CPG gait, sideways locomotion (paper Fig. 5)",
             _gait("cpg", "tetraspine3_cpg")),
     "drag": ("quasi-static drag at steady velocity: the friction force (paper IV-A)", _drag),
+    "climb": ("12-segment Tetraspine crawls at a wall and over it (paper Fig. 1)", _climb),
+    "sidewind": ("12-segment Tetraspine sidewinding gait (paper Fig. 1)", _sidewind),
+    "goal": ("12-segment Tetraspine toward a target point across rough ground", _goal),
 }
 
 

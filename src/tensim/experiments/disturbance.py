@@ -21,6 +21,7 @@ from tensim.models import preset
 from tensim.models.tetraspine import node_name
 from tensim.runs import write_run
 from tensim.sim import NodeLoad, SimulationResult, ramp_hold_release, simulate
+from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions, plot_lengths
 
 PEAK_FORCE = 22.56  # N
@@ -45,11 +46,18 @@ def record_period(dt: float, target: float = 0.01) -> float:
 
 def run_disturbance(dt: float = 1e-3, duration: float = DURATION, backend: str = "auto",
                     progress: Callable[[float, float], None] | None = None,
-                    world: WorldOptions | None = None) -> tuple[SimulationResult, dict[str, Any]]:
-    """Runs the test and returns the result and its summary."""
+                    world: WorldOptions | None = None, structure: Structure | None = None
+                    ) -> tuple[SimulationResult, dict[str, Any]]:
+    """Runs the test and returns the result and its summary.
+
+    Args:
+        structure: the robot (None: the ``tetraspine3`` preset); a variant of it, e.g. one
+            fitted to hardware logs, must keep its node and cable names.
+    """
     model = preset("tetraspine3")
     world = world or WorldOptions()
-    compiled = compile_structure(model.build(), dataclasses.replace(world, timestep=dt))
+    compiled = compile_structure(structure or model.build(),
+                                 dataclasses.replace(world, timestep=dt))
     result = simulate(compiled, duration, controller=model.controller(),
                       loads=disturbance_loads(), record_dt=record_period(dt), backend=backend,
                       progress=progress)

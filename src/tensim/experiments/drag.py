@@ -29,6 +29,7 @@ from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.runs import write_run
 from tensim.sim import Simulation, SimulationResult
+from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions
 
 
@@ -115,15 +116,20 @@ class _Tow:
 
 
 def run_drag(model: str = "tetraspine3", settings: DragSettings | None = None, *,
+             structure: Structure | None = None,
              world: WorldOptions | None = None, duration: float | None = None,
              progress: Callable[[float, float], None] | None = None
              ) -> tuple[SimulationResult, dict[str, Any]]:
-    """Drags ``model`` (under its own impedance controller, V* = 0) and measures the force."""
+    """Drags ``model`` (under its own impedance controller, V* = 0) and measures the force.
+
+    ``structure`` replaces the preset's robot (e.g. one fitted to hardware logs); it must keep
+    the preset's node and cable names.
+    """
     settings = settings or DragSettings()
     if duration is not None:
         settings = dataclasses.replace(settings, duration=duration)
     p = preset(model)
-    structure = p.build()
+    structure = structure or p.build()
     compiled = compile_structure(structure, world or WorldOptions())
     with Simulation(compiled, controller=p.controller(), record_dt=settings.record_dt) as sim:
         tow = _Tow(sim, settings)

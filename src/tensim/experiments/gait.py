@@ -19,6 +19,7 @@ from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.runs import write_run
 from tensim.sim import COM, SimulationResult, TimeSeries, simulate
+from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions, plot_path, plot_velocity_input
 
 CABLE_ORDER = tuple(f"{kind}_{j}" for j in (1, 2) for kind in (
@@ -90,6 +91,7 @@ def _body_frame(series: TimeSeries, k0: int, item: str) -> dict[str, Any]:
 
 
 def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tetraspine3",
+             structure: Structure | None = None,
              duration: float | None = None, world: WorldOptions | None = None,
              progress: Callable[[float, float], None] | None = None
              ) -> tuple[SimulationResult, dict[str, Any], ControllerConfig]:
@@ -98,7 +100,8 @@ def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tet
     Args:
         name: experiment name for the summary (``sine``, ``cpg``).
         controller: controller file path, shipped name, or a loaded config.
-        model: the preset.
+        model: the preset, or a label for ``structure``.
+        structure: the robot (None: the preset ``model``), e.g. a fitted variant.
         duration: simulated time [s] (None: the gait's duration).
         world: physics step, ground, ...
         progress: called as progress(done_s, total_s).
@@ -106,7 +109,7 @@ def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tet
     Returns:
         The result, its summary and the controller config used.
     """
-    structure = preset(model).build()
+    structure = structure or preset(model).build()
     config = controller if isinstance(controller, ControllerConfig) else \
         load_controller(controller, structure)
     if config.gait is None:

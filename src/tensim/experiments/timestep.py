@@ -17,9 +17,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tensim._files import atomic_path, write_json
+from tensim._files import atomic_path
 from tensim.experiments.disturbance import run_disturbance
 from tensim.model import WorldOptions
+from tensim.runs import finish_run
 
 RATES_HZ = (250, 1000, 4000)
 REFERENCE_HZ = 1000
@@ -102,5 +103,5 @@ def write_timestep_study(out: Path, summary: dict[str, Any]) -> Path:
     with atomic_path(out / "timestep.png") as tmp:
         fig.savefig(tmp, dpi=120, format="png")
     plt.close(fig)
-    write_json(out / "summary.json", {**summary, "figures": ["timestep.png"]})
+    finish_run(out, {**summary, "figures": ["timestep.png"]})  # log, report, summary.json
     return out

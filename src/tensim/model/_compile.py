@@ -4,7 +4,8 @@ One body per rigid group (free unless one of its nodes is fixed), rods as capsul
 as spheres, each cable a spatial tendon between two anchor sites plus an unlimited tendon
 actuator through which the cable law applies its tension. Names are deterministic: bodies after
 their group, geoms after their rod (``mass_<node>`` for point masses), tendons and actuators
-after their cable, anchor sites ``<cable>_0`` and ``<cable>_1``.
+after their cable, anchor sites ``<cable>_0`` and ``<cable>_1`` (and ``<cable>_via<k>`` at the
+via nodes of a routed cable).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 
 from tensim.structure import Structure, mass_properties
 from tensim.structure._mass import MassProperties
+from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +45,8 @@ class WorldOptions:
         thin_body: ``"regularize"`` (raise the moments and log it) or ``"refuse"`` (raise an error).
         contact_timeconst: time constant of MuJoCo's soft contact [s] (0.02 is MuJoCo's default;
             keep it >= 2 timesteps).
+        terrain: the ground (``tensim.terrain``; flat by default); the robot is lifted onto it
+            where it is higher than z = 0 under the robot. Needs ``ground``.
     """
 
     timestep: float = 1e-3
@@ -51,6 +55,7 @@ class WorldOptions:
     min_inertia_ratio: float = 0.01
     thin_body: str = "regularize"
     contact_timeconst: float = 0.02
+    terrain: Terrain = dataclasses.field(default_factory=Flat)
 
     def __post_init__(self) -> None:
         if not 0 < self.timestep <= 0.05:
@@ -61,6 +66,8 @@ class WorldOptions:
             raise ValueError("min_inertia_ratio must be in [0, 1)")
         if self.contact_timeconst <= 0:
             raise ValueError(f"contact_timeconst must be > 0 s, got {self.contact_timeconst}")
+        if not self.ground and self.terrain != Flat():
+            raise ValueError("a terrain needs ground=True")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,6 +113,7 @@ class CompiledModel:
         rest_length: (n_cables,) initial rest lengths [m].
         max_speed, max_tension, min_rest_length, min_length: (n_cables,) motor limits.
         inertia_adjusted: names of bodies whose inertia was regularized.
+        spec: the ``MjSpec`` the model was compiled from (for export, e.g. ``spec.to_xml()``).
     """
 
     structure: Structure
@@ -120,6 +128,11 @@ class CompiledModel:
     min_rest_length: np.ndarray
     min_length: np.ndarray
     inertia_adjusted: tuple[str, ...] = ()
+    spec: mujoco.MjSpec | None = None
+
+    def __getstate__(self) -> dict[str, object]:
+        # an MjSpec does not pickle (the MjModel does): send copies to workers without it
+        return {**self.__dict__, "spec": None}
 
     @property
     def n_cables(self) -> int:
@@ -160,6 +173,8 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None) -
         ModelError: a rigid body would be unsound (see ``WorldOptions.thin_body``).
     """
     world = world or WorldOptions()
+    if world.ground:
+        structure = place_on_terrain(structure, world.terrain)
     spec = mujoco.MjSpec()
     spec.modelname = structure.name
     spec.option.timestep = world.timestep
@@ -168,8 +183,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None) -
     spec.compiler.autolimits = True
     spec.worldbody.add_light(pos=[0, 0, 5], dir=[0, 0, -1])
     if world.ground:
-        spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1],
-                                solref=[world.contact_timeconst, 1.0], rgba=[0.85, 0.85, 0.8, 1])
+        add_terrain(spec, world.terrain, world.contact_timeconst)
     rods = {r.name: r for r in structure.rods}
     masses = {p.node: p for p in structure.point_masses}
     node_body: dict[str, str] = {}
@@ -219,17 +233,21 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None) -
     bodies = {b.name: b for b in spec.bodies}
     for cable in structure.cables:
         tendon = spec.add_tendon(name=cable.name, rgba=[0.8, 0.1, 0.1, 1], width=0.002)
-        for end, (node, anchor) in enumerate(zip(cable.nodes, structure.anchors(cable),
-                                                 strict=True)):
+        # anchor site, a site at each via node (MuJoCo pulls each along both spans), anchor site
+        sites = [f"{cable.name}_0", *(f"{cable.name}_via{k}" for k in range(len(cable.via))),
+                 f"{cable.name}_1"]
+        for site, node, point in zip(sites, cable.path, structure.cable_points(cable),
+                                     strict=True):
             body = bodies[node_body[node]]
-            local = anchor - (structure.position(node) - node_local[node])
-            body.add_site(name=f"{cable.name}_{end}", pos=local.tolist(), size=[0.002, 0, 0])
-            tendon.wrap_site(f"{cable.name}_{end}")
+            local = point - (structure.position(node) - node_local[node])
+            body.add_site(name=site, pos=local.tolist(), size=[0.002, 0, 0])
+            tendon.wrap_site(site)
         actuator = spec.add_actuator(name=cable.name, target=cable.name,
                                      trntype=mujoco.mjtTrn.mjTRN_TENDON)
         actuator.gainprm[0] = 1.0  # ctrl is the signed tendon force: -tension [N]
     model = spec.compile()
-    return _assemble(structure, world, model, node_body, node_local, tuple(adjusted))
+    return dataclasses.replace(
+        _assemble(structure, world, model, node_body, node_local, tuple(adjusted)), spec=spec)
 
 
 def _assemble(structure: Structure, world: WorldOptions, model: mujoco.MjModel,

@@ -6,8 +6,11 @@ import dataclasses
 from collections.abc import Callable
 
 from tensim.control import ImpedanceController
+from tensim.models.complex_spines import octahedral_complex, tetrahedral_complex
 from tensim.models.prism3 import prism3
+from tensim.models.prisms import prism, prism4, prism5
 from tensim.models.six_bar import six_bar
+from tensim.models.superball import superball
 from tensim.models.tetraspine import impedance_controller, tetraspine, tetraspine3
 from tensim.structure import Structure
 
@@ -39,6 +42,16 @@ PRESETS: dict[str, Preset] = {
                six_bar),
         Preset("prism3", "triangular tensegrity prism, 3 rods, 9 pretensioned passive cables",
                prism3),
+        Preset("prism4", "square tensegrity prism (135 deg twist), 4 rods, 12 self-stressed "
+               "cables", prism4),
+        Preset("prism5", "pentagonal tensegrity prism (126 deg twist), 5 rods, 15 self-stressed "
+               "cables", prism5),
+        Preset("superball", "SUPERball scale six-bar: 1.68 m, 3.5 kg struts, 24 cables of "
+               "613 N/m at 245 N", superball),
+        Preset("tetrahedral_complex", "6-vertebra tetrahedral-complex spine (4 rods from a "
+               "centre), 40 motorised cables", tetrahedral_complex),
+        Preset("octahedral_complex", "6-vertebra octahedral-complex spine (6 rods from a "
+               "centre), 40 motorised cables", octahedral_complex),
     )
 }
 
@@ -55,4 +68,18 @@ def preset(name: str) -> Preset:
         raise KeyError(f"unknown model {name!r}; presets: {', '.join(PRESETS)}") from None
 
 
-__all__ = ["PRESETS", "Preset", "preset", "prism3", "six_bar", "tetraspine", "tetraspine3"]
+__all__ = [
+    "PRESETS",
+    "Preset",
+    "octahedral_complex",
+    "preset",
+    "prism",
+    "prism3",
+    "prism4",
+    "prism5",
+    "six_bar",
+    "superball",
+    "tetrahedral_complex",
+    "tetraspine",
+    "tetraspine3",
+]

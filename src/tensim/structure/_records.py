@@ -6,6 +6,7 @@ All quantities are SI: metres, kilograms, newtons, seconds.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -161,7 +162,9 @@ class Cable:
     """A tension-only spring-cable between two nodes (paper eq. 1-2), wound by a motor.
 
     Give either ``pretension`` (the rest length then follows from the build-time anchor-to-anchor
-    length) or ``rest_length``.
+    length) or ``rest_length``. A routed cable also passes through ``via`` nodes in order (as
+    over frictionless eyelets): its length is the sum of its spans, its tension is the same in
+    every span, and each via node feels the pull of both spans that meet there.
 
     Attributes:
         name: unique cable name.
@@ -174,6 +177,7 @@ class Cable:
             (e.g. on the surface of the node's sphere).
         motor: the motor's limits.
         tags: labels used to select cables.
+        via: intermediate nodes the cable passes through, from ``nodes[0]`` to ``nodes[1]``.
     """
 
     name: str
@@ -185,6 +189,7 @@ class Cable:
     anchor_offset: float = 0.0
     motor: Motor = dataclasses.field(default_factory=Motor)
     tags: tuple[str, ...] = ()
+    via: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         item = f"cable {self.name!r}"
@@ -211,3 +216,15 @@ class Cable:
         )
         _check(self.anchor_offset >= 0, item, "anchor_offset must be >= 0 m")
         object.__setattr__(self, "tags", _tags(self.tags, item))
+        if isinstance(self.via, str):
+            raise StructureError("via must be a list of node names, got a single string",
+                                 item=item)
+        object.__setattr__(self, "via", tuple(str(v) for v in self.via))
+        path = self.path
+        for a, b in itertools.pairwise(path):
+            _check(a != b, item, f"node {a!r} follows itself on the cable's path {list(path)}")
+
+    @property
+    def path(self) -> tuple[str, ...]:
+        """Every node the cable passes, in order: first end, via nodes, second end."""
+        return (self.nodes[0], *self.via, self.nodes[1])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from collections.abc import Iterable
 
 import numpy as np
@@ -58,7 +59,7 @@ class Structure:
         _unique((p.node for p in self.point_masses), "point mass at node")
         known = {n.name for n in self.nodes}
         members = [(f"rod {r.name!r}", r.nodes) for r in self.rods]
-        members += [(f"cable {c.name!r}", c.nodes) for c in self.cables]
+        members += [(f"cable {c.name!r}", c.path) for c in self.cables]
         members += [(f"point mass at {p.node!r}", (p.node,)) for p in self.point_masses]
         for item, ends in members:
             for end in ends:
@@ -82,8 +83,10 @@ class Structure:
 
     def _check_cable(self, cable: Cable) -> None:
         item = f"cable {cable.name!r}"
-        if self.distance(*cable.nodes) <= 0:
-            raise StructureError("zero-length cable: its two nodes coincide", item=item)
+        for a, b in itertools.pairwise(cable.path):
+            if self.distance(a, b) <= 0:
+                what = "its two nodes coincide" if not cable.via else f"{a!r} and {b!r} coincide"
+                raise StructureError(f"zero-length cable span: {what}", item=item)
         length = self.cable_length(cable)
         if length <= 0:
             raise StructureError(
@@ -130,17 +133,38 @@ class Structure:
     # -- cable geometry ----------------------------------------------------------------------
 
     def anchors(self, cable: Cable) -> tuple[np.ndarray, np.ndarray]:
-        """The cable's two anchor points in the build pose, (3,) each [m]."""
-        p0, p1 = self.position(cable.nodes[0]), self.position(cable.nodes[1])
-        span = p1 - p0
-        unit = span / np.linalg.norm(span) if np.linalg.norm(span) > 0 else np.zeros(3)
-        return p0 + cable.anchor_offset * unit, p1 - cable.anchor_offset * unit
+        """The cable's two anchor points in the build pose, (3,) each [m].
+
+        Each anchor sits ``anchor_offset`` from its end node toward the next point of the
+        cable's path (the other end, or the nearest via node).
+        """
+        path = cable.path
+
+        def toward(a: str, b: str) -> np.ndarray:
+            span = self.position(b) - self.position(a)
+            norm = np.linalg.norm(span)
+            unit = span / norm if norm > 0 else np.zeros(3)
+            return self.position(a) + cable.anchor_offset * unit
+
+        return toward(path[0], path[1]), toward(path[-1], path[-2])
+
+    def cable_points(self, cable: Cable) -> tuple[np.ndarray, ...]:
+        """The points the cable runs through in the build pose: anchor, via nodes, anchor [m]."""
+        first, last = self.anchors(cable)
+        return (first, *(self.position(v) for v in cable.via), last)
 
     def cable_length(self, cable: Cable) -> float:
-        """Anchor-to-anchor length in the build pose [m] (x in paper eq. 2)."""
-        a, b = self.anchors(cable)
-        span = self.distance(*cable.nodes)
-        return float(np.linalg.norm(b - a)) if span > 2 * cable.anchor_offset else -1.0
+        """Anchor-to-anchor length along the path in the build pose [m] (x in paper eq. 2).
+
+        -1 when the anchor offsets leave no length (they pass the next point of the path).
+        """
+        ends = (cable.path[:2], cable.path[-2:])
+        spans = [self.distance(a, b) for a, b in ends]
+        room = 2 * cable.anchor_offset if not cable.via else cable.anchor_offset
+        if min(spans) <= room:
+            return -1.0
+        points = self.cable_points(cable)
+        return float(sum(np.linalg.norm(b - a) for a, b in itertools.pairwise(points)))
 
     def rest_length(self, cable: Cable) -> float:
         """Initial rest length [m]: given, or length - pretension / stiffness."""

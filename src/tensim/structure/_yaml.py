@@ -3,19 +3,20 @@
 The file is a mapping with ``name``, ``nodes``, ``rods``, ``cables``, ``point_masses`` (lists of
 mappings whose keys are the record fields) and an optional ``defaults`` mapping with ``rod``,
 ``cable`` and ``point_mass`` entries merged under every item of that kind. Cables take a nested
-``motor`` mapping. All values are SI units (the README lists every field).
+``motor`` mapping and, when routed, a ``via`` list of the nodes they pass through. All values are
+SI units (the README lists every field).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from tensim._files import write_text
 from tensim.structure._errors import StructureError
 from tensim.structure._records import Cable, Motor, Node, PointMass, Rod
 from tensim.structure._structure import Structure
@@ -121,8 +122,4 @@ def load_structure(path: str | os.PathLike[str]) -> Structure:
 
 def save_structure(structure: Structure, path: str | os.PathLike[str]) -> None:
     """Writes a structure to a YAML file atomically (never a half-written file)."""
-    path = Path(path)
-    text = yaml.safe_dump(structure_to_dict(structure), sort_keys=False)
-    with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False, suffix=".tmp") as f:
-        f.write(text)
-    os.replace(f.name, path)
+    write_text(Path(path), yaml.safe_dump(structure_to_dict(structure), sort_keys=False))

@@ -1,0 +1,280 @@
+"""``tensim calibrate-loadcell``, ``compare``, ``sysid`` and ``make-log``: the reality gap.
+
+Calibrate the load cells (eq. 7), compare a hardware log with its replay in simulation, fit
+the model's uncertain parameters to logs, and write simulated logs for demos and tests.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+from pathlib import Path
+
+from tensim.cli._common import (
+    Progress,
+    add_controller_option,
+    add_world_options,
+    load_model,
+    world_from_args,
+)
+
+_DEFAULT_CONTROLLER = "tetraspine3_impedance"
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    _register_calibrate(sub)
+    _register_compare(sub)
+    _register_sysid(sub)
+    _register_make_log(sub)
+
+
+def _add_log_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--model", default="tetraspine3", help="preset or structure .yaml file")
+    add_controller_option(p, _DEFAULT_CONTROLLER)
+    p.add_argument("--loadcell", default=None, metavar="JSON",
+                   help="calibration for adc/ columns (from calibrate-loadcell; default: the "
+                        "log header's, else the paper's eq. 7)")
+    p.add_argument("--skip", type=float, default=0.0,
+                   help="leave the log's first seconds out of the error figures [s]")
+    add_world_options(p)
+
+
+# -- calibrate-loadcell -------------------------------------------------------------------------
+
+
+def _register_calibrate(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("calibrate-loadcell", help="fit force = a ADC + b to calibration pairs",
+                       description="Fits the load-cell line of the paper's eq. (7) to a CSV of "
+                       "'adc,force_N' pairs; writes calibration.json and calibration.png, and "
+                       "converts raw logs' adc/ columns to tension_N/.")
+    p.add_argument("pairs", help="CSV with the columns adc,force_N")
+    p.add_argument("--out", default="runs/calibration", help="output folder")
+    p.add_argument("--max-force", type=float, default=111.21,
+                   help="largest measurable tension [N] (Tetraspine3: 111.21)")
+    p.add_argument("--convert", nargs="*", default=[], metavar="LOG",
+                   help="hardware logs with adc/ columns to convert to newtons into --out")
+    p.set_defaults(run=_calibrate)
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    from tensim.hardware import convert_log, fit_loadcell, read_log, read_pairs, write_log
+    from tensim.hardware.loadcell import save_calibration
+    from tensim.hardware.plots import plot_calibration
+
+    out = Path(args.out)
+    fit = fit_loadcell(*read_pairs(args.pairs), max_force=args.max_force)
+    out.mkdir(parents=True, exist_ok=True)
+    plot_calibration(fit, out / "calibration.png")
+    for source in args.convert:
+        path = write_log(convert_log(read_log(source), fit.loadcell),
+                         out / f"{Path(source).stem}_newtons.csv")
+        print(f"converted {source} -> {path}")
+    save_calibration(fit, out / "calibration.json")
+    s = fit.summary()
+    print(f"{s['equation']}  (a ± {s['gain_stderr_N_per_count']:.2g}, b ± "
+          f"{s['offset_stderr_N']:.2g} N, {s['pairs']} pairs, R² = {s['r_squared']:.6f})")
+    print(f"resolution {s['resolution_N']:.4f} N per count; residuals RMS "
+          f"{s['residual_rms_N']:.4f} N, max {s['residual_max_N']:.4f} N")
+    print(f"wrote {out}/ (calibration.json, calibration.png)")
+    return 0
+
+
+# -- compare ------------------------------------------------------------------------------------
+
+
+def _register_compare(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("compare", help="hardware log vs its replay in simulation",
+                       description="Replays a hardware log's V* (or the controller's gait) in "
+                       "simulation, aligns the tensions in time and reports the paper's error "
+                       "figures: DIR/summary.json and DIR/report.html with the overlays.")
+    p.add_argument("log", help="hardware log CSV (see docs/hardware.md)")
+    _add_log_options(p)
+    p.add_argument("--sim", default=None, metavar="RUN",
+                   help="compare with an existing simulated run (a run folder or its "
+                        "trajectory.parquet) instead of replaying")
+    p.add_argument("--sensor", default=None, metavar="JSON",
+                   help="measurement model from sysid (measurement.json): gain, offset, delay "
+                        "and V* scale applied to the simulation")
+    p.add_argument("--offset", type=float, default=None,
+                   help="lag of the log behind the simulation [s] (default: the --sensor "
+                        "delay, else estimated by cross-correlation)")
+    p.add_argument("--max-offset", type=float, default=0.5,
+                   help="largest lag the estimate tries [s]")
+    p.add_argument("--out", default="runs/compare", help="output folder")
+    p.set_defaults(run=_compare)
+
+
+def _compare(args: argparse.Namespace) -> int:
+    from tensim.control import load_controller
+    from tensim.hardware import compare_tensions, load_calibration, load_log, replay
+    from tensim.hardware.compare import displacement_errors
+    from tensim.hardware.logs import check_items
+    from tensim.hardware.report import write_comparison
+    from tensim.hardware.sensor import load_measurement
+    from tensim.model import compile_structure
+    from tensim.sim import TimeSeries
+
+    log = load_log(args.log, load_calibration(args.loadcell) if args.loadcell else None)
+    sensor, vstar_scale = load_measurement(args.sensor) if args.sensor else (None, 1.0)
+    structure = load_model(args.model)
+    check_items(log, structure)
+    if args.sim:
+        path = Path(args.sim)
+        simulated = TimeSeries.from_parquet(path / "trajectory.parquet" if path.is_dir()
+                                            else path)
+    else:
+        config = load_controller(args.controller, structure)
+        simulated = replay(log, structure, config, world=world_from_args(args),
+                           vstar_scale=vstar_scale, margin=args.max_offset,
+                           progress=Progress("replay", args.quiet)).trajectory
+    offset = args.offset if args.offset is not None else (sensor.delay if sensor else None)
+    comparison = compare_tensions(log, simulated, sensor=sensor, offset=offset,
+                                  max_offset=args.max_offset, skip=args.skip)
+    mocap = displacement_errors(log, simulated, compile_structure(
+        structure, world_from_args(args)), comparison.offset_s) if log.cables("mocap_x") \
+        else None
+    info = {"log": args.log, "model": args.model, "controller": args.controller,
+            "simulation": args.sim or "replayed", "sensor": args.sensor, "dt_s": args.dt}
+    out = Path(args.out)
+    summary = write_comparison(out, comparison, info, f"{Path(args.log).name}: hardware vs "
+                               "simulation", mocap)
+    print(f"wrote {out}/ (summary.json, report.html, overlay.png)")
+    _print_comparison(summary)
+    for node, error in (mocap or {}).items():
+        print(f"  {node}: RMS displacement error {1000 * error:.1f} mm (motion capture)")
+    return 0
+
+
+def _print_comparison(s: dict) -> None:
+    def f(key: str, spec: str, scale: float = 1.0) -> str:
+        return "n/a" if s[key] is None else format(scale * s[key], spec)
+
+    print(f"error on the max system tension {f('max_system_tension_error_percent', '+.2f')} % "
+          f"(hardware {f('max_system_tension_hardware_N', '.2f')} N, simulation "
+          f"{f('max_system_tension_simulated_N', '.2f')} N); time offset "
+          f"{f('time_offset_s', '.1f', 1000)} ms")
+    print(f"RMSE {f('rmse_N', '.3f')} N, correlation {f('correlation', '.3f')}, pretension "
+          f"offset {f('pretension_offset_N', '+.3f')} N, amplitude ratio "
+          f"{f('amplitude_ratio', '.3f')}")
+
+
+# -- sysid --------------------------------------------------------------------------------------
+
+
+def _register_sysid(sub: argparse._SubParsersAction) -> None:
+    from tensim.hardware.parameters import DEFINITIONS
+
+    names = ", ".join(f"{d.name} [{d.unit}]" for d in DEFINITIONS.values())
+    p = sub.add_parser("sysid", help="fit model parameters to hardware logs",
+                       description=f"Fits named parameters ({names}) to minimise the tension "
+                       "error across the logs; writes the fitted structure, measurement.json, "
+                       "report.html and summary.json.")
+    p.add_argument("logs", nargs="+", help="hardware log CSVs")
+    p.add_argument("--params", required=True,
+                   help="comma-separated parameters to fit, e.g. stiffness,friction,offset,delay")
+    p.add_argument("--bounds", default=None, help="e.g. friction=0.02:0.3,stiffness=150:350")
+    p.add_argument("--start", default=None, help="starting values, e.g. friction=0.1")
+    _add_log_options(p)
+    p.add_argument("--max-sims", type=int, default=60,
+                   help="budget of simulations per log (each one replays the whole log)")
+    p.add_argument("--diff-step", type=float, default=0.05,
+                   help="finite-difference step as a fraction of each bound range")
+    p.add_argument("--out", default="runs/sysid", help="output folder")
+    p.set_defaults(run=_sysid)
+
+
+def _sysid(args: argparse.Namespace) -> int:
+    from tensim.control import load_controller
+    from tensim.hardware import SysidSettings, identify, load_calibration, load_log
+    from tensim.hardware.parameters import parse_assignments, parse_bounds
+    from tensim.hardware.report import write_sysid
+
+    loadcell = load_calibration(args.loadcell) if args.loadcell else None
+    logs = [load_log(path, loadcell) for path in args.logs]
+    structure = load_model(args.model)
+    config = load_controller(args.controller, structure)
+    names = [n.strip() for n in args.params.split(",") if n.strip()]
+    progress = Progress("sysid", args.quiet, unit="sims", rate_label=" sims/s")
+    result = identify(logs, structure, config, names, bounds=parse_bounds(args.bounds),
+                      start=parse_assignments(args.start, "--start"),
+                      world=world_from_args(args), progress=progress,
+                      settings=SysidSettings(max_simulations=args.max_sims,
+                                             diff_step=args.diff_step, skip=args.skip))
+    if not args.quiet and progress.tty:
+        print(file=sys.stderr)  # end the progress bar's line if the budget was not used up
+    info = {"logs": list(args.logs), "model": args.model, "controller": args.controller,
+            "dt_s": args.dt, "max_sims": args.max_sims, "diff_step": args.diff_step}
+    out = Path(args.out)
+    summary = write_sysid(out, result, args.logs, info)
+    print(f"wrote {out}/ (fitted_structure.yaml, measurement.json, report.html, summary.json)")
+    print(f"{result.simulations} simulations; fitted vs nominal:")
+    for name, p in summary["parameters"].items():
+        error = "" if p["stderr"] is None else f" ± {p['stderr']:.3g}"
+        print(f"  {name:<12} {p['fitted']:10.5g}{error} {p['unit']:<6} (nominal "
+              f"{p['nominal']:.5g})")
+    print(f"RMSE {summary['rmse_before_N']:.3f} N -> {summary['rmse_after_N']:.3f} N; error on "
+          f"the max system tension {summary['max_system_tension_error_before_percent']:.2f} % "
+          f"-> {summary['max_system_tension_error_after_percent']:.2f} %")
+    print(f"use it: tensim simulate {out}/fitted_structure.yaml --controller {args.controller}; "
+          f"tensim compare LOG --model {out}/fitted_structure.yaml --sensor "
+          f"{out}/measurement.json")
+    return 0
+
+
+# -- make-log -----------------------------------------------------------------------------------
+
+
+def _register_make_log(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("make-log", help="write a simulated hardware log (demos, tests)",
+                       description="Simulates a controller file and logs it at the robot's "
+                       "rates (V* every 10 ms, feedback every 200 ms) through a sensor model; "
+                       "--set gives the 'hardware' other physical parameters than the model.")
+    p.add_argument("--model", default="tetraspine3", help="preset or structure .yaml file")
+    add_controller_option(p, "tetraspine3_sine")
+    p.add_argument("--duration", type=float, default=10.0, help="logged time [s]")
+    p.add_argument("--set", default=None,
+                   help="physical parameters of the simulated hardware, e.g. "
+                        "friction=0.1,stiffness=252")
+    p.add_argument("--offset", type=float, default=0.0, help="load-cell offset [N]")
+    p.add_argument("--gain", type=float, default=1.0, help="load-cell gain [-]")
+    p.add_argument("--noise", type=float, default=0.0, help="reading noise std [N]")
+    p.add_argument("--delay", type=float, default=0.0, help="readings lag the commands [s]")
+    p.add_argument("--quantise", action="store_true",
+                   help="quantise readings to the load cell's counts (eq. 7: 0.1567 N)")
+    p.add_argument("--adc", action="store_true", help="log raw adc/ counts (implies --quantise)")
+    p.add_argument("--mocap", default="", help="comma-separated nodes to log positions of")
+    p.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    p.add_argument("--command-period", type=float, default=0.01, help="V* period [s]")
+    p.add_argument("--feedback-period", type=float, default=0.2, help="feedback period [s]")
+    add_world_options(p)
+    p.add_argument("--out", required=True, help="output CSV")
+    p.set_defaults(run=_make_log)
+
+
+def _make_log(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from tensim.control import load_controller
+    from tensim.hardware import PAPER_LOADCELL, SensorModel, simulated_log, write_log
+    from tensim.hardware.parameters import parse_assignments
+
+    structure = load_model(args.model)
+    config = load_controller(args.controller, structure)
+    quantise = args.quantise or args.adc
+    sensor = SensorModel(offset=args.offset, gain=args.gain, noise=args.noise, delay=args.delay,
+                         loadcell=PAPER_LOADCELL if quantise else None)
+    log = simulated_log(structure, config, args.duration,
+                        parameters=parse_assignments(args.set, "--set"), sensor=sensor,
+                        rng=np.random.default_rng(args.seed), adc=args.adc,
+                        command_period=args.command_period,
+                        feedback_period=args.feedback_period,
+                        mocap_nodes=[n.strip() for n in args.mocap.split(",") if n.strip()],
+                        world=world_from_args(args), progress=Progress("make-log", args.quiet))
+    log = dataclasses.replace(log, meta={**log.meta, "controller": args.controller,
+                                         "seed": str(args.seed)})
+    path = write_log(log, args.out)
+    rows = log.series.time.size
+    print(f"wrote {path}: {rows} rows ({args.duration} s), {len(log.series.channels)} columns; "
+          f"parameters {log.meta['parameters']}; sensor {log.meta['sensor']}")
+    return 0

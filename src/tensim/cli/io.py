@@ -1,0 +1,72 @@
+"""``tensim import-ntrt`` and ``tensim export-mjcf``: bring models in from the original toolkit's
+YAML files, send compiled models out as MuJoCo MJCF."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from tensim.cli._common import add_world_options, load_model, world_from_args
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("import-ntrt", help="convert an NTRTsim YAML structure to a tensim one",
+                       description="Reads an NTRTsim (original toolkit) YAML structure file and "
+                       "its substructure files, converts lengths, forces and densities to SI "
+                       "and the Y-up frame to Z-up, and writes a tensim structure file.")
+    p.add_argument("file", help="the NTRTsim .yaml structure file")
+    p.add_argument("--units", required=True, choices=["m", "dm", "cm", "mm"],
+                   help="the file's length unit (the application's gravity tells: 9.81 m, "
+                        "98.1 dm, 981 cm)")
+    p.add_argument("--up", default="y", choices=["y", "z"],
+                   help="the file's up axis (default y, the toolkit's)")
+    p.add_argument("--clearance", type=float, default=0.01,
+                   help="place the lowest rod surface this far above the ground [m] "
+                        "(default 0.01)")
+    p.add_argument("--keep-position", action="store_true",
+                   help="keep the file's positions (no --clearance placement)")
+    p.add_argument("--name", default=None, help="structure name (default: the file's stem)")
+    p.add_argument("--out", required=True, help="tensim structure .yaml to write")
+    p.set_defaults(run=run_import)
+
+    p = sub.add_parser("export-mjcf", help="write a preset or structure as MuJoCo MJCF",
+                       description="Compiles the model and writes it as MJCF for other MuJoCo "
+                       "tools: bodies, geoms, the cables' tendons and actuators, and (unless "
+                       "--no-springs) tendon springs standing in for the cable law.")
+    p.add_argument("model", help="preset name or structure .yaml file")
+    add_world_options(p)
+    p.add_argument("--no-springs", action="store_true",
+                   help="leave the tendons without springs (tensim applies cable tension "
+                        "through the actuators)")
+    p.add_argument("--out", required=True, help="MJCF .xml file to write")
+    p.set_defaults(run=run_export)
+
+
+def run_import(args: argparse.Namespace) -> int:
+    from tensim.io import import_ntrt
+    from tensim.structure import save_structure
+
+    result = import_ntrt(args.file, args.units, up=args.up, name=args.name,
+                         clearance=None if args.keep_position else args.clearance)
+    s = result.structure
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    save_structure(s, out)
+    print(f"read {len(result.files)} file(s); wrote {out}: {len(s.nodes)} nodes, {len(s.rods)} "
+          f"rods in {len(s.rigid_groups())} rigid bodies, {len(s.cables)} cables, "
+          f"{s.total_mass():.4g} kg")
+    for note in result.notes:
+        print(f"note: {note}")
+    return 0
+
+
+def run_export(args: argparse.Namespace) -> int:
+    from tensim.io import save_mjcf
+    from tensim.model import compile_structure
+
+    compiled = compile_structure(load_model(args.model), world_from_args(args))
+    out = save_mjcf(compiled, args.out, springs=not args.no_springs)
+    m = compiled.model
+    print(f"wrote {out}: {m.nbody - 1} bodies, {m.ngeom} geoms, {m.ntendon} tendons, "
+          f"{m.nu} actuators" + ("" if args.no_springs else ", tendon springs for the cables"))
+    return 0

@@ -1,0 +1,186 @@
+"""``tensim learn``: learn a gait (CPG or sine) for a robot, in parallel, resumable."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from tensim.cli._common import Progress, load_model
+
+# options that define a run; a resumed run takes them from its folder
+_PROBLEM_OPTIONS = ("model", "controller", "base_controller", "optimizer", "trial_duration",
+                    "seed", "segment", "direction", "energy_weight", "settle", "max_tilt",
+                    "penalty", "dt", "record_dt", "step", "batch", "monte_carlo")
+_DEFAULTS: dict[str, Any] = {
+    "model": "tetraspine3", "controller": "cpg", "optimizer": "ntrt", "evaluations": 100,
+    "trial_duration": 10.0, "seed": 0, "segment": "com", "direction": "any",
+    "energy_weight": 0.0, "settle": 0.0, "max_tilt": 90.0, "penalty": -1.0, "dt": 1e-3,
+    "record_dt": 0.01, "monte_carlo": 48, "out": "runs/learn",
+}
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "learn", help="learn a gait (CPG or sine) for a robot, in parallel and resumable",
+        description="Searches a controller family's parameters for the gait that carries the "
+        "robot furthest in simulated trials. Every evaluation is appended to "
+        "DIR/evaluations.jsonl as it finishes and the optimizer is checkpointed, so an "
+        "interrupted run continues with `tensim learn --resume DIR`. Writes "
+        "learning_curve.png, best_controller.yaml and summary.json.")
+    d = _DEFAULTS
+    problem = p.add_argument_group("problem (taken from DIR when resuming)")
+    problem.add_argument("--model", help=f"preset or structure .yaml file (default {d['model']})")
+    problem.add_argument("--controller", choices=("cpg", "sine", "sine-pattern"),
+                         help="controller family: spine CPG (116 parameters for Tetraspine3), "
+                         "per-cable sine waves, or the paper's 4-number sine pattern "
+                         f"(default {d['controller']})")
+    problem.add_argument("--base-controller", metavar="FILE|NAME",
+                         help="controller file whose impedance laws the gait drives (default: "
+                         "the shipped tetraspine3_cpg / tetraspine3_sine for tetraspine3, "
+                         "else the preset's own impedance controller)")
+    problem.add_argument("--trial-duration", type=float, metavar="S",
+                         help=f"simulated time of one trial [s] (default {d['trial_duration']})")
+    problem.add_argument("--segment", help="rigid body whose centre of mass is scored, or com "
+                         "for the whole robot (default com)")
+    problem.add_argument("--direction", help="any (planar distance), forward (+x), backward, "
+                         "left (+y), right, sideways (either side), or an angle in degrees "
+                         "from +x toward +y (default any)")
+    problem.add_argument("--energy-weight", type=float, metavar="M_PER_J",
+                         help="subtract this times the motor work [m/J] (default 0)")
+    problem.add_argument("--settle", type=float, metavar="S",
+                         help="seconds before the displacement counts (default 0)")
+    problem.add_argument("--max-tilt", type=float, metavar="DEG",
+                         help="a body tilted further from upright has flipped over; 180 turns "
+                         "the check off (default 90)")
+    problem.add_argument("--penalty", type=float,
+                         help="score of a failed trial (flipped, unstable, gait error; "
+                         "default -1)")
+    problem.add_argument("--dt", type=float, help="physics step [s] (default 0.001)")
+    problem.add_argument("--record-dt", type=float, help="trial recording period [s] "
+                         "(default 0.01)")
+    search = p.add_argument_group("search (taken from DIR when resuming)")
+    search.add_argument("--optimizer", choices=("ntrt", "cma", "nelder-mead"),
+                        help="ntrt: Monte Carlo then Gaussian hill climbing (the original "
+                        "toolkit); cma: CMA-ES; nelder-mead (default ntrt)")
+    search.add_argument("--seed", type=int, help="random seed (default 0)")
+    search.add_argument("--step", type=float, help="unit-cube step: ntrt mutation deviation "
+                        "(0.03), cma initial sigma (0.2), nelder-mead simplex edge (0.1)")
+    search.add_argument("--batch", type=int, help="points per generation for ntrt (8) and "
+                        "cma (4 + 3 ln N); independent of --workers, so results are too")
+    search.add_argument("--monte-carlo", type=int, metavar="N",
+                        help=f"ntrt: random samples before hill climbing (default "
+                        f"{d['monte_carlo']})")
+    run = p.add_argument_group("running")
+    run.add_argument("--evaluations", type=int, metavar="N",
+                     help=f"evaluation budget (default {d['evaluations']}); with --resume, "
+                     "a new budget to continue or extend the run")
+    run.add_argument("--workers", type=int, default=None, metavar="W",
+                     help="worker processes (default: every core); 0 runs trials in this "
+                     "process")
+    run.add_argument("--ray", action="store_true",
+                     help="run trials on Ray (a local Ray is started unless --ray-address)")
+    run.add_argument("--ray-address", metavar="ADDR",
+                     help="address of a running Ray cluster, e.g. ray://head:10001")
+    run.add_argument("--out", help=f"new run folder (default {d['out']})")
+    run.add_argument("--resume", metavar="DIR", help="continue the run in DIR")
+    p.set_defaults(run=run_learn)
+
+
+def _problem(args: argparse.Namespace) -> Any:
+    from tensim.control import load_controller
+    from tensim.learn import Objective, TrialProblem, default_base, parse_direction
+    from tensim.model import WorldOptions
+
+    structure = load_model(args.model)
+    base = (load_controller(args.base_controller, structure) if args.base_controller
+            else default_base(args.model, args.controller, structure))
+    direction, either_way = parse_direction(args.direction)
+    objective = Objective(args.segment, direction, either_way, args.energy_weight,
+                          args.settle, args.max_tilt)
+    return TrialProblem(structure, base, args.controller, args.trial_duration, objective,
+                        WorldOptions(timestep=args.dt), args.record_dt, args.penalty,
+                        args.model)
+
+
+class _LearningProgress:
+    """The progress bar with the best score so far and the failed trials."""
+
+    def __init__(self, quiet: bool, resumed: int):
+        label = "learn" if not resumed else f"learn (resumed after {resumed})"
+        self.bar = Progress(label, quiet, unit="evals", rate_label=" evals/s")
+
+    def __call__(self, done: int, total: int, best: float | None, failed: int) -> None:
+        self.bar.extra = ("no score yet" if best is None else f"best {best:.4f}") + (
+            f", {failed} failed" if failed else "")
+        self.bar(done, total)
+
+
+def run_learn(args: argparse.Namespace) -> int:
+    from tensim.learn import (
+        LearningSettings,
+        OptimizerSettings,
+        RunStore,
+        create_run,
+        make_executor,
+        resume,
+    )
+
+    workers = (os.cpu_count() or 1) if args.workers is None else args.workers
+    if workers < 0:
+        raise ValueError(f"--workers must be >= 0, got {workers}")
+    if args.resume:
+        given = [f"--{o.replace('_', '-')}" for o in _PROBLEM_OPTIONS
+                 if getattr(args, o) is not None]
+        if given or args.out:
+            raise ValueError(f"--resume takes the run's configuration from "
+                             f"{args.resume}/config.json; drop {given or ['--out']} (only "
+                             "--evaluations, --workers, --ray and --ray-address may change)")
+        out = Path(args.resume)
+    else:
+        for name, value in _DEFAULTS.items():
+            if getattr(args, name, None) is None:
+                setattr(args, name, value)
+        out = Path(args.out)
+        settings = LearningSettings(
+            OptimizerSettings(args.optimizer, args.step, args.batch, args.monte_carlo),
+            args.evaluations, args.seed)
+        create_run(out, _problem(args), settings)
+        if args.optimizer == "ntrt" and (args.batch or 8) < workers:
+            print(f"note: ntrt asks {args.batch or 8} trials at a time, so at most that many "
+                  f"of the {workers} workers are busy; raise --batch", file=sys.stderr)
+    already = len(RunStore(out).evaluations())
+    try:
+        result = resume(out, args.evaluations, progress=_LearningProgress(args.quiet, already),
+                        executor=lambda p: make_executor(p, workers, ray=args.ray,
+                                                         ray_address=args.ray_address))
+    except KeyboardInterrupt:
+        print(f"\ninterrupted; every finished evaluation is in {out}/evaluations.jsonl. "
+              f"Continue with: tensim learn --resume {out}", file=sys.stderr)
+        return 130
+    _report(out, result.summary)
+    return 0
+
+
+def _report(out: Path, summary: dict[str, Any]) -> None:
+    config = summary["config"]
+    problem = config["problem"]
+    print(f"wrote {out}/ (evaluations.jsonl, learning_curve.png, summary.json"
+          + (", best_controller.yaml)" if "best_controller" in summary else ")"))
+    if summary["best_score"] is not None:
+        what = problem.get("objective_text", "score")
+        print(f"best score {summary['best_score']:.4f} (evaluation {summary['best_index']} of "
+              f"{summary['evaluations']}; {what})")
+    print(f"{summary['evaluations']} evaluations in {summary['wall_s']:.1f} s "
+          f"({summary['evaluations_per_s'] or 0:.2f} per s); {summary['stop_reason'] or 'stopped'}")
+    if summary["failed"]:
+        failed = ", ".join(f"{n} {status}" for status, n in summary["failed"].items())
+        print(f"failed trials: {failed} (reasons in evaluations.jsonl)")
+    if "best_controller" in summary and problem.get("family") == "cpg":
+        print(f"try it: tensim experiment cpg --controller {out}/best_controller.yaml")
+    elif "best_controller" in summary:
+        print(f"try it: tensim experiment sine --controller {out}/best_controller.yaml")
+    if not summary["finished"]:
+        print(f"continue with: tensim learn --resume {out}", file=sys.stderr)

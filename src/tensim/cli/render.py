@@ -1,0 +1,118 @@
+"""``tensim render``: an MP4 video, rendered offscreen, of a fresh simulation or a recorded run."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from tensim.cli._common import (
+    Progress,
+    add_controller_option,
+    add_world_options,
+    load_model,
+    world_from_args,
+)
+
+if TYPE_CHECKING:
+    from tensim.viz.video import VideoResult, VideoSettings
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "render", help="write an MP4 video of a simulation or a recorded run (no screen needed)",
+        description="Renders offscreen (EGL, else OSMesa; MUJOCO_GL=egl|osmesa picks one) with "
+        "cables coloured by tension and slack ones drawn sagging. MODEL (a preset or structure "
+        ".yaml file) is simulated afresh under its controller; RUN_DIR (a folder written by "
+        "simulate or experiment) is replayed from its recorded poses, not re-simulated.")
+    p.add_argument("source", metavar="MODEL|RUN_DIR",
+                   help="preset name, structure .yaml file, or run folder")
+    p.add_argument("--out", required=True, metavar="FILE.mp4", help="video file to write")
+    p.add_argument("--fps", type=int, default=60, help="frames per second (default 60)")
+    p.add_argument("--camera", default="track", choices=("track", "top", "side", "fixed"),
+                   help="track: follows the robot at 3/4 view (default); top: from above; "
+                        "side: from the side; fixed: aimed at the start, never moves")
+    p.add_argument("--azimuth", type=float, default=None, help="camera azimuth [deg]")
+    p.add_argument("--elevation", type=float, default=None, help="camera elevation [deg]")
+    p.add_argument("--distance", type=float, default=None,
+                   help="camera distance [m] (default 1.3 x the model's size)")
+    p.add_argument("--size", default="640x480", metavar="WxH",
+                   help="frame size in pixels, even numbers (default 640x480)")
+    p.add_argument("--max-tension", type=float, default=None, metavar="N",
+                   help="tension drawn red [N] (default: the strongest motor's limit)")
+    p.add_argument("--shadows", action="store_true",
+                   help="draw shadows and reflections (slow without a GPU)")
+    sim = p.add_argument_group("a fresh simulation (MODEL)")
+    sim.add_argument("--duration", type=float, default=10.0,
+                     help="simulated time [s] (default 10)")
+    add_world_options(sim)
+    add_controller_option(sim)
+    run = p.add_argument_group("a recorded run (RUN_DIR)")
+    run.add_argument("--start", type=float, default=None, help="first recorded time shown [s]")
+    run.add_argument("--stop", type=float, default=None, help="last recorded time shown [s]")
+    p.set_defaults(run=run_render)
+
+
+def _settings(args: argparse.Namespace) -> VideoSettings:
+    from tensim.viz.cables import TensionColors
+    from tensim.viz.render import CameraView
+    from tensim.viz.video import VideoSettings
+
+    try:
+        width, height = (int(v) for v in args.size.lower().split("x"))
+    except ValueError:
+        raise ValueError(f"--size must look like 640x480, got {args.size!r}") from None
+    view = CameraView(args.camera, args.azimuth, args.elevation, args.distance)
+    colors = TensionColors(args.max_tension) if args.max_tension is not None else None
+    return VideoSettings(args.fps, width, height, view, args.shadows, colors=colors)
+
+
+def run_render(args: argparse.Namespace) -> int:
+    from tensim.viz._gl import OffscreenUnavailable
+
+    settings = _settings(args)
+    source, out = Path(args.source), Path(args.out)
+    progress = Progress("render", args.quiet, unit="s video")
+    start = time.perf_counter()
+    try:
+        if source.is_dir():
+            result = _render_run(args, source, out, settings, progress)
+        else:
+            result = _render_model(args, out, settings, progress)
+    except OffscreenUnavailable as err:
+        print(f"tensim: error: {err}", file=sys.stderr)
+        return 1
+    wall = time.perf_counter() - start
+    print(f"wrote {result.path}: {result.frames} frames, {settings.width}x{settings.height} at "
+          f"{result.fps} fps, {result.duration:.2f} s of video (rendered with {result.backend} "
+          f"in {wall:.1f} s)")
+    return 0
+
+
+def _render_run(args: argparse.Namespace, folder: Path, out: Path, settings: VideoSettings,
+                progress: Progress) -> VideoResult:
+    from tensim.viz.replay import load_run
+    from tensim.viz.video import render_run
+
+    run = load_run(folder)
+    span = None
+    if args.start is not None or args.stop is not None:
+        span = (args.start if args.start is not None else run.series.time[0],
+                args.stop if args.stop is not None else run.series.time[-1])
+    return render_run(run, out, settings, span=span, progress=progress)
+
+
+def _render_model(args: argparse.Namespace, out: Path, settings: VideoSettings,
+                  progress: Progress) -> VideoResult:
+    from tensim.control import resolve_controller
+    from tensim.model import compile_structure
+    from tensim.viz.video import render_simulation
+
+    structure = load_model(args.source)
+    config = resolve_controller(args.source, structure, args.controller)
+    compiled = compile_structure(structure, world_from_args(args))
+    controller = config.build(compiled.model.opt.timestep) if config else None
+    return render_simulation(compiled, out, args.duration, settings, controller=controller,
+                             progress=progress)

@@ -1,0 +1,137 @@
+"""Goal-directed locomotion: progress toward a target point, across rough ground.
+
+:func:`goal_progress` is the objective (a plain function of a recorded run, so an optimizer can
+score trials with it); :func:`run_goal` runs a controller toward a target on rough terrain and
+reports how much closer the robot got.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from tensim._files import atomic_path
+from tensim.control import ControllerConfig
+from tensim.experiments.climb import CLIMB_WAVE
+from tensim.experiments.scenarios import resolve, run_scenario, wave_controller, write_scenario
+from tensim.model import WorldOptions
+from tensim.sim import COM, SimulationResult, TimeSeries
+from tensim.terrain import Rough, Terrain
+
+GOAL_TARGET = (1.0, 0.0)  # m, ahead of the 12-segment spine's front (its tip starts at x = 0.25)
+GOAL_TERRAIN = Rough(roughness=0.01, correlation=0.15, seed=1, size=4.0, resolution=0.04)
+GOAL_DURATION = 60.0  # s
+REACHED_RADIUS = 0.25  # m, horizontal distance that counts as reaching the target
+
+
+def goal_distance(trajectory: TimeSeries, target_xy: tuple[float, float],
+                  item: str = COM) -> np.ndarray:
+    """(T,) horizontal distance from ``item`` (default the robot's centre of mass) to the
+    target at every sample [m]."""
+    x, y = trajectory[f"pos_x/{item}"], trajectory[f"pos_y/{item}"]
+    return np.hypot(x - target_xy[0], y - target_xy[1])
+
+
+def goal_progress(trajectory: TimeSeries, target_xy: tuple[float, float]) -> float:
+    """How much closer the robot got to a target point [m].
+
+    The reduction of the horizontal (x-y) distance between the robot's centre of mass and
+    ``target_xy`` from the first to the last sample: positive when it approached, negative
+    when it moved away, 0 for a robot that stayed put or circled at a constant distance. A
+    larger score is better, so it serves directly as an optimizer's objective.
+
+    Args:
+        trajectory: a recorded run (needs the ``pos_x/com`` and ``pos_y/com`` channels).
+        target_xy: (x, y) of the target in the world frame [m].
+    """
+    distance = goal_distance(trajectory, target_xy)
+    return float(distance[0] - distance[-1])
+
+
+def goal_objective(target_xy: tuple[float, float]) -> Callable[[TimeSeries], float]:
+    """``goal_progress`` toward a fixed target, as a function of the trajectory alone."""
+
+    def objective(trajectory: TimeSeries) -> float:
+        return goal_progress(trajectory, target_xy)
+
+    objective.__name__ = f"goal_progress_to_{target_xy[0]:g}_{target_xy[1]:g}"
+    return objective
+
+
+def goal_summary(trajectory: TimeSeries, target_xy: tuple[float, float]) -> dict[str, Any]:
+    """Distances to the target at the start, end and closest, the progress, and whether the
+    centre of mass came within :data:`REACHED_RADIUS` of it."""
+    distance = goal_distance(trajectory, target_xy)
+    return {"target_xy_m": [float(target_xy[0]), float(target_xy[1])],
+            "start_distance_m": round(float(distance[0]), 4),
+            "final_distance_m": round(float(distance[-1]), 4),
+            "closest_distance_m": round(float(distance.min()), 4),
+            "goal_progress_m": round(goal_progress(trajectory, target_xy), 4),
+            "reached": bool(distance.min() <= REACHED_RADIUS),
+            "reached_radius_m": REACHED_RADIUS}
+
+
+def goal_controller(duration: float = GOAL_DURATION) -> ControllerConfig:
+    """The scenario's default controller: the climb's forward wave (the target lies ahead)."""
+    return wave_controller(CLIMB_WAVE, duration, description="forward spine wave (climb)")
+
+
+def run_goal(*, target_xy: tuple[float, float] = GOAL_TARGET, terrain: Terrain | None = None,
+             controller: str | ControllerConfig | None = None, duration: float | None = None,
+             world: WorldOptions | None = None,
+             progress: Callable[[float, float], None] | None = None
+             ) -> tuple[SimulationResult, dict[str, Any], ControllerConfig, Terrain]:
+    """Runs a controller toward ``target_xy`` on rough ground (default :data:`GOAL_TERRAIN`).
+
+    Args:
+        target_xy: (x, y) of the target [m].
+        terrain: the ground (None: :data:`GOAL_TERRAIN`).
+        controller: controller file, shipped name or config (None: :func:`goal_controller`).
+        duration: simulated time [s] (None: the controller's gait duration, 60 s by default).
+        world: physics step and other world options (its terrain is replaced).
+        progress: called as progress(done_s, total_s).
+
+    Returns:
+        The result, its summary (with :func:`goal_summary`), the controller and the terrain.
+    """
+    if not all(math.isfinite(v) for v in target_xy) or len(target_xy) != 2:
+        raise ValueError(f"target_xy must be two finite coordinates [m], got {target_xy!r}")
+    terrain = terrain or GOAL_TERRAIN
+    config = resolve(controller, goal_controller(), duration)
+    result, summary = run_scenario("goal", config, terrain, world=world, progress=progress)
+    return result, {**summary, **goal_summary(result.trajectory, target_xy)}, config, terrain
+
+
+def plot_goal_distance(trajectory: TimeSeries, target_xy: tuple[float, float],
+                       path: Path) -> Path:
+    """Horizontal distance of the centre of mass to the target over time."""
+    fig, ax = plt.subplots(figsize=(6, 3))
+    ax.plot(trajectory.time, goal_distance(trajectory, target_xy), color="black", lw=1.0)
+    ax.axhline(REACHED_RADIUS, color="tab:green", ls="--", lw=0.8, label="reached")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("distance to target [m]")
+    ax.set_title(f"target ({target_xy[0]:g}, {target_xy[1]:g}) m", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+    return path
+
+
+def write_goal(out: Path, result: SimulationResult, summary: dict[str, Any],
+               config: ControllerConfig, terrain: Terrain) -> Path:
+    """Writes the scenario's run folder plus ``goal_distance.png``."""
+    target = (summary["target_xy_m"][0], summary["target_xy_m"][1])
+    plot_goal_distance(result.trajectory, target, out / "goal_distance.png")
+    return write_scenario(out, result, summary, config, terrain,
+                          extra_figures=("goal_distance.png",))

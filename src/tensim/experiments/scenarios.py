@@ -1,0 +1,213 @@
+"""The 12-segment Tetraspine scenarios (paper Fig. 1): their wave gait, run and report.
+
+The scenarios drive the impedance laws' target velocity V* with a travelling wave of joint
+bending. A Tetraspine joint bends in three ways, each a fixed pattern over the outer cables'
+sides (``top``, ``left``, ``right``; every inner cable takes the inverse of its side's outer
+cable, as in the paper's hand-tuned gait):
+
+- ``axial``: all three sides alike, the joint lengthens and shortens;
+- ``pitch``: top against the two bottom corners (weights 1, -1/2, -1/2: the top anchor sits twice
+  as far above the base triangle's centroid as the bottom ones below it), the spine bends up and
+  down;
+- ``yaw``: left against right, the spine bends sideways.
+
+Each mode has an amplitude [m/s] and phase [rad]; joint j runs ``joint_lag`` behind joint j - 1,
+so the bending travels along the spine.
+"""
+
+from __future__ import annotations
+
+import cmath
+import dataclasses
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from tensim._files import atomic_path
+from tensim.control import ControllerConfig, SineGait, load_controller, save_controller
+from tensim.experiments.gait import locomotion
+from tensim.model import WorldOptions, compile_structure
+from tensim.models import preset
+from tensim.runs import write_run
+from tensim.sim import COM, SimulationResult, TimeSeries, simulate
+from tensim.structure import Structure
+from tensim.terrain import Terrain, format_terrain
+from tensim.viz import plot_cable_tensions, plot_path
+
+MODEL = "tetraspine"  # the 12-segment preset
+COMMAND_PERIOD = 0.01  # s between V* commands, as the hardware's packets
+SIDES = ("top", "left", "right")
+MODES: dict[str, dict[str, float]] = {
+    "axial": {"top": 1.0, "left": 1.0, "right": 1.0},
+    "pitch": {"top": 1.0, "left": -0.5, "right": -0.5},
+    "yaw": {"top": 0.0, "left": 1.0, "right": -1.0},
+}
+Mode = tuple[float, float]  # (amplitude [m/s], phase [rad])
+
+
+@dataclasses.dataclass(frozen=True)
+class SpineWave:
+    """A travelling wave of joint bending along a Tetraspine, on V*.
+
+    Attributes:
+        frequency: [Hz].
+        joint_lag: phase by which each joint runs behind the one in front of it [rad].
+        axial, pitch, yaw: (amplitude [m/s], phase [rad]) of each bending mode on the outer
+            cables.
+    """
+
+    frequency: float
+    joint_lag: float
+    axial: Mode = (0.0, 0.0)
+    pitch: Mode = (0.0, 0.0)
+    yaw: Mode = (0.0, 0.0)
+
+    def gait(self, structure: Structure) -> SineGait:
+        """The per-cable sine waves for ``structure`` (cables tagged by side, inner/outer and
+        joint, as the Tetraspine presets are).
+
+        Raises:
+            ValueError: a cable lacks a side, inner/outer or joint tag.
+        """
+        joints = {c.name: _joint(c.name, c.tags) for c in structure.cables}
+        front = min(joints.values())
+        names, amplitude, phase = [], [], []
+        for cable in structure.cables:
+            sides = [s for s in SIDES if s in cable.tags]
+            if len(sides) != 1 or ("inner" in cable.tags) == ("outer" in cable.tags):
+                raise ValueError(f"cable {cable.name!r} needs one side tag of {SIDES} and one "
+                                 f"of 'inner'/'outer', has {cable.tags!r}")
+            wave = sum(MODES[m][sides[0]] * a * cmath.exp(1j * p) for m, (a, p) in
+                       (("axial", self.axial), ("pitch", self.pitch), ("yaw", self.yaw)))
+            wave = -wave if "inner" in cable.tags else wave
+            names.append(cable.name)
+            amplitude.append(abs(wave))
+            phase.append(cmath.phase(wave) - (joints[cable.name] - front) * self.joint_lag)
+        return SineGait(tuple(names), tuple(amplitude), self.frequency, tuple(phase))
+
+
+def _joint(cable: str, tags: tuple[str, ...]) -> int:
+    found = [int(t[6:]) for t in tags if t.startswith("joint_") and t[6:].isdigit()]
+    if len(found) != 1:
+        raise ValueError(f"cable {cable!r} needs one 'joint_<j>' tag, has {tags!r}")
+    return found[0]
+
+
+def wave_controller(wave: SpineWave, duration: float, model: str = MODEL,
+                    description: str = "") -> ControllerConfig:
+    """The preset's impedance laws driven by ``wave`` for ``duration`` seconds."""
+    p = preset(model)
+    impedance = p.controller()
+    if impedance is None:
+        raise ValueError(f"preset {model!r} has no impedance controller to drive")
+    return ControllerConfig(impedance, wave.gait(p.build()), duration=duration,
+                            command_period=COMMAND_PERIOD, model=model,
+                            description=description)
+
+
+def resolve(controller: str | ControllerConfig | None, default: ControllerConfig,
+            duration: float | None) -> ControllerConfig:
+    """The scenario's controller: a file or shipped name (for the preset it names), a config,
+    or the scenario's own, covering ``duration`` seconds (None: its own duration)."""
+    if controller is None:
+        config = default
+    elif isinstance(controller, ControllerConfig):
+        config = controller
+    else:
+        config = load_controller(controller)
+    if config.gait is None:
+        raise ValueError("the scenario needs a controller with a gait")
+    return config.with_duration(duration) if duration else config
+
+
+def run_scenario(name: str, config: ControllerConfig, terrain: Terrain, *,
+                 world: WorldOptions | None = None,
+                 progress: Callable[[float, float], None] | None = None
+                 ) -> tuple[SimulationResult, dict[str, Any]]:
+    """Runs ``config`` on its preset on ``terrain`` for the gait's duration.
+
+    Returns:
+        The result and the summary every scenario shares: headline figures of
+        :meth:`SimulationResult.summary`, how far and where the robot moved
+        (:func:`~tensim.experiments.gait.locomotion`) and the highest rise of any segment.
+    """
+    model = config.model or MODEL
+    world = dataclasses.replace(world or WorldOptions(), terrain=terrain)
+    compiled = compile_structure(preset(model).build(), world)
+    result = simulate(compiled, config.duration,
+                      controller=config.build(compiled.model.opt.timestep), progress=progress)
+    rise = segment_rise(result.trajectory)
+    summary: dict[str, Any] = {
+        "experiment": name, "model": model, "terrain": format_terrain(terrain),
+        "controller": config.description or "(in memory)", **result.summary(),
+        **locomotion(result.trajectory),
+        "height_reached_m": round(max(rise.values()), 4),
+        "segment_rise_m": {b: round(v, 4) for b, v in rise.items()}}
+    return result, summary
+
+
+def segments(series: TimeSeries) -> list[str]:
+    """The recorded rigid bodies (segments), front first."""
+    return [b for b in series.items("pos_x") if b != COM]
+
+
+def segment_rise(series: TimeSeries) -> dict[str, float]:
+    """Each segment's highest rise of its centre of mass above where it started [m]."""
+    return {b: float(np.max(series[f"pos_z/{b}"] - series[f"pos_z/{b}"][0]))
+            for b in segments(series)}
+
+
+def write_scenario(out: Path, result: SimulationResult, summary: dict[str, Any],
+                   config: ControllerConfig, terrain: Terrain, *,
+                   extra_figures: tuple[str, ...] = ()) -> Path:
+    """Writes the run folder: tensions of the first, middle and last joints, the top view of
+    the path, a side view over the terrain, the controller file, trajectory and summary.
+
+    ``extra_figures`` names figures the scenario wrote into ``out`` itself.
+    """
+    series = result.trajectory
+    joints = sorted({c.rsplit("_", 1)[1] for c in result.cables}, key=int)
+    shown = [c for j in (joints[0], joints[len(joints) // 2], joints[-1]) for c in
+             (f"{k}_{j}" for k in ("outer_top", "outer_left", "outer_right", "inner_top",
+                                   "inner_left", "inner_right")) if c in result.cables]
+    plot_cable_tensions(series, out / "tensions.png", cables=shown or None, columns=6,
+                        title=f"{summary['experiment']}: measured tension (black), commanded "
+                              "(dashed)")
+    bodies = segments(series)
+    plot_path(series, out / "path.png", [bodies[0], bodies[-1], COM],
+              title=f"moved {summary['planar_displacement_m']:.2f} m, {summary['direction']}")
+    plot_side_view(series, terrain, out / "side_view.png")
+    save_controller(config, out / "controller.yaml")
+    figures = ["tensions.png", "path.png", "side_view.png", *extra_figures]
+    return write_run(out, result, {**summary, "figures": figures,
+                                   "files": ["controller.yaml"]})
+
+
+def plot_side_view(series: TimeSeries, terrain: Terrain, path: Path) -> Path:
+    """Side view (x, z) of every segment's centre of mass over the terrain's profile at y = 0."""
+    fig, ax = plt.subplots(figsize=(9, 3.2))
+    x_all = np.concatenate([series[f"pos_x/{b}"] for b in segments(series)])
+    x = np.linspace(x_all.min() - 0.3, x_all.max() + 0.3, 800)
+    ground = terrain.geometry().height(x, np.zeros_like(x))
+    ax.fill_between(x, np.where(np.isfinite(ground), ground, np.nan), ground[np.isfinite(
+        ground)].min(initial=0.0) - 0.05, color="0.8", lw=0, label="terrain (y = 0)")
+    for k, body in enumerate(segments(series)):
+        ax.plot(series[f"pos_x/{body}"], series[f"pos_z/{body}"], lw=0.8,
+                color=plt.cm.viridis(k / max(1, len(segments(series)) - 1)),
+                label=body if k in (0, len(segments(series)) - 1) else None)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("z [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+    return path

@@ -1,0 +1,104 @@
+"""Sidewinding (paper Fig. 1, middle): the 12-segment Tetraspine moves sideways.
+
+The gait is the paper's route to it in reverse: the sideways CPG learned for Tetraspine3 (the
+shipped ``tetraspine3_cpg``, paper Fig. 5, "similar to the side-winding gait for the twelve
+segment version") put on the 12-segment spine. The spine CPG's parameters are named by joint
+offset and cable kinds, not by joint, so the same 116 values define the longer spine's couplings
+(each cable coupled to the cables that share a rigid body with it). The summary gives the
+displacement in the world and in the robot's own frame (forward along its spine, sideways to
+its left) and the turn.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from tensim.control import ControllerConfig, SpineCPG, load_controller, spine_parameters
+from tensim.experiments.scenarios import (
+    COMMAND_PERIOD,
+    MODEL,
+    resolve,
+    run_scenario,
+    write_scenario,
+)
+from tensim.model import WorldOptions
+from tensim.models import preset
+from tensim.sim import SimulationResult
+from tensim.terrain import Flat, Terrain
+
+SIDEWIND_DURATION = 60.0  # s
+SIDEWIND_SOURCE = "tetraspine3_cpg"  # the shipped sideways CPG of Tetraspine3
+SIDEWIND_TERRAIN = Flat()  # the robot's own friction, as in the hardware tests
+
+
+def transferred_cpg(source: str = SIDEWIND_SOURCE, model: str = MODEL) -> SpineCPG:
+    """The CPG of controller ``source`` with its parameter values on ``model``'s spine.
+
+    Raises:
+        ValueError: the source has no spine CPG, or its layout names other parameters.
+    """
+    short = load_controller(source)
+    if not isinstance(short.gait, SpineCPG):
+        raise ValueError(f"controller {source!r} has no spine CPG gait to transfer")
+    src = short.gait.layout
+    layout = spine_parameters(preset(model).build(), weight=src.weight, phase=src.phase,
+                              amplitude=src.amplitude, frequency=src.frequency,
+                              convergence=src.convergence)
+    values = dict(zip(src.names, short.gait.values, strict=True))
+    missing = [n for n in layout.names if n not in values]
+    if missing:
+        raise ValueError(f"{model!r}'s CPG has parameters {missing[:3]}... that controller "
+                         f"{source!r} does not set")
+    return layout.gait([values[n] for n in layout.names])
+
+
+def sidewind_controller(duration: float = SIDEWIND_DURATION,
+                        source: str = SIDEWIND_SOURCE) -> ControllerConfig:
+    """The scenario's default controller: the 12-segment preset's impedance laws under the
+    sideways CPG transferred from ``source``."""
+    impedance = preset(MODEL).controller()
+    assert impedance is not None  # the Tetraspine presets have impedance laws
+    return ControllerConfig(impedance, transferred_cpg(source), duration=duration,
+                            command_period=COMMAND_PERIOD, model=MODEL,
+                            description=f"sideways CPG of {source}, on the {MODEL} spine")
+
+
+def sideways_share(summary: dict[str, Any]) -> float:
+    """Fraction of the robot-frame displacement that is sideways (1: purely sideways)."""
+    forward, side = summary.get("body_forward_m", 0.0), summary.get("body_sideways_m", 0.0)
+    total = math.hypot(forward, side)
+    return round(abs(side) / total, 4) if total > 0 else 0.0
+
+
+def run_sidewind(*, terrain: Terrain | None = None,
+                 controller: str | ControllerConfig | None = None,
+                 duration: float | None = None, world: WorldOptions | None = None,
+                 progress: Callable[[float, float], None] | None = None
+                 ) -> tuple[SimulationResult, dict[str, Any], ControllerConfig, Terrain]:
+    """Runs the sidewinding gait.
+
+    Args:
+        terrain: the ground (None: :data:`SIDEWIND_TERRAIN`).
+        controller: controller file, shipped name or config (None: :func:`sidewind_controller`).
+        duration: simulated time [s] (None: the controller's gait duration, 60 s by default).
+        world: physics step and other world options (its terrain is replaced).
+        progress: called as progress(done_s, total_s).
+
+    Returns:
+        The result, its summary, the controller and the terrain.
+    """
+    terrain = terrain or SIDEWIND_TERRAIN
+    config = resolve(controller, sidewind_controller(), duration)
+    result, summary = run_scenario("sidewind", config, terrain, world=world,
+                                   progress=progress)
+    summary["sideways_share"] = sideways_share(summary)
+    return result, summary, config, terrain
+
+
+def write_sidewind(out: Path, result: SimulationResult, summary: dict[str, Any],
+                   config: ControllerConfig, terrain: Terrain) -> Path:
+    """Writes the run folder (see :func:`~tensim.experiments.scenarios.write_scenario`)."""
+    return write_scenario(out, result, summary, config, terrain)

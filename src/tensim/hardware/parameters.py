@@ -1,0 +1,269 @@
+"""The named model parameters that system identification fits, and what each one changes.
+
+Physical parameters change the structure description (then it is recompiled and simulated
+again): robot-ground friction, cable stiffness and damping, motor speed limit, point masses,
+and the scale of the V* input. Measurement parameters (sensor offset, gain, delay) act on the
+simulated signals only, as in MuJoCo's ``mujoco.sysid`` toolbox. Cable-wide parameters take
+the mean over the cables as their value and scale every cable by the same factor, so cables
+that differ keep their ratios.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+
+from tensim.control import Bounds, Parameter
+from tensim.hardware.sensor import SensorModel
+from tensim.structure import Structure
+
+PHYSICAL, MEASUREMENT = "physical", "measurement"
+
+
+@dataclasses.dataclass(frozen=True)
+class Definition:
+    """What one named parameter means.
+
+    Attributes:
+        name: its name on the command line.
+        kind: ``physical`` (re-simulate) or ``measurement`` (signals only).
+        unit: its unit.
+        description: one line.
+        nominal: its value in a structure (or the default for signals).
+        span: default (low, high) bounds around a nominal value.
+        apply: the structure with this value (physical parameters that change the structure).
+    """
+
+    name: str
+    kind: str
+    unit: str
+    description: str
+    nominal: Callable[[Structure], float]
+    span: Callable[[float], tuple[float, float]]
+    apply: Callable[[Structure, float], Structure] | None = None
+
+
+def _mean(values: Sequence[float]) -> float:
+    if not values:
+        raise ValueError("the structure has none of the items this parameter changes")
+    return float(np.mean(values))
+
+
+def _cable_scale(field: str) -> Callable[[Structure, float], Structure]:
+    def apply(structure: Structure, value: float) -> Structure:
+        factor = value / _mean([getattr(c, field) for c in structure.cables])
+        return dataclasses.replace(structure, cables=tuple(
+            dataclasses.replace(c, **{field: float(getattr(c, field) * factor)})
+            for c in structure.cables))
+    return apply
+
+
+def _friction(structure: Structure, value: float) -> Structure:
+    return dataclasses.replace(structure, rods=tuple(
+        dataclasses.replace(r, friction=float(value)) for r in structure.rods))
+
+
+def _max_speed(structure: Structure, value: float) -> Structure:
+    factor = value / _mean([c.motor.max_speed for c in structure.cables])
+    return dataclasses.replace(structure, cables=tuple(
+        dataclasses.replace(c, motor=dataclasses.replace(
+            c.motor, max_speed=float(c.motor.max_speed * factor))) for c in structure.cables))
+
+
+def _mass_scale(structure: Structure, value: float) -> Structure:
+    return dataclasses.replace(structure, point_masses=tuple(
+        dataclasses.replace(p, mass=float(p.mass * value)) for p in structure.point_masses))
+
+
+DEFINITIONS: dict[str, Definition] = {d.name: d for d in (
+    Definition("friction", PHYSICAL, "-", "robot-ground Coulomb friction of every rod",
+               lambda s: _mean([r.friction for r in s.rods]),
+               lambda n: (0.25 * n, 4.0 * n) if n > 0 else (0.0, 1.0), _friction),
+    Definition("stiffness", PHYSICAL, "N/m", "effective cable stiffness (mean; all scaled)",
+               lambda s: _mean([c.stiffness for c in s.cables]),
+               lambda n: (0.5 * n, 2.0 * n), _cable_scale("stiffness")),
+    Definition("damping", PHYSICAL, "N s/m", "cable damping (mean; all scaled)",
+               lambda s: _mean([c.damping for c in s.cables]),
+               lambda n: (0.2 * n, 5.0 * n) if n > 0 else (0.0, 50.0), _cable_scale("damping")),
+    Definition("max_speed", PHYSICAL, "m/s", "motor speed limit (mean; all scaled)",
+               lambda s: _mean([c.motor.max_speed for c in s.cables]),
+               lambda n: (0.3 * n, 3.0 * n), _max_speed),
+    Definition("mass_scale", PHYSICAL, "-", "factor on every point mass",
+               lambda s: 1.0, lambda n: (0.5, 1.5), _mass_scale),
+    Definition("vstar_scale", PHYSICAL, "-", "factor on the logged V* input (sim = scale x log)",
+               lambda s: 1.0, lambda n: (0.05, 20.0)),
+    Definition("offset", MEASUREMENT, "N", "load-cell zero offset added to every reading",
+               lambda s: 0.0, lambda n: (-5.0, 5.0)),
+    Definition("gain", MEASUREMENT, "-", "load-cell gain on the true tension",
+               lambda s: 1.0, lambda n: (0.8, 1.25)),
+    Definition("delay", MEASUREMENT, "s", "readings lag the commands by this much",
+               lambda s: 0.0, lambda n: (-0.1, 0.3)),
+)}
+
+
+def definition(name: str) -> Definition:
+    """The definition of ``name``.
+
+    Raises:
+        KeyError: naming the known parameters.
+    """
+    try:
+        return DEFINITIONS[name]
+    except KeyError:
+        raise KeyError(f"unknown parameter {name!r}; expected one of "
+                       f"{', '.join(DEFINITIONS)}") from None
+
+
+def apply_physical(structure: Structure, values: Mapping[str, float]) -> Structure:
+    """``structure`` with the named physical parameters set (others are ignored)."""
+    for name, value in values.items():
+        d = definition(name)
+        if d.apply is not None:
+            structure = d.apply(structure, float(value))
+    return structure
+
+
+def apply_measurement(sensor: SensorModel, values: Mapping[str, float]) -> SensorModel:
+    """``sensor`` with the named measurement parameters set (others are ignored)."""
+    fields = {n: float(v) for n, v in values.items() if definition(n).kind == MEASUREMENT}
+    return dataclasses.replace(sensor, **fields)
+
+
+@dataclasses.dataclass(frozen=True)
+class SysidSpace:
+    """The fitted parameters: names, bounds and nominal values, and the unit-cube map.
+
+    Attributes:
+        structure: the nominal structure (nominal values come from it).
+        parameters: the entries, in vector order (nominal = the starting value).
+    """
+
+    structure: Structure
+    parameters: tuple[Parameter, ...]
+
+    @classmethod
+    def build(cls, structure: Structure, names: Sequence[str], *,
+              bounds: Mapping[str, tuple[float, float]] | None = None,
+              start: Mapping[str, float] | None = None) -> SysidSpace:
+        """The space of ``names`` with default or given bounds and starting values.
+
+        Raises:
+            KeyError: an unknown name.
+            ValueError: duplicate names, or a start outside its bounds.
+        """
+        bounds, start = dict(bounds or {}), dict(start or {})
+        if len(set(names)) != len(names) or not names:
+            raise ValueError(f"expected one or more distinct parameter names, got {list(names)}")
+        for extra in sorted((set(bounds) | set(start)) - set(names)):
+            raise ValueError(f"bounds or start given for {extra!r}, which is not fitted "
+                             f"(fitted: {list(names)})")
+        entries = []
+        for name in names:
+            d = definition(name)
+            value = start.get(name, d.nominal(structure))
+            low, high = bounds.get(name, d.span(d.nominal(structure)))
+            try:
+                entries.append(Parameter(name, Bounds(float(low), float(high), float(value))))
+            except ValueError as err:
+                raise ValueError(f"parameter {name!r}: {err}") from None
+        return cls(structure, tuple(entries))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Entry names, in vector order."""
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def low(self) -> np.ndarray:
+        """(n,) lower bounds."""
+        return np.array([p.bounds.low for p in self.parameters])
+
+    @property
+    def high(self) -> np.ndarray:
+        """(n,) upper bounds."""
+        return np.array([p.bounds.high for p in self.parameters])
+
+    @property
+    def start(self) -> np.ndarray:
+        """(n,) starting values."""
+        return np.array([p.bounds.nominal for p in self.parameters])
+
+    def nominal(self) -> np.ndarray:
+        """(n,) the values in the nominal structure (measurement defaults: no offset etc.)."""
+        return np.array([definition(n).nominal(self.structure) for n in self.names])
+
+    @property
+    def physical(self) -> np.ndarray:
+        """(n,) True for the entries that need a new simulation."""
+        return np.array([definition(n).kind == PHYSICAL for n in self.names])
+
+    def to_unit(self, values: np.ndarray) -> np.ndarray:
+        """Values in the bounds -> [0, 1]."""
+        return (np.asarray(values, dtype=float) - self.low) / (self.high - self.low)
+
+    def from_unit(self, unit: np.ndarray) -> np.ndarray:
+        """[0, 1] -> values in the bounds."""
+        return self.low + np.clip(unit, 0.0, 1.0) * (self.high - self.low)
+
+    def as_dict(self, values: np.ndarray) -> dict[str, float]:
+        """name -> value."""
+        return {n: float(v) for n, v in zip(self.names, values, strict=True)}
+
+    def snap(self, values: np.ndarray, resolution: float = 1e-4) -> np.ndarray:
+        """``values`` with the physical entries rounded to ``resolution`` of their range.
+
+        Contacts make a simulation's tensions change irregularly under tiny parameter changes;
+        on this grid an optimizer's sub-resolution steps reuse one simulation.
+        """
+        unit = self.to_unit(values)
+        snapped = np.where(self.physical, np.round(unit / resolution) * resolution, unit)
+        return self.low + snapped * (self.high - self.low)
+
+    def physical_key(self, values: np.ndarray) -> tuple[float, ...]:
+        """The physical entries, rounded: equal keys give the same simulation."""
+        return tuple(round(float(v), 12) for v in np.asarray(values)[self.physical])
+
+
+def parse_assignments(text: str | None, what: str) -> dict[str, float]:
+    """``"friction=0.1,stiffness=250"`` -> {"friction": 0.1, "stiffness": 250.0}.
+
+    Raises:
+        KeyError: an unknown parameter name.
+        ValueError: naming the bad entry of ``what`` (e.g. ``--set``).
+    """
+    out: dict[str, float] = {}
+    for entry in _entries(text):
+        name, _, value = (part.strip() for part in entry.partition("="))
+        definition(name)
+        out[name] = _float(value, f"{what}: expected NAME=NUMBER, got {entry!r}")
+    return out
+
+
+def parse_bounds(text: str | None) -> dict[str, tuple[float, float]]:
+    """``"friction=0.01:0.5"`` -> {"friction": (0.01, 0.5)}.
+
+    Raises:
+        KeyError: an unknown parameter name.
+        ValueError: naming the bad entry of ``--bounds``.
+    """
+    out: dict[str, tuple[float, float]] = {}
+    for entry in _entries(text):
+        name, _, span = (part.strip() for part in entry.partition("="))
+        definition(name)
+        low, _, high = span.partition(":")
+        message = f"--bounds: expected NAME=LOW:HIGH, got {entry!r}"
+        out[name] = (_float(low, message), _float(high, message))
+    return out
+
+
+def _entries(text: str | None) -> list[str]:
+    return [e.strip() for e in (text or "").split(",") if e.strip()]
+
+
+def _float(text: str, message: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(message) from None

@@ -1,0 +1,273 @@
+"""System identification: fit named model parameters so simulated tensions match the logs.
+
+The residual is simulated reading minus logged tension [N] at every logged sample of every
+cable of every log. Physical parameters rebuild the structure and re-simulate each log;
+measurement parameters only reshape the simulated signals, so the optimizer's finite
+differences over them reuse a cached simulation. The optimizer is scipy's bounded
+trust-region least squares on the unit cube of the bounds, with a finite-difference step large
+enough to step over the small, irregular changes that contact and motor limits cause; the
+uncertainty comes from the Jacobian at the solution. (MuJoCo's ``mujoco.sysid`` toolbox makes
+the same physical/measurement split, but rolls out MjModels driven through ``ctrl``; tensim's
+cables run in a control callback with motor state, and its physical parameters change the
+structure description, so the optimizer is called directly.)
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from scipy import optimize
+
+from tensim.control import ControllerConfig
+from tensim.hardware.compare import Comparison, compare_tensions
+from tensim.hardware.logs import HardwareLog
+from tensim.hardware.parameters import SysidSpace, apply_measurement, apply_physical
+from tensim.hardware.replay import replay
+from tensim.hardware.sensor import SensorModel
+from tensim.model import WorldOptions
+from tensim.sim import TimeSeries
+from tensim.structure import Structure
+
+_CACHE_SIZE = 16
+
+
+@dataclasses.dataclass(frozen=True)
+class SysidSettings:
+    """Budgets and steps of the fit.
+
+    Attributes:
+        max_simulations: stop after about this many simulations of the log set.
+        diff_step: finite-difference step, as a fraction of each parameter's bound range.
+        max_offset: largest time offset the cross-correlation tries [s].
+        margin: simulated time past each log's end [s].
+        skip: leave each log's first seconds out of the residual [s].
+    """
+
+    max_simulations: int = 60
+    diff_step: float = 0.05
+    max_offset: float = 0.5
+    margin: float = 0.5
+    skip: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class SysidResult:
+    """A finished fit.
+
+    Attributes:
+        space: the fitted parameters (names, bounds, starting values).
+        fitted: (n,) fitted values.
+        stderr: (n,) standard errors from the Jacobian at the solution (inf: not determined).
+        before, after: per log, the comparison with the nominal model (time offset
+            estimated) and with the fitted one.
+        structure: the fitted structure.
+        sensor: the fitted measurement model.
+        vstar_scale: the fitted (or nominal) V* scale.
+        simulations: simulations run.
+        optimizer: scipy's result (x in unit coordinates).
+    """
+
+    space: SysidSpace
+    fitted: np.ndarray
+    stderr: np.ndarray
+    before: tuple[Comparison, ...]
+    after: tuple[Comparison, ...]
+    structure: Structure
+    sensor: SensorModel
+    vstar_scale: float
+    simulations: int
+    optimizer: optimize.OptimizeResult
+
+    def parameters(self) -> dict[str, dict[str, Any]]:
+        """name -> nominal, start, fitted, stderr, 95 % interval half-width, bounds, unit."""
+        from tensim.hardware.parameters import definition
+
+        out = {}
+        for k, p in enumerate(self.space.parameters):
+            d = definition(p.name)
+            out[p.name] = {"unit": d.unit, "kind": d.kind,
+                           "nominal": float(self.space.nominal()[k]),
+                           "start": p.bounds.nominal, "fitted": float(self.fitted[k]),
+                           "stderr": _finite(self.stderr[k]),
+                           "ci95": _finite(1.96 * self.stderr[k]),
+                           "bounds": [p.bounds.low, p.bounds.high]}
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready: parameters, errors before and after per log, and their change."""
+        before = [c.summary() for c in self.before]
+        after = [c.summary() for c in self.after]
+        return {"parameters": self.parameters(), "simulations": self.simulations,
+                "optimizer": {"status": int(self.optimizer.status),
+                              "message": str(self.optimizer.message),
+                              "cost": float(self.optimizer.cost)},
+                "rmse_before_N": _mean_of(before, "rmse_N"),
+                "rmse_after_N": _mean_of(after, "rmse_N"),
+                "max_system_tension_error_before_percent": _mean_of(
+                    before, "max_system_tension_error_percent", absolute=True),
+                "max_system_tension_error_after_percent": _mean_of(
+                    after, "max_system_tension_error_percent", absolute=True),
+                "logs": [{"before": b, "after": a} for b, a in zip(before, after, strict=True)]}
+
+
+def _finite(value: float) -> float | None:
+    return float(value) if np.isfinite(value) else None
+
+
+def _mean_of(summaries: list[dict[str, Any]], key: str, absolute: bool = False) -> float | None:
+    values = [abs(s[key]) if absolute else s[key] for s in summaries if s[key] is not None]
+    return round(float(np.mean(values)), 6) if values else None
+
+
+class _Problem:
+    """Residuals of parameter vectors over the logs, with a cache of simulations."""
+
+    def __init__(self, space: SysidSpace, logs: Sequence[HardwareLog], config: ControllerConfig,
+                 sensor: SensorModel, world: WorldOptions | None, settings: SysidSettings,
+                 progress: Callable[[float, float], None] | None):
+        self.space, self.logs, self.config, self.sensor = space, logs, config, sensor
+        self.world, self.settings, self.progress = world, settings, progress
+        self.cache: collections.OrderedDict[tuple[float, ...], list[TimeSeries]] = \
+            collections.OrderedDict()
+        self.simulations = 0
+        self.offsets = [0.0] * len(logs)  # per-log lag used while 'delay' is not fitted
+
+    def simulate(self, values: np.ndarray, snap: bool = True) -> list[TimeSeries]:
+        """Each log replayed with the physical parameters in ``values`` (cached).
+
+        With ``snap`` the physical values are first rounded to the space's grid (see
+        :meth:`SysidSpace.snap`); the nominal model is simulated exactly as given.
+        """
+        values = self.space.snap(values) if snap else values
+        key = self.space.physical_key(values)
+        if key in self.cache:
+            self.cache.move_to_end(key)
+            return self.cache[key]
+        named = self.space.as_dict(values)
+        structure = apply_physical(self.space.structure, named)
+        runs = []
+        for log in self.logs:
+            result = replay(log, structure, self.config, world=self.world,
+                            vstar_scale=named.get("vstar_scale", 1.0),
+                            margin=self.settings.margin)
+            runs.append(TimeSeries(result.trajectory.time,
+                                   {c: result.trajectory[c] for c in result.trajectory.channels
+                                    if c.startswith("tension/")}))
+            self.simulations += 1
+            if self.progress is not None:
+                self.progress(self.simulations, self.settings.max_simulations)
+        self.cache[key] = runs
+        if len(self.cache) > _CACHE_SIZE:
+            self.cache.popitem(last=False)
+        return runs
+
+    def comparisons(self, values: np.ndarray) -> list[Comparison]:
+        """Per log, the logged tensions against the simulated readings for ``values``."""
+        named = self.space.as_dict(values)
+        sensor = apply_measurement(self.sensor, named)
+        return [compare_tensions(log, run, sensor=sensor,
+                                 offset=sensor.delay if "delay" in named else self.offsets[i],
+                                 skip=self.settings.skip)
+                for i, (log, run) in enumerate(zip(self.logs, self.simulate(values),
+                                                   strict=True))]
+
+    def residuals(self, unit: np.ndarray) -> np.ndarray:
+        """Simulated minus logged tension [N] at every logged sample, all logs."""
+        parts = []
+        for c in self.comparisons(self.space.from_unit(unit)):
+            keep = np.isfinite(c.hardware)
+            parts.append((c.simulated - c.hardware)[keep])
+        return np.concatenate(parts)
+
+    def jacobian(self, unit: np.ndarray) -> np.ndarray:
+        """Forward differences with a fixed step of ``diff_step`` of each bound range.
+
+        A fixed, fairly large step steps over the small irregular changes that contacts and
+        motor limits make in a simulated tension; measurement columns reuse the cached run.
+        """
+        base = self.residuals(unit)
+        columns = []
+        for k in range(unit.size):
+            step = self.settings.diff_step if unit[k] + self.settings.diff_step <= 1.0 \
+                else -self.settings.diff_step
+            moved = unit.copy()
+            moved[k] += step
+            columns.append((self.residuals(moved) - base) / step)
+        return np.stack(columns, axis=1)
+
+
+def identify(logs: Sequence[HardwareLog], structure: Structure, config: ControllerConfig,
+             names: Sequence[str], *, bounds: Mapping[str, tuple[float, float]] | None = None,
+             start: Mapping[str, float] | None = None, sensor: SensorModel | None = None,
+             world: WorldOptions | None = None, settings: SysidSettings | None = None,
+             progress: Callable[[float, float], None] | None = None) -> SysidResult:
+    """Fits the named parameters to one or more logs.
+
+    Args:
+        logs: hardware logs with tensions in N (convert ADC first).
+        structure: the nominal robot.
+        config: impedance laws (and the gait for logs without V*).
+        names: parameters to fit (:data:`~tensim.hardware.parameters.DEFINITIONS`).
+        bounds: name -> (low, high), replacing the defaults.
+        start: name -> starting value (default: nominal; ``delay`` starts at the
+            cross-correlation estimate).
+        sensor: the fixed part of the measurement model (e.g. a known offset).
+        world: world options.
+        settings: budgets and steps.
+        progress: called as progress(simulations_done, budget).
+
+    Raises:
+        KeyError: an unknown parameter name.
+        ValueError: bad bounds or start, or no logs.
+    """
+    if not logs:
+        raise ValueError("system identification needs at least one log")
+    settings = settings or SysidSettings()
+    start = dict(start or {})
+    nominal = SysidSpace.build(structure, names, bounds=bounds)
+    problem = _Problem(nominal, logs, config, sensor or SensorModel(), world, settings, progress)
+    before = _nominal_comparisons(problem, nominal)
+    problem.offsets = [c.offset_s for c in before]
+    if "delay" in names and "delay" not in start:
+        delay = nominal.parameters[list(names).index("delay")].bounds
+        start["delay"] = float(np.clip(np.median(problem.offsets), delay.low, delay.high))
+    space = SysidSpace.build(structure, names, bounds=bounds, start=start)
+    problem.space = space
+    physical = int(space.physical.sum())
+    fit = optimize.least_squares(
+        problem.residuals, space.to_unit(space.start), jac=problem.jacobian, bounds=(0.0, 1.0),
+        method="trf", x_scale=1.0, max_nfev=max(3, settings.max_simulations // (physical + 1)))
+    fitted = space.snap(space.from_unit(fit.x))  # the values the last runs simulated
+    named = space.as_dict(fitted)
+    return SysidResult(space, fitted, _stderr(fit, space), tuple(before),
+                       tuple(problem.comparisons(fitted)), apply_physical(structure, named),
+                       apply_measurement(problem.sensor, named), named.get("vstar_scale", 1.0),
+                       problem.simulations, fit)
+
+
+def _nominal_comparisons(problem: _Problem, space: SysidSpace) -> list[Comparison]:
+    """The nominal model against each log, the time offset estimated as ``compare`` does."""
+    runs = problem.simulate(space.nominal(), snap=False)
+    return [compare_tensions(log, run, max_offset=problem.settings.max_offset,
+                             skip=problem.settings.skip)
+            for log, run in zip(problem.logs, runs, strict=True)]
+
+
+def _stderr(fit: optimize.OptimizeResult, space: SysidSpace) -> np.ndarray:
+    """Standard errors: s^2 (J^T J)^-1 with s^2 = RSS / (m - n), mapped back from unit scale."""
+    jac = np.atleast_2d(fit.jac)
+    m, n = jac.shape
+    if m <= n:
+        return np.full(n, np.inf)
+    s2 = 2.0 * fit.cost / (m - n)
+    hessian = jac.T @ jac
+    try:
+        covariance = s2 * np.linalg.inv(hessian)
+    except np.linalg.LinAlgError:
+        return np.full(n, np.inf)
+    variance = np.diag(covariance)
+    return np.where(variance >= 0, np.sqrt(np.abs(variance)), np.inf) * (space.high - space.low)

@@ -1,0 +1,66 @@
+"""Writes a compiled model as MJCF, so other MuJoCo tools (viewers, MJX, other simulators' MJCF
+importers) can open it.
+
+The XML holds everything MuJoCo itself knows: bodies, inertias, rod and mass geoms, contact
+settings, the cables' spatial tendons (with their via sites) and the tendon actuators through
+which tensim applies each cable's tension. It cannot hold the cable law and the motors, which
+tensim runs in its own callback. With ``springs=True`` (the default) each tendon gets MuJoCo's
+own spring as a stand-in: stiffness k, damping b and a dead band [0, rest length], so that,
+like the cable, it pulls only while stretched past its rest length, with k (x - l) + b dx/dt.
+Two differences remain: MuJoCo damps a slack tendon too (the cable law does not), and the rest
+lengths stay fixed (no motors, no controller). MuJoCo writes numbers with 6 significant digits.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import mujoco
+
+from tensim._files import write_text
+from tensim.model import CompiledModel, compile_structure
+
+_COMMENT = ("Written by tensim from structure {name!r}. Each cable is a spatial tendon plus a "
+            "tendon actuator (ctrl = -tension [N]); tensim computes the tension in a callback. "
+            "{springs}")
+_SPRINGS = ("The tendon springs (stiffness, damping, springlength dead band [0, rest length]) "
+            "stand in for the tension-only cable law, with the build-time rest lengths.")
+_NO_SPRINGS = "Without tensim the tendons are slack unless their actuators are driven."
+
+
+def mjcf_spec(compiled: CompiledModel, *, springs: bool = True) -> mujoco.MjSpec:
+    """A copy of the model's ``MjSpec``, with tendon springs standing in for the cables.
+
+    Args:
+        compiled: the compiled model.
+        springs: give each cable's tendon MuJoCo's spring-damper (see the module docstring).
+    """
+    source = compiled.spec or compile_structure(compiled.structure, compiled.world).spec
+    assert source is not None
+    spec = source.copy()
+    spec.comment = _COMMENT.format(name=compiled.structure.name,
+                                   springs=_SPRINGS if springs else _NO_SPRINGS)
+    if springs:
+        for name, k, b, rest in zip(compiled.index.cables, compiled.stiffness,
+                                    compiled.damping, compiled.rest_length, strict=True):
+            tendon = spec.tendon(name)
+            tendon.stiffness = [float(k), 0.0, 0.0]
+            tendon.damping = [float(b), 0.0, 0.0]
+            tendon.springlength = [0.0, float(rest)]  # dead band: no force below the rest length
+    return spec
+
+
+def to_mjcf(compiled: CompiledModel, *, springs: bool = True) -> str:
+    """The model as an MJCF document (see :func:`mjcf_spec`)."""
+    spec = mjcf_spec(compiled, springs=springs)
+    spec.compile()  # the XML writer needs a compiled spec
+    return spec.to_xml()
+
+
+def save_mjcf(compiled: CompiledModel, path: str | os.PathLike[str], *,
+              springs: bool = True) -> Path:
+    """Writes the model as an MJCF file, atomically; returns the path."""
+    path = Path(path)
+    write_text(path, to_mjcf(compiled, springs=springs))
+    return path

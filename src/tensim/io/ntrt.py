@@ -1,0 +1,272 @@
+"""Imports the original toolkit's (NTRTsim's) YAML structure files as tensim structures.
+
+The toolkit's files carry no units: its models use kilograms and seconds with metres,
+decimetres or centimetres (the gravity the application set tells which: 9.81, 98.1 or
+981). With ``s`` metres per file unit, positions, radii, lengths and speeds scale by ``s``,
+forces (pretension, max_tension, in kg x unit/s^2) by ``s``, densities (kg/unit^3) by
+``1/s^3``; stiffness (kg/s^2 = N/m) and damping (kg/s = N s/m) keep their numbers. Its frame
+is Y-up; tensim's is Z-up, so (x, y, z) becomes (x, -z, y) (a quarter turn about x).
+
+Pairs are built as the toolkit builds them: the most recently declared builder whose tags the
+pair carries wins, rod builders before cable builders; a substructure's name counts as a tag
+of its own pairs. Rods that share a node form one rigid body, and nodes that coincide are
+merged (the toolkit compounds rods that touch). What tensim cannot represent is approximated
+and listed in :attr:`NtrtImport.notes`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tensim.io._ntrt_tree import Builder, Pair, Part, read_tree
+from tensim.structure import Cable, Motor, Node, Rod, Structure, StructureError
+
+UNITS = {"m": 1.0, "dm": 0.1, "cm": 0.01, "mm": 0.001}  # metres per file unit
+_FRAMES = {"y": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]),
+           "z": np.eye(3)}
+_MERGE_TOL = 1e-9  # m: nodes closer than this are one node
+
+# builder class -> parameter defaults (TensegrityModel.h), in file units
+_ROD = {"radius": 0.5, "density": 1.0, "friction": 1.0, "roll_friction": 0.0,
+        "restitution": 0.2}
+_BOX = {"width": 1.0, "height": 1.0, "density": 1.0, "friction": 1.0, "roll_friction": 0.0,
+        "restitution": 0.2}
+_CABLE = {"stiffness": 1000.0, "damping": 10.0, "pretension": 0.0, "history": 0.0,
+          "max_tension": 1000.0, "target_velocity": 100.0, "min_actual_length": 0.1,
+          "min_rest_length": 0.1, "rotation": 0.0}
+_BASIC = {**_CABLE, "moveCablePointAToEdge": True, "moveCablePointBToEdge": True}
+_KINEMATIC = {**_CABLE, "radius": 1.0, "motor_friction": 0.0, "motor_inertia": 1.0,
+              "back_drivable": 0.0}
+_CLASSES = {"tgRodInfo": _ROD, "tgBoxInfo": _BOX, "tgBasicActuatorInfo": _BASIC,
+            "tgBasicContactCableInfo": _BASIC, "tgKinematicActuatorInfo": _KINEMATIC,
+            "tgKinematicContactCableInfo": _KINEMATIC}
+_RIGID = ("tgRodInfo", "tgBoxInfo")
+
+
+@dataclasses.dataclass(frozen=True)
+class NtrtImport:
+    """An imported model.
+
+    Attributes:
+        structure: the tensim structure (SI units, Z up).
+        notes: what was approximated or left out, one line each.
+        files: the files read (the top file, then its substructures').
+    """
+
+    structure: Structure
+    notes: tuple[str, ...]
+    files: tuple[str, ...]
+
+
+def import_ntrt(path: str | os.PathLike[str], units: str, *, up: str = "y",
+                clearance: float | None = None, name: str | None = None) -> NtrtImport:
+    """Reads an NTRTsim YAML structure file (and its substructure files).
+
+    Args:
+        path: the top file.
+        units: the file's length unit: ``"m"``, ``"dm"``, ``"cm"`` or ``"mm"``.
+        up: the file's up axis, ``"y"`` (the toolkit's) or ``"z"``.
+        clearance: if given, lift or lower the model so its lowest rod surface is this far
+            above the ground [m]; None keeps the file's positions.
+        name: the structure's name (default: the file's stem).
+
+    Raises:
+        StructureError: naming the file, the entry and what was expected.
+        ValueError: an unknown unit or up axis.
+    """
+    if units not in UNITS:
+        raise ValueError(f"unknown units {units!r}; expected one of {list(UNITS)}")
+    if up not in _FRAMES:
+        raise ValueError(f"unknown up axis {up!r}; expected 'y' or 'z'")
+    path = Path(path)
+    tree = read_tree(path)
+    converter = _Converter(UNITS[units], _FRAMES[up], str(path))
+    for builder in tree.builders:
+        converter.check(builder)
+    structure = converter.build(tree.top, tree.pairs, tree.builders, name or path.stem, clearance)
+    return NtrtImport(structure, tuple(converter.notes), tuple(str(f) for f in tree.files))
+
+
+def _matching(pair: Pair, builders: list[Builder]) -> Builder | None:
+    """The toolkit's choice: the latest rod builder whose tags the pair has, else cable."""
+    tags = set(pair.tags) | ({pair.owner.name} if pair.owner.name else set())
+    for rigid in (True, False):
+        for builder in reversed(builders):
+            if (builder.cls in _RIGID) == rigid and set(builder.tags) <= tags:
+                return builder
+    return None
+
+
+class _Converter:
+    """Turns the file tree into tensim records, in SI units and tensim's frame."""
+
+    def __init__(self, scale: float, frame: np.ndarray, source: str):
+        self.scale, self.frame, self.source = scale, frame, source
+        self.notes: list[str] = []
+
+    def _note(self, line: str) -> None:
+        if line not in self.notes:
+            self.notes.append(line)
+
+    def check(self, builder: Builder) -> None:
+        """Refuses unknown classes and parameters, as the toolkit does."""
+        item = f"builders {' '.join(builder.tags)!r}"
+        if builder.cls not in _CLASSES:
+            raise StructureError(f"unsupported builder class {builder.cls!r}; supported: "
+                                 f"{list(_CLASSES)}", item=item, source=builder.source)
+        known = _CLASSES[builder.cls]
+        for key, value in builder.parameters.items():
+            if key not in known:
+                raise StructureError(f"unsupported {builder.cls} parameter {key!r}; expected "
+                                     f"one of {list(known)}", item=item, source=builder.source)
+            if not isinstance(value, int | float):
+                raise StructureError(f"parameter {key!r} must be a number, got {value!r}",
+                                     item=item, source=builder.source)
+
+    def _params(self, builder: Builder) -> dict[str, Any]:
+        """The builder's parameters over the toolkit's defaults (file units)."""
+        return {**_CLASSES[builder.cls], **builder.parameters}
+
+    def build(self, top: Part, pairs: list[Pair], builders: list[Builder], name: str,
+              clearance: float | None) -> Structure:
+        """The structure: merged nodes, built pairs, placed above the ground if asked."""
+        position, canonical = self._nodes(top)
+        rods, cables = self._members(pairs, builders, canonical)
+        on_rods = {n for r in rods for n in r.nodes}
+        for cable in cables:
+            for end in cable.nodes:
+                if end not in on_rods:
+                    raise StructureError(f"node {end!r} ends a cable but no rod: the toolkit "
+                                         "attaches cables to rigid bodies only",
+                                         item=f"cable {cable.name!r}", source=self.source)
+        if clearance is not None:
+            lowest = min(min(position[n][2] for n in r.nodes) - r.radius for r in rods)
+            lift = np.array([0.0, 0.0, clearance - lowest])
+            position = {n: p + lift for n, p in position.items()}
+        used = on_rods | {n for c in cables for n in c.nodes}
+        if len(used) < len(position):
+            self._note(f"{len(position) - len(used)} node(s) on no rod or cable were left out")
+        nodes = tuple(Node(n, tuple(p), tags=_node_tags(n)) for n, p in position.items()
+                      if n in used)
+        try:
+            return Structure(name, nodes, tuple(rods), tuple(cables))
+        except StructureError as err:
+            raise err.with_source(self.source) from None
+
+    def _members(self, pairs: list[Pair], builders: list[Builder], canonical: dict[str, str]
+                 ) -> tuple[list[Rod], list[Cable]]:
+        """Rods and cables from the pairs, each built by the builder the toolkit would pick."""
+        rods: list[Rod] = []
+        wires: list[tuple[Pair, Builder, tuple[str, str]]] = []
+        counts: dict[str, int] = {}
+        unbuilt = []
+        for pair in pairs:
+            ends = (canonical[_full(*pair.ends[0])], canonical[_full(*pair.ends[1])])
+            if ends[0] == ends[1]:
+                raise StructureError("its two nodes coincide", item=pair.label,
+                                     source=str(pair.owner.source))
+            builder = _matching(pair, builders)
+            if builder is None:
+                unbuilt.append(" ".join(pair.tags))
+            elif builder.cls in _RIGID:
+                rods.append(self._rod(_unique_name(pair, counts), ends, pair, builder))
+            else:
+                wires.append((pair, builder, ends))
+        if unbuilt:
+            self._note(f"{len(unbuilt)} pair(s) match no builder and were left out (tags: "
+                       f"{sorted(set(unbuilt))})")
+        if not rods:
+            raise StructureError("no pair is built as a rod; expected a tgRodInfo builder "
+                                 "matching some pair_groups tags", source=self.source)
+        return rods, [self._cable(_unique_name(p, counts), ends, p, b, rods)
+                      for p, b, ends in wires]
+
+    def _nodes(self, top: Part) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+        """SI positions of the distinct nodes, and every node's name -> its merged name."""
+        position: dict[str, np.ndarray] = {}
+        canonical: dict[str, str] = {}
+        for part in top.walk():
+            for node, p in part.nodes.items():
+                full, si = _full(part, node), self.frame @ (p * self.scale)
+                same = next((n for n, q in position.items()
+                             if np.linalg.norm(q - si) < _MERGE_TOL), None)
+                if same is None:
+                    position[full] = si
+                canonical[full] = same or full
+        merged = len(canonical) - len(position)
+        if merged:
+            self._note(f"{merged} node(s) coincide with another and were merged into it")
+        return position, canonical
+
+    def _rod(self, name: str, ends: tuple[str, str], pair: Pair, builder: Builder) -> Rod:
+        """A rod (or a box as a rod) in SI: radius x s, density / s^3."""
+        p, s = self._params(builder), self.scale
+        if p["roll_friction"]:
+            self._note("roll_friction is ignored (no rolling friction on rods)")
+        radius = p.get("radius", 0.0) * s
+        if builder.cls == "tgBoxInfo":
+            self._note("boxes are approximated as rods of the same cross-section area "
+                       "(same mass) and round section")
+            radius = float(np.sqrt(p["width"] * p["height"] / np.pi)) * s
+        try:
+            return Rod(name, ends, radius, density=p["density"] / s**3,
+                       friction=p["friction"], restitution=p["restitution"],
+                       tags=_record_tags(pair))
+        except StructureError as err:
+            raise StructureError(err.detail, item=f"{err.item} ({pair.label})",
+                                 source=str(pair.owner.source)) from None
+
+    def _cable(self, name: str, ends: tuple[str, str], pair: Pair, builder: Builder,
+               rods: list[Rod]) -> Cable:
+        """A cable in SI: forces, lengths and speeds x s; stiffness and damping as they are."""
+        p, s = self._params(builder), self.scale
+        if p["rotation"]:
+            self._note("the cable anchor 'rotation' parameter is ignored")
+        if "Contact" in builder.cls:
+            self._note("contact cables become plain cables (no cable-rod contact)")
+        if builder.cls.startswith("tgKinematic"):
+            self._note("kinematic actuators' motor dynamics (radius, friction, inertia, back "
+                       "drive) are not modelled: the motor is a rate-limited rest length")
+        # the toolkit moves each anchor onto the rod's surface; here both sit that far along
+        # the cable (one offset per cable: the thinner end's radius)
+        radii = [r.radius for r in rods if set(r.nodes) & set(ends)]
+        to_edge = p.get("moveCablePointAToEdge", True) and p.get("moveCablePointBToEdge", True)
+        if p.get("moveCablePointAToEdge", True) != p.get("moveCablePointBToEdge", True):
+            self._note("cables moved to the rod surface at one end only sit on the node at both")
+        motor = Motor(max_speed=p["target_velocity"] * s, max_tension=p["max_tension"] * s,
+                      min_rest_length=p["min_rest_length"] * s,
+                      min_length=p["min_actual_length"] * s)
+        try:
+            return Cable(name, ends, p["stiffness"], damping=p["damping"],
+                         pretension=p["pretension"] * s,
+                         anchor_offset=min(radii) if to_edge and radii else 0.0,
+                         motor=motor, tags=_record_tags(pair))
+        except StructureError as err:
+            raise StructureError(err.detail, item=f"{err.item} ({pair.label})",
+                                 source=str(pair.owner.source)) from None
+
+
+def _full(part: Part, node: str) -> str:
+    """A node's tensim name: its substructure path and its name, e.g. ``t1/front``."""
+    return f"{part.prefix}{node}"
+
+
+def _node_tags(name: str) -> tuple[str, ...]:
+    return (name.rsplit("/", 1)[0],) if "/" in name else ()
+
+
+def _record_tags(pair: Pair) -> tuple[str, ...]:
+    where = (pair.owner.prefix.rstrip("/"),) if pair.owner.prefix else ()
+    return tuple(dict.fromkeys((*pair.tags, *where)))
+
+
+def _unique_name(pair: Pair, counts: dict[str, int]) -> str:
+    """``<substructure path>/<first tag>_<k>``, k counting the pairs with that stem."""
+    stem = pair.owner.prefix + "_".join(pair.tags[:1] or ("pair",))
+    counts[stem] = counts.get(stem, -1) + 1
+    return f"{stem}_{counts[stem]}"

@@ -1,0 +1,257 @@
+"""Where trials run: in this process, in a local process pool, or on a Ray cluster.
+
+An executor is bound to one problem and turns tasks ``(index, unit point)`` into
+:class:`~tensim.learn.problem.Evaluation` s, yielded as they finish (in any order; the driver
+restores ask order). A trial that raises is already a failed evaluation
+(:func:`~tensim.learn.problem.evaluate_task`); an executor only has to survive workers that
+die. The process pool then restarts and tries the interrupted trials again one at a time, so
+the trial that kills its worker is found and given up on after ``max_attempts`` tries while the
+others finish normally; Ray retries a task whose worker died by itself.
+"""
+
+from __future__ import annotations
+
+import collections
+import concurrent.futures as cf
+import logging
+import multiprocessing
+import os
+from collections.abc import Iterator, Sequence
+from typing import Any, Protocol
+
+import numpy as np
+
+from tensim.learn.problem import Evaluation, Problem, evaluate_task, lost_evaluation
+
+log = logging.getLogger(__name__)
+Task = tuple[int, np.ndarray]
+
+# the problem of a pool worker process, set once by the pool's initializer
+_WORKER_PROBLEM: list[Problem] = []
+
+
+class Executor(Protocol):
+    """Runs trials of one problem."""
+
+    workers: int
+    backend: str
+
+    def run(self, tasks: Sequence[Task]) -> Iterator[Evaluation]:
+        """Evaluates every task, yielding each evaluation as it finishes."""
+
+    def close(self) -> None:
+        """Releases the workers."""
+
+
+class InlineExecutor:
+    """Runs trials one after another in this process (debugging, tiny problems)."""
+
+    backend = "inline"
+    workers = 1
+
+    def __init__(self, problem: Problem):
+        self.problem = problem
+
+    def run(self, tasks: Sequence[Task]) -> Iterator[Evaluation]:
+        """Evaluates the tasks in order."""
+        for index, unit in tasks:
+            yield evaluate_task(self.problem, index, unit)
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+    def __enter__(self) -> InlineExecutor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _init_worker(problem: Problem) -> None:
+    _WORKER_PROBLEM[:] = [problem]
+
+
+def _warm_worker(_: int) -> int:
+    compiled = getattr(_WORKER_PROBLEM[0], "compiled", None)
+    if compiled is not None:
+        compiled()  # compile the robot now rather than in the first trial
+    return os.getpid()
+
+
+def _pool_task(index: int, unit: np.ndarray) -> Evaluation:
+    return evaluate_task(_WORKER_PROBLEM[0], index, unit)
+
+
+def _context() -> multiprocessing.context.BaseContext:
+    """Fresh worker processes that inherit no state: forked from a server process that has
+    imported tensim once (``forkserver``), or started from scratch (``spawn``) where there is
+    no fork."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(["tensim.learn.problem"])
+    return context
+
+
+class ProcessPoolExecutor:
+    """A pool of worker processes on this machine, which inherit no state from this one.
+
+    Each worker receives the problem once, at start, and compiles the robot once.
+
+    Args:
+        problem: the problem every task belongs to.
+        workers: number of worker processes.
+        max_attempts: tries of a trial whose worker process died before it is recorded as lost.
+    """
+
+    backend = "process-pool"
+
+    def __init__(self, problem: Problem, workers: int, max_attempts: int = 3):
+        if workers < 1:
+            raise ValueError(f"workers must be >= 1, got {workers}")
+        self.problem, self.workers, self.max_attempts = problem, workers, max_attempts
+        self._pool = self._new_pool()
+
+    def _new_pool(self) -> cf.ProcessPoolExecutor:
+        return cf.ProcessPoolExecutor(self.workers, _context(), initializer=_init_worker,
+                                      initargs=(self.problem,))
+
+    def warm_up(self) -> None:
+        """Starts every worker and compiles the robot in each (before timing anything)."""
+        list(self._pool.map(_warm_worker, range(self.workers)))
+
+    def run(self, tasks: Sequence[Task]) -> Iterator[Evaluation]:
+        """Evaluates the tasks in parallel; trials cut short by a dying worker are tried again."""
+        queue: collections.deque[tuple[int, np.ndarray, int]] = collections.deque(
+            (i, u, 0) for i, u in tasks)
+        suspects: collections.deque[tuple[int, np.ndarray, int]] = collections.deque()
+        running: dict[cf.Future[Evaluation], tuple[int, np.ndarray, int]] = {}
+        while queue or suspects or running:
+            if suspects and not running:  # after a crash: one at a time finds the culprit
+                index, unit, tries = suspects.popleft()
+                running[self._pool.submit(_pool_task, index, unit)] = (index, unit, tries)
+            while queue and not suspects and len(running) < 2 * self.workers:
+                index, unit, tries = queue.popleft()
+                running[self._pool.submit(_pool_task, index, unit)] = (index, unit, tries)
+            finished, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+            broken = False
+            while finished:
+                for future in finished:
+                    task = running.pop(future)
+                    try:
+                        yield future.result()
+                    except cf.process.BrokenProcessPool:
+                        broken = True
+                        yield from self._retry(task, suspects)
+                # a broken pool fails every other running trial at once: collect them too
+                finished = cf.wait(running)[0] if broken else set()
+            if broken:
+                self._pool.shutdown(wait=True, cancel_futures=True)
+                self._pool = self._new_pool()
+
+    def _retry(self, task: tuple[int, np.ndarray, int], suspects: collections.deque
+               ) -> Iterator[Evaluation]:
+        index, unit, tries = task
+        if tries + 1 >= self.max_attempts:
+            reason = f"lost: its worker process died in each of {self.max_attempts} tries"
+            log.warning("evaluation %d %s", index, reason)
+            yield lost_evaluation(self.problem, index, unit, reason)
+        else:
+            log.info("evaluation %d: worker process died, trying again", index)
+            suspects.append((index, unit, tries + 1))
+
+    def close(self) -> None:
+        """Stops the workers (after their current trial)."""
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def __enter__(self) -> ProcessPoolExecutor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _ray_task(problem: Problem, index: int, unit: np.ndarray) -> Evaluation:
+    return evaluate_task(problem, index, unit)
+
+
+class RayExecutor:
+    """Trials as Ray tasks, on a running cluster (``address``) or a local Ray started here.
+
+    The problem goes into Ray's object store once; Ray reuses worker processes, so each
+    compiles the robot once. A task whose worker dies is retried by Ray up to
+    ``max_attempts`` − 1 times, then recorded as lost.
+
+    Args:
+        problem: the problem every task belongs to.
+        address: address of a running Ray cluster (``ray://host:10001`` or ``host:6379``);
+            None starts a local Ray with ``workers`` CPUs unless one is already running.
+        workers: CPUs of a local Ray this starts.
+        max_attempts: tries of a task whose worker died.
+    """
+
+    backend = "ray"
+
+    def __init__(self, problem: Problem, address: str | None = None, workers: int = 1,
+                 max_attempts: int = 3):
+        import ray
+
+        self.problem, self.max_attempts = problem, max_attempts
+        self._started = False
+        if not ray.is_initialized():
+            if address:
+                ray.init(address=address, log_to_driver=False)
+            else:
+                ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+            self._started = True
+        self.workers = int(ray.cluster_resources().get("CPU", workers))
+        self._remote = ray.remote(_ray_task).options(max_retries=max_attempts - 1,
+                                                     retry_exceptions=False)
+        self._problem_ref = ray.put(problem)
+
+    def run(self, tasks: Sequence[Task]) -> Iterator[Evaluation]:
+        """Submits every task; yields each evaluation as its task finishes."""
+        import ray
+
+        pending: dict[Any, Task] = {self._remote.remote(self._problem_ref, i, u): (i, u)
+                                    for i, u in tasks}
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            for ref in done:
+                index, unit = pending.pop(ref)
+                try:
+                    yield ray.get(ref)
+                except ray.exceptions.RayError as err:
+                    reason = f"lost: {type(err).__name__} after {self.max_attempts} tries"
+                    log.warning("evaluation %d %s", index, reason)
+                    yield lost_evaluation(self.problem, index, unit, reason)
+
+    def close(self) -> None:
+        """Shuts down a local Ray this executor started."""
+        import ray
+
+        if self._started and ray.is_initialized():
+            ray.shutdown()
+
+    def __enter__(self) -> RayExecutor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def make_executor(problem: Problem, workers: int, *, ray: bool = False,
+                  ray_address: str | None = None) -> Executor:
+    """The executor for the command line's choice.
+
+    Args:
+        problem: the problem.
+        workers: worker processes (0: run trials in this process).
+        ray: run on Ray (a local one unless ``ray_address`` is given).
+        ray_address: address of a running Ray cluster (implies ``ray``).
+    """
+    if ray or ray_address:
+        return RayExecutor(problem, ray_address, max(1, workers))
+    if workers == 0:
+        return InlineExecutor(problem)
+    return ProcessPoolExecutor(problem, workers)

@@ -1,0 +1,83 @@
+"""Controller families a gait is learned for, and the base controllers they start from.
+
+A family names a :class:`~tensim.control.parameters.ParameterLayout`: ``cpg`` the spine CPG
+of :mod:`tensim.control.spine` (116 parameters for Tetraspine3), ``sine`` per-cable sine waves
+with a shared frequency, ``sine-pattern`` the paper's four-number Tetraspine sine pattern. The
+base controller file gives the impedance laws, the command period and, where its gait is of
+the family, the layout's bounds and the starting point.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tensim.control import (
+    ControllerConfig,
+    ParameterLayout,
+    SineGait,
+    SpineCPG,
+    load_controller,
+    spine_parameters,
+)
+from tensim.control.sine_parameters import sine_parameters, tetraspine_sine_parameters
+from tensim.structure import Structure
+
+FAMILIES = ("cpg", "sine", "sine-pattern")
+# shipped controller files used as the base for the Tetraspine3 preset
+SHIPPED_BASE = {"cpg": "tetraspine3_cpg", "sine": "tetraspine3_sine",
+                "sine-pattern": "tetraspine3_sine"}
+
+
+def check_family(family: str) -> str:
+    """``family`` if known.
+
+    Raises:
+        ValueError: naming the known families.
+    """
+    if family not in FAMILIES:
+        raise ValueError(f"unknown controller family {family!r}; expected one of "
+                         f"{list(FAMILIES)}")
+    return family
+
+
+def gait_layout(family: str, structure: Structure, base: ControllerConfig
+                ) -> tuple[ParameterLayout, np.ndarray]:
+    """The family's parameter layout for ``structure`` and the starting values.
+
+    A base gait of the same family supplies the layout (its bounds and cables) and the
+    starting values; otherwise the family's defaults over the cables under impedance control.
+
+    Raises:
+        ValueError: an unknown family, or a structure the family does not fit.
+    """
+    cables = [c.name for c in structure.cables if c.name in base.impedance.gains]
+    gait = base.gait
+    if check_family(family) == "cpg":
+        if isinstance(gait, SpineCPG):
+            return gait.layout, np.asarray(gait.values)
+        layout = spine_parameters(structure, cables)
+        return layout, layout.nominal
+    if family == "sine":
+        start = gait if isinstance(gait, SineGait) and len(set(gait.frequency)) == 1 else None
+        layout = sine_parameters(structure, None if start else cables, start=start)
+        return layout, layout.nominal
+    pattern = tetraspine_sine_parameters(structure)
+    return pattern, pattern.nominal
+
+
+def default_base(model: str, family: str, structure: Structure) -> ControllerConfig:
+    """The base controller when none is given: a shipped file for Tetraspine3, else the
+    preset's own impedance laws.
+
+    Raises:
+        ValueError: the model has no impedance controller to start from.
+    """
+    from tensim.control import resolve_controller
+
+    if model == "tetraspine3":
+        return load_controller(SHIPPED_BASE[check_family(family)], structure)
+    config = resolve_controller(model, structure, None)
+    if config is None:
+        raise ValueError(f"model {model!r} has no impedance controller to learn a gait on; "
+                         "give --base-controller FILE with its impedance laws")
+    return config

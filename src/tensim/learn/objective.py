@@ -1,0 +1,166 @@
+"""What a trial is scored on: distance travelled in the ground plane, minus motor work.
+
+The score of a recorded trial is the displacement of a chosen segment's centre of mass (or the
+whole robot's, ``"com"``) in the ground plane from ``settle_s`` to the end: its length, or its
+component along a direction, or the size of that component either way (sideways to the left
+or right); optionally minus ``energy_weight`` times the motor work. A trial in which any rigid
+body's up axis tilts past ``max_tilt_deg`` has flipped over: it gets the problem's penalty.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from tensim.sim import COM, TimeSeries
+
+# named directions in the ground plane: (angle from +x toward +y [deg], either way)
+DIRECTIONS: dict[str, tuple[float | None, bool]] = {
+    "any": (None, False),
+    "forward": (0.0, False),
+    "left": (90.0, False),
+    "backward": (180.0, False),
+    "right": (270.0, False),
+    "sideways": (90.0, True),
+}
+
+
+def parse_direction(text: str) -> tuple[float | None, bool]:
+    """``(direction_deg, either_way)`` for a name of :data:`DIRECTIONS` or an angle in degrees.
+
+    Raises:
+        ValueError: neither a known name nor a number.
+    """
+    if text in DIRECTIONS:
+        return DIRECTIONS[text]
+    try:
+        angle = float(text)
+    except ValueError:
+        raise ValueError(f"direction {text!r}: expected one of {list(DIRECTIONS)} or an angle "
+                         "in degrees from +x toward +y") from None
+    if not math.isfinite(angle):
+        raise ValueError(f"direction must be a finite angle in degrees, got {text!r}")
+    return angle, False
+
+
+@dataclasses.dataclass(frozen=True)
+class Objective:
+    """How a trial is scored (higher is better).
+
+    Attributes:
+        segment: rigid body whose centre of mass is tracked, or ``"com"`` for the whole robot.
+        direction_deg: direction in the ground plane [deg from +x toward +y]; None scores the
+            planar distance whatever its direction.
+        either_way: score the size of the component along ``direction_deg`` (e.g. sideways,
+            to the left or to the right).
+        energy_weight: score penalty per joule of motor work [m/J].
+        settle_s: time left for the robot to settle before the displacement counts [s].
+        max_tilt_deg: a body whose up axis tilts further than this from vertical has flipped
+            [deg]; 180 turns the check off (rolling robots).
+    """
+
+    segment: str = COM
+    direction_deg: float | None = None
+    either_way: bool = False
+    energy_weight: float = 0.0
+    settle_s: float = 0.0
+    max_tilt_deg: float = 90.0
+
+    def __post_init__(self) -> None:
+        if self.direction_deg is not None and not math.isfinite(self.direction_deg):
+            raise ValueError(f"direction_deg must be finite, got {self.direction_deg}")
+        if self.either_way and self.direction_deg is None:
+            raise ValueError("either_way needs a direction_deg")
+        if not (math.isfinite(self.energy_weight) and self.energy_weight >= 0):
+            raise ValueError(f"energy_weight must be >= 0 m/J, got {self.energy_weight}")
+        if not (math.isfinite(self.settle_s) and self.settle_s >= 0):
+            raise ValueError(f"settle_s must be >= 0 s, got {self.settle_s}")
+        if not 0 < self.max_tilt_deg <= 180:
+            raise ValueError(f"max_tilt_deg must be in (0, 180], got {self.max_tilt_deg}")
+
+    def describe(self) -> str:
+        """One line, e.g. ``displacement of com along 90 deg, either way``."""
+        what = f"displacement of {self.segment}"
+        if self.direction_deg is None:
+            text = f"planar {what}"
+        else:
+            text = f"{what} along {self.direction_deg:g} deg" + (
+                ", either way" if self.either_way else "")
+        if self.energy_weight:
+            text += f" minus {self.energy_weight:g} m/J x motor work"
+        return text
+
+    def score(self, trajectory: TimeSeries, bodies: tuple[str, ...]
+              ) -> tuple[float, dict[str, float], str | None]:
+        """The trial's score, its parts, and why it is void (flipped over) or None.
+
+        Args:
+            trajectory: the recorded trial (pose and cable channels).
+            bodies: the rigid bodies checked for flipping over.
+
+        Returns:
+            (score, metrics, reason): metrics ``dx_m``, ``dy_m`` (displacement [m]),
+            ``distance_m`` (the scored distance [m]), ``work_J`` (motor work [J]),
+            ``max_tilt_deg``.
+        """
+        start = int(np.searchsorted(trajectory.time, self.settle_s - 1e-9))
+        if start >= trajectory.time.size - 1:
+            raise ValueError(f"settle_s = {self.settle_s} s leaves no time to score in a "
+                             f"{trajectory.time[-1]:g} s trial")
+        dx, dy = planar_displacement(trajectory, self.segment, start)
+        distance = self.distance(dx, dy)
+        work = motor_work(trajectory, start)
+        tilt, body, when = max_tilt(trajectory, bodies)
+        metrics = {"dx_m": dx, "dy_m": dy, "distance_m": distance, "work_J": work,
+                   "max_tilt_deg": tilt}
+        reason = None
+        if tilt > self.max_tilt_deg:
+            reason = (f"flipped over: {body!r} tilted {tilt:.0f} deg from upright at "
+                      f"t = {when:.2f} s (limit {self.max_tilt_deg:g} deg)")
+        return distance - self.energy_weight * work, metrics, reason
+
+    def distance(self, dx: float, dy: float) -> float:
+        """The scored distance for a planar displacement (dx, dy) [m]."""
+        if self.direction_deg is None:
+            return math.hypot(dx, dy)
+        angle = math.radians(self.direction_deg)
+        # rounded so that the axes are exact (cos 90 deg = 0, not 6e-17)
+        along = dx * round(math.cos(angle), 15) + dy * round(math.sin(angle), 15)
+        return abs(along) if self.either_way else along
+
+
+def planar_displacement(trajectory: TimeSeries, item: str, start: int = 0
+                        ) -> tuple[float, float]:
+    """(dx, dy) of ``item``'s centre of mass from sample ``start`` to the last one [m]."""
+    x, y = trajectory[f"pos_x/{item}"], trajectory[f"pos_y/{item}"]
+    return float(x[-1] - x[start]), float(y[-1] - y[start])
+
+
+def motor_work(trajectory: TimeSeries, start: int = 0) -> float:
+    """Work the motors do on the cables from sample ``start`` on [J].
+
+    Sum over cables and samples of tension × |change of rest length| (trapezoidal tension): a
+    motor spends energy both reeling in against the tension and paying out under it.
+    """
+    tension = trajectory.matrix("tension")[start:]
+    rest = trajectory.matrix("rest_length")[start:]
+    if tension.shape[0] < 2 or tension.shape[1] == 0:
+        return 0.0
+    mean_tension = 0.5 * (tension[1:] + tension[:-1])
+    return float(np.sum(mean_tension * np.abs(np.diff(rest, axis=0))))
+
+
+def max_tilt(trajectory: TimeSeries, bodies: tuple[str, ...]) -> tuple[float, str, float]:
+    """The largest tilt of any body's up axis from vertical: (angle [deg], body, time [s]).
+
+    Body frames start aligned with the world, so a body's up axis is its frame's z axis; its
+    world z component is 1 − 2(q_x² + q_y²) for the unit quaternion (w, x, y, z).
+    """
+    if not bodies:
+        return 0.0, "-", 0.0
+    qx, qy = trajectory.matrix("quat_x", bodies), trajectory.matrix("quat_y", bodies)
+    up_z = np.clip(1.0 - 2.0 * (qx**2 + qy**2), -1.0, 1.0)
+    k, b = np.unravel_index(int(np.argmin(up_z)), up_z.shape)
+    return math.degrees(math.acos(up_z[k, b])), bodies[b], float(trajectory.time[k])

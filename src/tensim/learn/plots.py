@@ -1,0 +1,87 @@
+"""The learning curve: every evaluation's score and the best so far, by evaluation index."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from tensim._files import atomic_path
+from tensim.learn.problem import OK, Evaluation
+
+
+def best_so_far(evaluations: Sequence[Evaluation]) -> np.ndarray:
+    """(n,) the best score among successful evaluations up to each index (NaN before any)."""
+    scores = np.array([e.score if e.status == OK else -np.inf for e in evaluations])
+    best = np.maximum.accumulate(scores) if scores.size else scores
+    return np.where(np.isfinite(best), best, np.nan)
+
+
+def plot_learning_curve(evaluations: Sequence[Evaluation], path: Path, *, title: str = "",
+                        unit: str = "m") -> Path:
+    """Scores of successful trials (dots), failed ones (crosses at the bottom edge) and the
+    best so far (line), against the evaluation index; written atomically as PNG.
+
+    Args:
+        evaluations: in index order.
+        path: the PNG file.
+        title: figure title.
+        unit: unit of the score, for the axis label.
+    """
+    index = np.array([e.index for e in evaluations])
+    ok = np.array([e.status == OK for e in evaluations], dtype=bool)
+    scores = np.array([e.score for e in evaluations])
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    ax.plot(index[ok], scores[ok], ".", color="tab:blue", ms=4, alpha=0.6, label="evaluation")
+    ax.step(index, best_so_far(evaluations), where="post", color="black", lw=1.5,
+            label="best so far")
+    if (~ok).any():
+        low = scores[ok].min() if ok.any() else scores.min()
+        high = scores[ok].max() if ok.any() else scores.max()
+        bottom = low - 0.05 * max(high - low, 1e-9)
+        ax.plot(index[~ok], np.full((~ok).sum(), bottom), "x", color="tab:red", ms=4,
+                label=f"failed ({(~ok).sum()}; score {scores[~ok][0]:g})")
+    ax.set_xlabel("evaluation")
+    ax.set_ylabel(f"score [{unit}]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    with atomic_path(Path(path)) as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+    return Path(path)
+
+
+def plot_best_so_far(runs: dict[str, Sequence[Evaluation]], path: Path, *, title: str = "",
+                     unit: str = "m") -> Path:
+    """Best score so far against the evaluation index for several runs (one line each), to
+    compare optimizers; written atomically as PNG.
+
+    Args:
+        runs: label -> evaluations in index order.
+        path: the PNG file.
+        title: figure title.
+        unit: unit of the score, for the axis label.
+    """
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    for label, evaluations in runs.items():
+        index = np.array([e.index for e in evaluations])
+        ax.step(index + 1, best_so_far(evaluations), where="post", lw=1.5, label=label)
+    ax.set_xlabel("evaluations")
+    ax.set_ylabel(f"best score so far [{unit}]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    with atomic_path(Path(path)) as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+    return Path(path)

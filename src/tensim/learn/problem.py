@@ -1,0 +1,304 @@
+"""Learning problems: a point of the unit cube in, a scored trial out.
+
+:class:`TrialProblem` is the real one: build the robot, put the gait the point describes on
+the base controller's impedance laws, simulate one trial and score it (see
+:mod:`tensim.learn.objective`). A trial whose gait cannot be generated (:class:`GaitError`),
+whose simulation runs away (:class:`SimulationError`) or that flips over gets the problem's
+``penalty`` score and a reason. :class:`SphereProblem` is a cheap analytic stand-in with the
+same interface, for testing optimizers and executors.
+
+Problems travel to worker processes by pickling; each worker compiles a robot once and keeps
+the MuJoCo model for every later trial of the same problem.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import math
+import pickle
+import time
+from collections.abc import Sequence
+from typing import Any, Protocol
+
+import numpy as np
+
+from tensim.control import ControllerConfig, GaitError, ParameterLayout
+from tensim.learn.families import check_family, gait_layout
+from tensim.learn.objective import Objective
+from tensim.model import CompiledModel, WorldOptions, compile_structure
+from tensim.sim import SimulationError, simulate
+from tensim.structure import Structure
+
+# trial status: "ok" is scored; the others get the penalty score
+OK, FLIPPED, UNSTABLE, GAIT, ERROR, LOST = "ok", "flipped", "unstable", "gait", "error", "lost"
+
+
+@dataclasses.dataclass(frozen=True)
+class Outcome:
+    """What one trial gave.
+
+    Attributes:
+        score: higher is better (the penalty for a failed trial).
+        status: ``ok``, ``flipped``, ``unstable``, ``gait``, ``error`` or ``lost``.
+        reason: why a trial failed ("" when ok).
+        metrics: named figures of the trial (e.g. ``distance_m``, ``work_J``).
+    """
+
+    score: float
+    status: str = OK
+    reason: str = ""
+    metrics: dict[str, float] = dataclasses.field(default_factory=dict)
+
+
+class Problem(Protocol):
+    """What an optimizer's executor needs from a problem."""
+
+    penalty: float
+
+    @property
+    def dimension(self) -> int:
+        """Length of a parameter vector."""
+
+    def start(self) -> np.ndarray:
+        """(dimension,) starting point in the unit cube."""
+
+    def values(self, unit: np.ndarray) -> np.ndarray:
+        """The physical parameter values of a unit-cube point."""
+
+    def evaluate(self, unit: np.ndarray) -> Outcome:
+        """Runs and scores one trial."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The problem's resolved configuration, JSON-ready."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SphereProblem:
+    """A shifted sphere in the unit cube, score −Σ(u − centre)² (best 0 at ``centre``).
+
+    A cheap, analytic stand-in for a trial, so optimizers and executors can be checked in
+    milliseconds through the same path as a real problem.
+
+    Attributes:
+        dimension: number of parameters.
+        center: location of the optimum, in every coordinate.
+        penalty: score given to a trial that raises.
+    """
+
+    dimension: int
+    center: float = 0.3
+    penalty: float = -100.0
+
+    def start(self) -> np.ndarray:
+        """The cube's centre."""
+        return np.full(self.dimension, 0.5)
+
+    def values(self, unit: np.ndarray) -> np.ndarray:
+        """The point itself (the unit cube is the parameter space)."""
+        return np.asarray(unit, dtype=float)
+
+    def evaluate(self, unit: np.ndarray) -> Outcome:
+        """Scores a point."""
+        u = np.asarray(unit, dtype=float)
+        return Outcome(-float(np.sum((u - self.center) ** 2)))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The configuration."""
+        return {"kind": "sphere", **dataclasses.asdict(self)}
+
+
+def _jsonable(value: Any) -> Any:
+    """Dataclasses, tuples and arrays as plain JSON values (anything else as its repr)."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple | np.ndarray):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    return repr(value)
+
+
+# compiled models of this process, by TrialProblem.key (compiling costs more than a short trial)
+_COMPILED: dict[str, CompiledModel] = {}
+
+
+@dataclasses.dataclass(frozen=True)
+class TrialProblem:
+    """Learn a gait of a controller family for a robot: one simulated trial per point.
+
+    Attributes:
+        structure: the robot.
+        base: impedance laws and command period the gaits are put on (its gait is replaced).
+        family: ``cpg``, ``sine`` or ``sine-pattern`` (see :mod:`tensim.learn.families`).
+        duration_s: simulated time of one trial [s].
+        objective: how a trial is scored.
+        world: physics step, gravity and ground.
+        record_dt: recording period of a trial [s].
+        penalty: score of a trial that failed (gait error, unstable, flipped, raised); keep it
+            below any real score.
+        model: the preset name or structure file it was made from (a label).
+    """
+
+    structure: Structure
+    base: ControllerConfig
+    family: str
+    duration_s: float
+    objective: Objective = dataclasses.field(default_factory=Objective)
+    world: WorldOptions = dataclasses.field(default_factory=WorldOptions)
+    record_dt: float = 0.01
+    penalty: float = -1.0
+    model: str = ""
+
+    def __post_init__(self) -> None:
+        check_family(self.family)
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise ValueError(f"trial duration must be > 0 s, got {self.duration_s}")
+        if self.objective.settle_s >= self.duration_s:
+            raise ValueError(f"settle time {self.objective.settle_s} s leaves nothing of a "
+                             f"{self.duration_s} s trial to score")
+        bodies = self.bodies
+        if self.objective.segment not in (*bodies, "com"):
+            raise ValueError(f"unknown segment {self.objective.segment!r}; expected 'com' or "
+                             f"one of {list(bodies)}")
+        if not math.isfinite(self.penalty):
+            raise ValueError(f"penalty must be a finite score, got {self.penalty}")
+
+    # -- the parameter space ---------------------------------------------------------------
+
+    @functools.cached_property
+    def _layout_and_start(self) -> tuple[ParameterLayout, np.ndarray]:
+        return gait_layout(self.family, self.structure, self.base)
+
+    @property
+    def layout(self) -> ParameterLayout:
+        """The gait family's parameter layout."""
+        return self._layout_and_start[0]
+
+    @property
+    def dimension(self) -> int:
+        """Number of learned parameters."""
+        return self.layout.size
+
+    @property
+    def bodies(self) -> tuple[str, ...]:
+        """The robot's rigid bodies (segments)."""
+        return tuple(g.name for g in self.structure.rigid_groups())
+
+    def start(self) -> np.ndarray:
+        """The base controller's gait (or the family's nominal values) in the unit cube."""
+        return self.layout.to_unit(self.layout.clip(self._layout_and_start[1]))
+
+    def values(self, unit: np.ndarray) -> np.ndarray:
+        """Gait parameters of a unit-cube point."""
+        return self.layout.from_unit(np.clip(np.asarray(unit, dtype=float), 0.0, 1.0))
+
+    def controller(self, unit: np.ndarray, description: str = "") -> ControllerConfig:
+        """The base controller with the gait of a point, covering one trial."""
+        gait = self.layout.gait(self.values(unit))
+        config = self.base.with_gait(gait).with_duration(self.duration_s)
+        return dataclasses.replace(config, description=description or config.description)
+
+    # -- a trial ---------------------------------------------------------------------------
+
+    @functools.cached_property
+    def key(self) -> str:
+        """Identifies the compiled robot (structure and world) within a process."""
+        return hashlib.sha256(pickle.dumps((self.structure, self.world))).hexdigest()[:16]
+
+    def compiled(self) -> CompiledModel:
+        """The compiled robot, built once per process."""
+        if self.key not in _COMPILED:
+            _COMPILED.clear()  # one problem per worker at a time
+            _COMPILED[self.key] = compile_structure(self.structure, self.world)
+        return _COMPILED[self.key]
+
+    def evaluate(self, unit: np.ndarray) -> Outcome:
+        """Simulates one trial with the gait of ``unit`` and scores it."""
+        compiled = self.compiled()
+        try:
+            controller = self.controller(unit).build(compiled.model.opt.timestep)
+        except GaitError as err:
+            return Outcome(self.penalty, GAIT, f"gait: {err}")
+        try:
+            result = simulate(compiled, self.duration_s, controller=controller,
+                              record_dt=self.record_dt)
+        except SimulationError as err:
+            return Outcome(self.penalty, UNSTABLE, f"unstable: {err}")
+        score, metrics, flipped = self.objective.score(result.trajectory, self.bodies)
+        if flipped:
+            return Outcome(self.penalty, FLIPPED, flipped, metrics)
+        return Outcome(score, OK, "", metrics)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The resolved configuration (structure and base controller are saved as files)."""
+        return {"kind": "trial", "model": self.model, "family": self.family,
+                "duration_s": self.duration_s, "record_dt_s": self.record_dt,
+                "penalty": self.penalty, "objective": dataclasses.asdict(self.objective),
+                "objective_text": self.objective.describe(),
+                "world": _jsonable(self.world), "dimension": self.dimension,
+                "parameter_names": list(self.layout.names)}
+
+
+@dataclasses.dataclass(frozen=True)
+class Evaluation:
+    """One finished trial as the run folder records it.
+
+    Attributes:
+        index: position in the run's sequence of evaluations (ask order).
+        unit: the point in the unit cube.
+        values: the physical parameter values.
+        score: the trial's score (the penalty if it failed).
+        status: see :class:`Outcome`.
+        reason: why it failed ("" when ok).
+        wall_s: wall-clock time of the trial [s].
+        metrics: named figures of the trial.
+    """
+
+    index: int
+    unit: tuple[float, ...]
+    values: tuple[float, ...]
+    score: float
+    status: str
+    reason: str
+    wall_s: float
+    metrics: dict[str, float] = dataclasses.field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready mapping (floats round-trip exactly)."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> Evaluation:
+        """Reads :meth:`to_json`'s mapping."""
+        return cls(int(data["index"]), tuple(data["unit"]), tuple(data["values"]),
+                   float(data["score"]), str(data["status"]), str(data["reason"]),
+                   float(data["wall_s"]), dict(data.get("metrics", {})))
+
+
+def evaluate_task(problem: Problem, index: int, unit: Sequence[float]) -> Evaluation:
+    """Runs one trial; an exception becomes a failed evaluation, never a lost one."""
+    u = np.asarray(unit, dtype=float)
+    start = time.perf_counter()
+    try:
+        outcome = problem.evaluate(u)
+    except Exception as err:  # a trial that raises is recorded as failed
+        outcome = Outcome(problem.penalty, ERROR, f"error: {type(err).__name__}: {err}")
+    wall = time.perf_counter() - start
+    return Evaluation(index, tuple(float(x) for x in u),
+                      tuple(float(x) for x in problem.values(u)), float(outcome.score),
+                      outcome.status, outcome.reason, wall, outcome.metrics)
+
+
+def lost_evaluation(problem: Problem, index: int, unit: Sequence[float], reason: str
+                    ) -> Evaluation:
+    """The record of a trial whose worker died every time it was tried."""
+    u = np.asarray(unit, dtype=float)
+    return Evaluation(index, tuple(float(x) for x in u),
+                      tuple(float(x) for x in problem.values(u)), float(problem.penalty),
+                      LOST, reason, 0.0, {})

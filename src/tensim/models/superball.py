@@ -1,0 +1,55 @@
+"""SUPERball at full scale: the six-strut icosahedron with 1.68 m, 3.5 kg struts, 24 cables.
+
+SUPERball (Sabelhaus et al., "System design and locomotion of SUPERball, an untethered
+tensegrity robot", ICRA 2015) is NASA Ames' planetary-probe tensegrity: six struts of about
+1.7 m and 3.5 kg. The numbers below are those of the original toolkit's model of it
+(``resources/YamlStructures/BaseStructures/SuperBall.yaml`` in NTRTsim, decimetre scale),
+converted to SI: struts 16.84 dm long, radius 0.31 dm, density 0.688 kg/dm^3 (so
+0.688e3 kg/m^3 x pi x 0.031^2 m^2 x 1.684 m = 3.50 kg per strut, 21.0 kg in all), friction
+0.99, no restitution; springs of 613 N/m (stiffness is the same number in every length unit,
+kg/s^2), damping 200 N s/m, pretension 2452 kg dm/s^2 = 245.2 N.
+
+The geometry is the symmetric form of :mod:`tensim.models.six_bar` (parallel struts half a
+strut apart), in which equal pretensions are a state of self-stress; the toolkit's file spaces
+the pairs 15 dm apart instead, a pose its cables then pull towards this one. Motor limits are
+not in the toolkit's model (it leaves them effectively unlimited); 0.1 m/s and 1 kN here are
+placeholders, not hardware data.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from tensim.models.six_bar import six_bar_nodes
+from tensim.structure import Cable, Motor, Node, Rod, Structure
+
+STRUT_LENGTH = 1.684  # m
+ROD_RADIUS = 0.031  # m
+ROD_DENSITY = 688.0  # kg/m^3
+FRICTION = 0.99
+STIFFNESS = 613.0  # N/m
+DAMPING = 200.0  # N s/m
+PRETENSION = 245.2  # N, the same in every cable
+MOTOR = Motor(max_speed=0.1, max_tension=1000.0)  # placeholders, see the module docstring
+
+
+def superball(clearance: float = 0.01) -> Structure:
+    """SUPERball resting above the ground: its lowest strut surface ``clearance`` metres up."""
+    positions = six_bar_nodes(STRUT_LENGTH)
+    lift = clearance + ROD_RADIUS - min(p[2] for p in positions.values())
+    nodes = tuple(Node(n, tuple(p + np.array([0.0, 0.0, lift]))) for n, p in positions.items())
+    rods = tuple(
+        Rod(f"rod_{axis}{pair}", (f"{axis}{pair}0", f"{axis}{pair}1"), ROD_RADIUS,
+            density=ROD_DENSITY, friction=FRICTION, tags=(f"rod_{axis}{pair}",))
+        for axis in "xyz" for pair in (0, 1)
+    )
+    cable_length = STRUT_LENGTH * np.sqrt(6) / 4
+    cables = tuple(
+        Cable(f"cable_{a}_{b}", (a, b), STIFFNESS, damping=DAMPING, pretension=PRETENSION,
+              motor=MOTOR)
+        for a, b in itertools.combinations(positions, 2)
+        if abs(np.linalg.norm(positions[a] - positions[b]) - cable_length) < 1e-9
+    )
+    return Structure("superball", nodes, rods, cables)

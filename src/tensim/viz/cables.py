@@ -1,0 +1,163 @@
+"""Cables as a person should see them: coloured by tension, slack ones hanging loose.
+
+Taut cables are drawn straight between their anchors in a colour that runs from blue (just
+taut) to red (``max_tension``); slack ones (zero load-cell tension) are drawn grey, dashed and
+sagging under gravity, with the motor's rest length as the cable's true length, so a slack
+cable looks as long as it is. The drawings are MuJoCo scene geoms added after
+``mjv_updateScene`` (offscreen) or into the passive viewer's ``user_scn``; the model's own
+tendon drawing is switched off so each cable is drawn once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import matplotlib
+import mujoco
+import numpy as np
+from scipy.optimize import brentq
+
+from tensim.model import CompiledModel
+from tensim.viz._scene import add_connector
+
+SLACK_RGBA = (0.55, 0.55, 0.55, 1.0)
+DOWN = np.array([0.0, 0.0, -1.0])  # the direction slack cables sag in (gravity's)
+_COLORMAP = "turbo"
+_COLOR_RANGE = (0.1, 0.95)  # the part of the colour map used: skips the near-black ends
+_CAPSULE = mujoco.mjtGeom.mjGEOM_CAPSULE
+
+
+@dataclasses.dataclass(frozen=True)
+class TensionColors:
+    """Colour of a cable by its tension.
+
+    Attributes:
+        max_tension: tension drawn in the top colour (red); higher ones are clipped [N].
+    """
+
+    max_tension: float
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.max_tension) and self.max_tension > 0):
+            raise ValueError(f"max_tension must be a finite tension > 0 N, "
+                             f"got {self.max_tension}")
+
+    @classmethod
+    def for_model(cls, compiled: CompiledModel) -> TensionColors:
+        """Scaled to the strongest motor's tension limit (its cables cannot get much tauter)."""
+        limits = compiled.max_tension[np.isfinite(compiled.max_tension)]
+        return cls(float(limits.max()) if limits.size else 50.0)
+
+    def rgba(self, tension: np.ndarray) -> np.ndarray:
+        """(n, 4) colours for (n,) tensions [N]: grey where slack (tension <= 0)."""
+        tension = np.asarray(tension, dtype=float)
+        low, high = _COLOR_RANGE
+        share = np.clip(tension / self.max_tension, 0.0, 1.0)
+        colors = matplotlib.colormaps[_COLORMAP](low + (high - low) * share)
+        colors[tension <= 0] = SLACK_RGBA
+        return colors.astype(np.float32)
+
+    def colorbar(self, width: int, height: int) -> np.ndarray:
+        """A (height, width, 3) uint8 legend image: 0 N on the left, max_tension on the right."""
+        ramp = self.rgba(np.linspace(1e-9, self.max_tension, width))[:, :3]
+        return np.repeat((255 * ramp[None]).astype(np.uint8), height, axis=0)
+
+    def legend(self) -> str:
+        """The legend's text."""
+        return (f"cable tension: blue 0 N ... red {self.max_tension:g} N; "
+                "grey dashed: slack")
+
+
+def sag_depth(span: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """Depth of a parabola of arc length ``length`` hung over ``span`` [m] (0 where taut).
+
+    The arc length of y = 4 h s (1 - s) over a span x is
+    L = sqrt(x² + 16 h²) / 2 + x² / (8 h) asinh(4 h / x); it grows with h, so each depth is
+    the root of L(h) = length.
+    """
+    span, length = np.broadcast_arrays(np.asarray(span, float), np.asarray(length, float))
+    depth = np.zeros(span.shape)
+    for i in np.flatnonzero(length > span * (1 + 1e-9)):
+        x, target = max(span.flat[i], 1e-9), length.flat[i]
+        depth.flat[i] = brentq(lambda h, x=x, target=target: _parabola_length(x, h) - target,
+                               1e-12, target)
+    return depth
+
+
+def _parabola_length(span: float, depth: float) -> float:
+    root = np.hypot(span, 4 * depth)
+    return 0.5 * root + span**2 / (8 * depth) * np.arcsinh(4 * depth / span)
+
+
+def sag_curve(start: np.ndarray, end: np.ndarray, length: float, points: int = 17,
+              down: np.ndarray = DOWN) -> np.ndarray:
+    """(points, 3) positions along a cable of ``length`` [m] hung between two anchors [m].
+
+    A parabola in the plane of the chord and ``down`` (gravity), sagging perpendicular to the
+    chord; straight when the anchors are ``length`` or more apart.
+    """
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    chord = end - start
+    span = float(np.linalg.norm(chord))
+    s = np.linspace(0.0, 1.0, points)[:, None]
+    straight = start + s * chord
+    depth = float(sag_depth(np.array(span), np.array(length)))
+    if depth == 0.0:
+        return straight
+    axis = chord / span if span > 0 else np.array([1.0, 0.0, 0.0])
+    sideways = down - (down @ axis) * axis
+    if np.linalg.norm(sideways) < 1e-6:  # a vertical chord: hang it off to one side
+        sideways = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    sideways /= np.linalg.norm(sideways)
+    return straight + 4 * depth * s * (1 - s) * sideways
+
+
+class CableArtist:
+    """Adds one drawing per cable to an ``MjvScene`` (see the module docstring).
+
+    Args:
+        compiled: the compiled model (anchor sites ``<cable>_0`` and ``<cable>_1``).
+        colors: the tension colour map.
+        width: radius of a taut cable's drawing [m].
+        segments: line pieces of a slack cable's sag curve (every other one drawn: dashed).
+    """
+
+    def __init__(self, compiled: CompiledModel, colors: TensionColors | None = None,
+                 width: float = 0.004, segments: int = 16):
+        model = compiled.model
+        self.colors = colors or TensionColors.for_model(compiled)
+        self.width, self.segments = width, segments
+        self.sites = np.array([[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, f"{c}_{end}")
+                                for end in (0, 1)] for c in compiled.index.cables],
+                              dtype=int).reshape(-1, 2)
+
+    @property
+    def max_geoms(self) -> int:
+        """The most geoms one :meth:`draw` adds."""
+        return len(self.sites) * (self.segments // 2 + 1)
+
+    def draw(self, scene: mujoco.MjvScene, data: mujoco.MjData, tension: np.ndarray,
+             rest_length: np.ndarray) -> None:
+        """Appends the cables to ``scene`` (anchors from ``data.site_xpos``).
+
+        Args:
+            scene: the scene to add to (its ``ngeom`` grows).
+            data: positions, after kinematics.
+            tension: (n_cables,) load-cell tensions [N].
+            rest_length: (n_cables,) motor rest lengths [m]: a slack cable's length.
+        """
+        colors = self.colors.rgba(tension)
+        for i, (a, b) in enumerate(self.sites):
+            start, end = data.site_xpos[a], data.site_xpos[b]
+            if tension[i] > 0 or np.linalg.norm(end - start) >= rest_length[i]:
+                add_connector(scene, _CAPSULE, self.width, start, end, colors[i])
+                continue
+            curve = sag_curve(start, end, float(rest_length[i]), self.segments + 1)
+            for k in range(0, self.segments, 2):
+                add_connector(scene, _CAPSULE, 0.5 * self.width, curve[k], curve[k + 1],
+                              colors[i])
+
+
+def hide_model_tendons(option: mujoco.MjvOption) -> None:
+    """Switches MuJoCo's own tendon drawing off (the artist draws the cables)."""
+    option.flags[mujoco.mjtVisFlag.mjVIS_TENDON] = 0

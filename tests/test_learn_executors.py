@@ -1,0 +1,100 @@
+"""Parallel trials: the pool and Ray give the inline results, failures are recorded not lost."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tensim.learn import (
+    InlineExecutor,
+    LearningSettings,
+    OptimizerSettings,
+    ProcessPoolExecutor,
+    RunStore,
+    SphereProblem,
+    learn,
+)
+from tensim.learn.problem import ERROR, LOST, OK, Outcome
+
+SETTINGS = LearningSettings(OptimizerSettings("ntrt", monte_carlo=8, batch=4), 16, seed=4)
+
+
+def _records(folder: Path) -> list[tuple[int, tuple[float, ...], float, str]]:
+    evaluations = RunStore(folder).evaluations()
+    return [(i, e.unit, e.score, e.status) for i, e in sorted(evaluations.items())]
+
+
+@dataclasses.dataclass(frozen=True)
+class _RaisingSphere(SphereProblem):
+    """Raises for points whose first coordinate is below 0.2."""
+
+    def evaluate(self, unit: np.ndarray) -> Outcome:
+        if unit[0] < 0.2:
+            raise RuntimeError("bad point")
+        return super().evaluate(unit)
+
+
+@dataclasses.dataclass(frozen=True)
+class _DyingSphere(SphereProblem):
+    """Kills its worker process: always at index-0's point, once at the point below 0.1."""
+
+    marker: str = ""
+
+    def evaluate(self, unit: np.ndarray) -> Outcome:
+        if unit[1] < 0.1:
+            os._exit(1)  # the point that always kills its worker
+        if unit[1] > 0.9 and not os.path.exists(self.marker):
+            Path(self.marker).touch()
+            os._exit(1)  # dies the first time only
+        return super().evaluate(unit)
+
+
+def test_process_pool_gives_the_inline_evaluations(tmp_path):
+    learn(SphereProblem(3), SETTINGS, tmp_path / "inline", executor=InlineExecutor)
+    learn(SphereProblem(3), SETTINGS, tmp_path / "pool",
+          executor=lambda p: ProcessPoolExecutor(p, 2))
+    assert _records(tmp_path / "pool") == _records(tmp_path / "inline")
+
+
+def test_a_trial_that_raises_is_recorded_as_failed(tmp_path):
+    learn(_RaisingSphere(3), SETTINGS, tmp_path, executor=lambda p: ProcessPoolExecutor(p, 2))
+    evaluations = RunStore(tmp_path).evaluations()
+    assert len(evaluations) == 16
+    for e in evaluations.values():
+        if e.unit[0] < 0.2:
+            assert e.status == ERROR and "RuntimeError: bad point" in e.reason
+            assert e.score == -100.0  # the problem's penalty
+        else:
+            assert e.status == OK
+
+
+def test_dead_workers_are_replaced_and_a_trial_that_always_kills_is_lost(tmp_path):
+    problem = _DyingSphere(2, marker=str(tmp_path / "died_once"))
+    points = [np.array([0.5, 0.05]), np.array([0.5, 0.95]), np.array([0.3, 0.3]),
+              np.array([0.6, 0.6])]
+    with ProcessPoolExecutor(problem, 2, max_attempts=3) as pool:
+        results = {e.index: e for e in pool.run(list(enumerate(points)))}
+    assert sorted(results) == [0, 1, 2, 3]
+    assert results[0].status == LOST and "died in each of 3 tries" in results[0].reason
+    assert results[0].score == problem.penalty
+    for i in (1, 2, 3):  # retried after the crashes and scored as if nothing happened
+        assert results[i].status == OK
+        assert results[i].score == problem.evaluate(points[i]).score
+
+
+def test_ray_gives_the_process_pool_evaluations(tmp_path):
+    ray = pytest.importorskip("ray")
+    from tensim.learn import RayExecutor
+
+    learn(SphereProblem(3), SETTINGS, tmp_path / "pool",
+          executor=lambda p: ProcessPoolExecutor(p, 2))
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        learn(SphereProblem(3), SETTINGS, tmp_path / "ray", executor=RayExecutor)
+    finally:
+        ray.shutdown()
+    assert _records(tmp_path / "ray") == _records(tmp_path / "pool")
