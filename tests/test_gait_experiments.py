@@ -97,3 +97,22 @@ def test_cpg_run_barely_depends_on_the_command_period() -> None:
         assert change.max() < 0.015, period
         end = np.array(run.summary()["com_displacement_m"])
         assert np.abs(end - reference.summary()["com_displacement_m"]).max() < 2e-3, period
+
+
+def test_experiments_take_a_fitted_robot_file(tmp_path) -> None:
+    """--robot swaps in a Tetraspine3 variant: doubled friction doubles the drag (μ m g)."""
+    import dataclasses
+
+    from tensim import save_structure
+    from tensim.models import tetraspine3
+
+    robot = tetraspine3()
+    rough = dataclasses.replace(robot, rods=tuple(dataclasses.replace(r, friction=0.15)
+                                                  for r in robot.rods))
+    save_structure(rough, tmp_path / "rough.yaml")
+    out = tmp_path / "drag"
+    assert main(["--quiet", "experiment", "drag", "--robot", str(tmp_path / "rough.yaml"),
+                 "--duration", "8", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["coulomb_force_N"] == pytest.approx(0.15 * 2.349 * 9.81, rel=1e-3)
+    assert summary["effective_friction"] == pytest.approx(0.15, rel=0.03)

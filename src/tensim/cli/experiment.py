@@ -6,21 +6,31 @@ import argparse
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tensim.cli._common import (
     Progress,
     add_controller_option,
     add_world_options,
+    load_model,
     print_summary,
     world_from_args,
 )
+
+if TYPE_CHECKING:
+    from tensim.structure import Structure
+
+
+def _structure(args: argparse.Namespace) -> Structure | None:
+    """The ``--robot`` structure file (a Tetraspine3 variant, e.g. fitted by sysid), or None."""
+    return load_model(args.robot) if args.robot else None
 
 
 def _disturbance(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     from tensim.experiments import run_disturbance, write_disturbance
 
     result, summary = run_disturbance(dt=args.dt, world=world_from_args(args),
+                                      structure=_structure(args),
                                       progress=Progress("disturbance", args.quiet))
     write_disturbance(out, result, summary)
     return summary
@@ -43,8 +53,9 @@ def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[
         from tensim.experiments.gait import run_gait, write_gait
 
         result, summary, config = run_gait(
-            name, args.controller or default, duration=args.duration,
-            world=world_from_args(args), progress=Progress(name, args.quiet))
+            name, args.controller or default, structure=_structure(args),
+            duration=args.duration, world=world_from_args(args),
+            progress=Progress(name, args.quiet))
         write_gait(out, result, summary, config)
         print(f"moved {summary['planar_displacement_m']:.3f} m toward "
               f"{summary['direction']} ({summary['direction_deg']:.0f} deg from +x)")
@@ -62,7 +73,7 @@ def _drag(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     from tensim.experiments.drag import run_drag, write_drag
 
     result, summary = run_drag(world=world_from_args(args), duration=args.duration,
-                               progress=Progress("drag", args.quiet))
+                               structure=_structure(args), progress=Progress("drag", args.quiet))
     write_drag(out, result, summary)
     print(f"steady drag force {summary['drag_force_N']:.3f} N "
           f"(mu m g = {summary['coulomb_force_N']:.3f} N); "
@@ -141,6 +152,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help=f"one of: {', '.join(EXPERIMENTS)}")
     add_world_options(p)
     add_controller_option(p)
+    p.add_argument("--robot", default=None, metavar="FILE.yaml",
+                   help="disturbance, sine, cpg, drag: a Tetraspine3 variant with the same node "
+                        "and cable names instead of the preset (e.g. the fitted_structure.yaml "
+                        "of `tensim sysid`)")
     p.add_argument("--duration", type=float, default=None,
                    help="simulated time [s] (default: the experiment's own)")
     p.add_argument("--out", default=None, help="output folder (default runs/NAME)")
