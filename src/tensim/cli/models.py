@@ -16,8 +16,8 @@ def run(args: argparse.Namespace) -> int:
 
     print("model presets:")
     for preset in PRESETS.values():
-        print(f"  {preset.name:<12} {preset.summary}")
+        print(f"  {preset.name:<20} {preset.summary}")
     print("shipped controller files (use the name with --controller):")
     for name, path in shipped_controllers().items():
-        print(f"  {name:<18} {path.name}")
+        print(f"  {name:<20} {path.name}")
     return 0
