@@ -110,6 +110,15 @@ def test_parse_errors_name_the_string_field_and_expectation(text, message):
     assert isinstance(err.value, ValueError)  # the CLI reports ValueErrors with exit status 2
 
 
+def test_records_check_their_fields_when_built_from_python_too():
+    with pytest.raises(TerrainError, match=r"steps must be an integer >= 1, got 2\.5"):
+        Stairs(steps=2.5)  # type: ignore[arg-type]
+    with pytest.raises(TerrainError, match="roughness must be > 0"):
+        Rough(roughness=0.0)
+    with pytest.raises(TerrainError, match="file must be the path"):
+        HeightField()
+
+
 def test_bad_terrain_on_the_command_line_exits_2_with_the_message(tmp_path, capsys):
     status = main(["--quiet", "simulate", "prism3", "--terrain", "hills:hieght=1",
                    "--out", str(tmp_path)])
@@ -319,3 +328,25 @@ def test_flat_default_world_has_just_the_ground_plane():
     assert tensim.WorldOptions().terrain == Flat()
     with pytest.raises(ValueError, match="terrain needs ground"):
         tensim.WorldOptions(ground=False, terrain=Wall())
+
+
+def _sled_slide(angle: float, friction: float) -> float:
+    """How far a flat three-rod sled resting on an incline slides down it in 1.5 s [m]."""
+    r = 0.01
+    corners = {"a": (0.15, 0.0), "b": (-0.075, 0.13), "c": (-0.075, -0.13)}
+    sled = Structure("sled", nodes=tuple(Node(k, (x, y, r)) for k, (x, y) in corners.items()),
+                     rods=tuple(Rod(a + b, (a, b), r, linear_density=1.0, friction=friction)
+                                for a, b in ("ab", "bc", "ca")))
+    slope = Slope(angle=angle, start=-2.0, length=4.0)  # the sled sits on the incline
+    compiled = tensim.compile_structure(sled, _world(slope))
+    m, d = compiled.model, mujoco.MjData(compiled.model)
+    mujoco.mj_step(m, d, 300)
+    start = d.qpos[:3].copy()
+    mujoco.mj_step(m, d, 1500)
+    return float(np.linalg.norm(d.qpos[:3] - start))
+
+
+def test_a_body_holds_on_a_slope_below_its_friction_angle_and_slides_above():
+    # Coulomb: at rest while tan(angle) < mu = 0.3, i.e. below 16.7 deg, sliding above it
+    assert _sled_slide(14.0, 0.3) < 0.005  # soft contacts creep a little at most
+    assert _sled_slide(19.0, 0.3) > 0.1  # (g sin - mu g cos) t^2 / 2 = 0.46 m in 1.5 s

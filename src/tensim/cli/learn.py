@@ -6,9 +6,12 @@ import argparse
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tensim.cli._common import Progress, load_model
+
+if TYPE_CHECKING:
+    from tensim.learn import TrialProblem
 
 # options that define a run; a resumed run takes them from its folder
 _PROBLEM_OPTIONS = ("model", "controller", "base_controller", "optimizer", "trial_duration",
@@ -89,7 +92,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run_learn)
 
 
-def _problem(args: argparse.Namespace) -> Any:
+def _problem(args: argparse.Namespace) -> TrialProblem:
     from tensim.control import load_controller
     from tensim.learn import Objective, TrialProblem, default_base, parse_direction
     from tensim.model import WorldOptions

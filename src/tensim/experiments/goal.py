@@ -26,8 +26,10 @@ from tensim.model import WorldOptions
 from tensim.sim import COM, SimulationResult, TimeSeries
 from tensim.terrain import Rough, Terrain
 
-GOAL_TARGET = (1.0, 0.0)  # m, ahead of the 12-segment spine's front (its tip starts at x = 0.25)
-GOAL_TERRAIN = Rough(roughness=0.01, correlation=0.15, seed=1, size=4.0, resolution=0.04)
+GOAL_TARGET = (1.5, 0.0)  # m; the 12-segment spine's centre of mass starts at x = -1.23
+# 2 cm RMS bumps, 20 cm across; friction 1.0 as in the climb (the gait's own ground)
+GOAL_TERRAIN = Rough(roughness=0.02, correlation=0.2, seed=1, size=4.0, resolution=0.04,
+                     friction=1.0)
 GOAL_DURATION = 60.0  # s
 REACHED_RADIUS = 0.25  # m, horizontal distance that counts as reaching the target
 
@@ -81,7 +83,7 @@ def goal_summary(trajectory: TimeSeries, target_xy: tuple[float, float]) -> dict
 
 def goal_controller(duration: float = GOAL_DURATION) -> ControllerConfig:
     """The scenario's default controller: the climb's forward wave (the target lies ahead)."""
-    return wave_controller(CLIMB_WAVE, duration, description="forward spine wave (climb)")
+    return wave_controller(CLIMB_WAVE, duration, description="caterpillar wave (climb gait)")
 
 
 def run_goal(*, target_xy: tuple[float, float] = GOAL_TARGET, terrain: Terrain | None = None,

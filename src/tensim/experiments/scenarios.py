@@ -49,6 +49,8 @@ MODES: dict[str, dict[str, float]] = {
     "yaw": {"top": 0.0, "left": 1.0, "right": -1.0},
 }
 Mode = tuple[float, float]  # (amplitude [m/s], phase [rad])
+_CABLE_KINDS = ("outer_top", "outer_left", "outer_right", "inner_top", "inner_left",
+                "inner_right")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -172,11 +174,8 @@ def write_scenario(out: Path, result: SimulationResult, summary: dict[str, Any],
     ``extra_figures`` names figures the scenario wrote into ``out`` itself.
     """
     series = result.trajectory
-    joints = sorted({c.rsplit("_", 1)[1] for c in result.cables}, key=int)
-    shown = [c for j in (joints[0], joints[len(joints) // 2], joints[-1]) for c in
-             (f"{k}_{j}" for k in ("outer_top", "outer_left", "outer_right", "inner_top",
-                                   "inner_left", "inner_right")) if c in result.cables]
-    plot_cable_tensions(series, out / "tensions.png", cables=shown or None, columns=6,
+    plot_cable_tensions(series, out / "tensions.png", cables=_shown_cables(result.cables),
+                        columns=6,
                         title=f"{summary['experiment']}: measured tension (black), commanded "
                               "(dashed)")
     bodies = segments(series)
@@ -187,6 +186,16 @@ def write_scenario(out: Path, result: SimulationResult, summary: dict[str, Any],
     figures = ["tensions.png", "path.png", "side_view.png", *extra_figures]
     return write_run(out, result, {**summary, "figures": figures,
                                    "files": ["controller.yaml"]})
+
+
+def _shown_cables(cables: tuple[str, ...]) -> list[str] | None:
+    """The cables of the first, middle and last joints of a Tetraspine (None: all cables)."""
+    joints = sorted({int(c.rsplit("_", 1)[1]) for c in cables if c.rsplit("_", 1)[-1].isdigit()})
+    if not joints:
+        return None
+    chosen = dict.fromkeys((joints[0], joints[len(joints) // 2], joints[-1]))
+    shown = [f"{kind}_{j}" for j in chosen for kind in _CABLE_KINDS if f"{kind}_{j}" in cables]
+    return shown or None
 
 
 def plot_side_view(series: TimeSeries, terrain: Terrain, path: Path) -> Path:
@@ -202,8 +211,7 @@ def plot_side_view(series: TimeSeries, terrain: Terrain, path: Path) -> Path:
                 color=plt.cm.viridis(k / max(1, len(segments(series)) - 1)),
                 label=body if k in (0, len(segments(series)) - 1) else None)
     ax.set_xlabel("x [m]")
-    ax.set_ylabel("z [m]")
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_ylabel("z [m] (not to scale with x)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()

@@ -1,12 +1,14 @@
 """Sidewinding (paper Fig. 1, middle): the 12-segment Tetraspine moves sideways.
 
-The gait is the paper's route to it in reverse: the sideways CPG learned for Tetraspine3 (the
-shipped ``tetraspine3_cpg``, paper Fig. 5, "similar to the side-winding gait for the twelve
-segment version") put on the 12-segment spine. The spine CPG's parameters are named by joint
-offset and cable kinds, not by joint, so the same 116 values define the longer spine's couplings
-(each cable coupled to the cables that share a rigid body with it). The summary gives the
-displacement in the world and in the robot's own frame (forward along its spine, sideways to
-its left) and the turn.
+The gait follows the paper's link between the two robots ("similar to the side-winding gait for
+the twelve segment version"): the sideways CPG learned for Tetraspine3 (the shipped
+``tetraspine3_cpg``, paper Fig. 5) put on the 12-segment spine. The spine CPG's parameters are
+named by joint offset and cable kinds, not by joint, so the same 116 values define the longer
+spine's couplings (each cable coupled to the cables that share a rigid body with it). A short
+scan of the two global parameters on the 12-segment robot then set the amplitude to its upper
+bound (0.07 m/s, the motors' speed) and the frequency to 1.4 Hz, which made the motion about
+twice as large and more purely sideways. The summary gives the displacement in the world and in
+the robot's own frame (forward along its spine, sideways to its left) and the turn.
 """
 
 from __future__ import annotations
@@ -32,10 +34,19 @@ from tensim.terrain import Flat, Terrain
 SIDEWIND_DURATION = 60.0  # s
 SIDEWIND_SOURCE = "tetraspine3_cpg"  # the shipped sideways CPG of Tetraspine3
 SIDEWIND_TERRAIN = Flat()  # the robot's own friction, as in the hardware tests
+SIDEWIND_AMPLITUDE = 0.07  # m/s, the CPG's amplitude (the source's: 0.064)
+SIDEWIND_FREQUENCY = 1.4  # Hz (the source's: 0.38)
 
 
-def transferred_cpg(source: str = SIDEWIND_SOURCE, model: str = MODEL) -> SpineCPG:
+def transferred_cpg(source: str = SIDEWIND_SOURCE, model: str = MODEL, *,
+                    amplitude: float | None = None, frequency: float | None = None) -> SpineCPG:
     """The CPG of controller ``source`` with its parameter values on ``model``'s spine.
+
+    Args:
+        source: a controller file or shipped name whose gait is a spine CPG.
+        model: the preset to put it on.
+        amplitude: replaces the source's amplitude [m/s] (None keeps it).
+        frequency: replaces the source's frequency [Hz] (None keeps it).
 
     Raises:
         ValueError: the source has no spine CPG, or its layout names other parameters.
@@ -48,6 +59,8 @@ def transferred_cpg(source: str = SIDEWIND_SOURCE, model: str = MODEL) -> SpineC
                               amplitude=src.amplitude, frequency=src.frequency,
                               convergence=src.convergence)
     values = dict(zip(src.names, short.gait.values, strict=True))
+    values.update({k: v for k, v in (("amplitude", amplitude), ("frequency", frequency))
+                   if v is not None})
     missing = [n for n in layout.names if n not in values]
     if missing:
         raise ValueError(f"{model!r}'s CPG has parameters {missing[:3]}... that controller "
@@ -61,9 +74,10 @@ def sidewind_controller(duration: float = SIDEWIND_DURATION,
     sideways CPG transferred from ``source``."""
     impedance = preset(MODEL).controller()
     assert impedance is not None  # the Tetraspine presets have impedance laws
-    return ControllerConfig(impedance, transferred_cpg(source), duration=duration,
-                            command_period=COMMAND_PERIOD, model=MODEL,
-                            description=f"sideways CPG of {source}, on the {MODEL} spine")
+    gait = transferred_cpg(source, amplitude=SIDEWIND_AMPLITUDE, frequency=SIDEWIND_FREQUENCY)
+    return ControllerConfig(impedance, gait, duration=duration, command_period=COMMAND_PERIOD,
+                            model=MODEL, description=f"sideways CPG of {source} on the {MODEL} "
+                            f"spine, amplitude {SIDEWIND_AMPLITUDE} m/s, {SIDEWIND_FREQUENCY} Hz")
 
 
 def sideways_share(summary: dict[str, Any]) -> float:

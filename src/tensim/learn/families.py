@@ -17,6 +17,7 @@ from tensim.control import (
     SineGait,
     SpineCPG,
     load_controller,
+    resolve_controller,
     spine_parameters,
 )
 from tensim.control.sine_parameters import sine_parameters, tetraspine_sine_parameters
@@ -72,8 +73,6 @@ def default_base(model: str, family: str, structure: Structure) -> ControllerCon
     Raises:
         ValueError: the model has no impedance controller to start from.
     """
-    from tensim.control import resolve_controller
-
     if model == "tetraspine3":
         return load_controller(SHIPPED_BASE[check_family(family)], structure)
     config = resolve_controller(model, structure, None)

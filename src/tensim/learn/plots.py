@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -60,7 +61,7 @@ def plot_learning_curve(evaluations: Sequence[Evaluation], path: Path, *, title:
 
 
 def plot_best_so_far(runs: dict[str, Sequence[Evaluation]], path: Path, *, title: str = "",
-                     unit: str = "m") -> Path:
+                     unit: str = "m", styles: dict[str, dict[str, Any]] | None = None) -> Path:
     """Best score so far against the evaluation index for several runs (one line each), to
     compare optimizers; written atomically as PNG.
 
@@ -69,11 +70,13 @@ def plot_best_so_far(runs: dict[str, Sequence[Evaluation]], path: Path, *, title
         path: the PNG file.
         title: figure title.
         unit: unit of the score, for the axis label.
+        styles: label -> matplotlib line options (e.g. one colour per optimizer).
     """
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
     for label, evaluations in runs.items():
         index = np.array([e.index for e in evaluations])
-        ax.step(index + 1, best_so_far(evaluations), where="post", lw=1.5, label=label)
+        ax.step(index + 1, best_so_far(evaluations), where="post", label=label,
+                **{"lw": 1.5, **(styles or {}).get(label, {})})
     ax.set_xlabel("evaluations")
     ax.set_ylabel(f"best score so far [{unit}]")
     ax.grid(alpha=0.3)

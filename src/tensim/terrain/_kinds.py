@@ -64,6 +64,11 @@ class Surface:
     def _fail(self, field: str, expected: str, got: object) -> None:
         raise TerrainError(f"terrain {self.kind!r}: {field} must be {expected}, got {got!r}")
 
+    def _whole(self, field: str, minimum: int) -> None:
+        value = getattr(self, field)
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            self._fail(field, f"an integer >= {minimum}", value)
+
     def _positive(self, *fields: str) -> None:
         for field in fields:
             value = getattr(self, field)
@@ -171,8 +176,7 @@ class Rough(Surface):
     def __post_init__(self) -> None:
         super().__post_init__()
         self._positive("roughness", "correlation", "size", "resolution")
-        if self.seed < 0:
-            self._fail("seed", "an integer >= 0", self.seed)
+        self._whole("seed", 0)
         _check_grid(self)
 
     def geometry(self) -> Geometry:
@@ -205,8 +209,7 @@ class Stairs(Surface):
     def __post_init__(self) -> None:
         super().__post_init__()
         self._positive("rise", "run", "width", "landing")
-        if self.steps < 1:
-            self._fail("steps", "an integer >= 1", self.steps)
+        self._whole("steps", 1)
 
     def geometry(self) -> Geometry:
         boxes = []
@@ -245,10 +248,8 @@ class Blocks(Surface):
     def __post_init__(self) -> None:
         super().__post_init__()
         self._positive("size", "height", "length", "width")
-        if self.count < 1:
-            self._fail("count", "an integer >= 1", self.count)
-        if self.seed < 0:
-            self._fail("seed", "an integer >= 0", self.seed)
+        self._whole("count", 1)
+        self._whole("seed", 0)
         if self.size > min(self.length, self.width):
             self._fail("size", f"at most the field's length and width ({self.length}, "
                        f"{self.width} m)", self.size)

@@ -47,12 +47,12 @@ def parse_terrain(text: str) -> Terrain:
 
 
 def format_terrain(terrain: Terrain) -> str:
-    """The string :func:`parse_terrain` reads back as ``terrain`` (fields that differ from
-    the defaults only)."""
+    """The string :func:`parse_terrain` reads back as ``terrain``, every field spelt out
+    (unset contact parameters left out)."""
     items = []
     for field in _fields(type(terrain)):
         value = getattr(terrain, field.name)
-        if value is not None and value != field.default:
+        if value is not None:
             items.append(f"{field.name}={value}")
     return terrain.kind + (":" + ",".join(items) if items else "")
 
