@@ -43,6 +43,9 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--velocity-input needs impedance laws: give --controller")
     if args.velocity_input:
         config = config.with_gait(load_velocity_table(args.velocity_input))
+    if config is not None and config.gait is not None and args.duration \
+            and not args.velocity_input:
+        config = config.with_duration(args.duration)  # the gait runs as long as asked
     duration = args.duration or (config.duration if config and config.gait else 10.0)
     compiled = compile_structure(structure, world_from_args(args))
     controller = config.build(compiled.model.opt.timestep) if config else None

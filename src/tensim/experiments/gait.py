@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from tensim.control import ControllerConfig, load_controller
+from tensim.control import ControllerConfig, VelocityTable, load_controller
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.runs import write_run
@@ -115,6 +115,8 @@ def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tet
     if config.gait is None:
         raise ValueError(f"controller {controller!r} has no gait: the {name} experiment needs "
                          "one (see `tensim models` for the shipped gait files)")
+    if duration and not isinstance(config.gait, VelocityTable):
+        config = config.with_duration(duration)  # the gait runs as long as asked
     duration = duration or config.duration
     compiled = compile_structure(structure, world or WorldOptions())
     result = simulate(compiled, duration, controller=config.build(compiled.model.opt.timestep),

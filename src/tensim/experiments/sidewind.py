@@ -2,7 +2,7 @@
 
 The gait follows the paper's link between the two robots ("similar to the side-winding gait for
 the twelve segment version"): the sideways CPG learned for Tetraspine3 (the shipped
-``tetraspine3_cpg``, paper Fig. 5) put on the 12-segment spine. The spine CPG's parameters are
+``tetraspine3_cpg_cma``, paper Fig. 5) put on the 12-segment spine. The spine CPG's parameters are
 named by joint offset and cable kinds, not by joint, so the same 116 values define the longer
 spine's couplings (each cable coupled to the cables that share a rigid body with it). A short
 scan of the two global parameters on the 12-segment robot then set the amplitude to its upper
@@ -32,7 +32,7 @@ from tensim.sim import SimulationResult
 from tensim.terrain import Flat, Terrain
 
 SIDEWIND_DURATION = 60.0  # s
-SIDEWIND_SOURCE = "tetraspine3_cpg"  # the shipped sideways CPG of Tetraspine3
+SIDEWIND_SOURCE = "tetraspine3_cpg_cma"  # a shipped sideways CPG of Tetraspine3 (CMA-ES)
 SIDEWIND_TERRAIN = Flat()  # the robot's own friction, as in the hardware tests
 SIDEWIND_AMPLITUDE = 0.07  # m/s, the CPG's amplitude (the source's: 0.064)
 SIDEWIND_FREQUENCY = 1.4  # Hz (the source's: 0.38)
