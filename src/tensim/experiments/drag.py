@@ -24,13 +24,13 @@ import matplotlib.pyplot as plt
 import mujoco
 import numpy as np
 
-from tensim._files import atomic_path
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.runs import write_run
 from tensim.sim import Simulation, SimulationResult
 from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions
+from tensim.viz.plots import save_figure
 
 
 @dataclasses.dataclass(frozen=True)
@@ -182,9 +182,7 @@ def write_drag(out: Path, result: SimulationResult, summary: dict[str, Any]) -> 
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    with atomic_path(out / "drag_force.png") as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
-    plt.close(fig)
+    save_figure(fig, out / "drag_force.png")
     plot_cable_tensions(result.trajectory, out / "tensions.png",
                         title="Tetraspine3 drag test: cable tensions")
     return write_run(out, result, {**summary, "figures": ["drag_force.png", "tensions.png"]})

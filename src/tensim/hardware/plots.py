@@ -11,11 +11,10 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.figure import Figure
 
-from tensim._files import atomic_path
 from tensim.hardware.compare import Comparison
 from tensim.hardware.loadcell import CalibrationFit
+from tensim.viz.plots import save_figure
 
 HARDWARE, SIMULATION, SETPOINT = "tab:red", "black", "tab:blue"
 
@@ -53,7 +52,7 @@ def plot_overlay(comparison: Comparison, path: Path, *, title: str = "", columns
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path, dpi=90)
 
 
 def plot_system(comparison: Comparison, path: Path, *, title: str = "") -> Path:
@@ -71,7 +70,7 @@ def plot_system(comparison: Comparison, path: Path, *, title: str = "") -> Path:
     if title:
         ax.set_title(title, fontsize=10)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path, dpi=90)
 
 
 def plot_calibration(fit: CalibrationFit, path: Path) -> Path:
@@ -97,11 +96,4 @@ def plot_calibration(fit: CalibrationFit, path: Path) -> Path:
     bottom.set_ylabel("residual [N]")
     bottom.grid(alpha=0.3)
     fig.tight_layout()
-    return _save(fig, path)
-
-
-def _save(fig: Figure, path: Path) -> Path:
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=90, format="png")
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=90)

@@ -66,7 +66,7 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
@@ -80,7 +80,7 @@ def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None
 
     fig = _cable_panels(list(cables or series.items("length")), columns, "[m]", 2.2, draw)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_path(series: TimeSeries, path: Path, items: Sequence[str], title: str = "") -> Path:
@@ -98,7 +98,7 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str], title: str =
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_velocity_input(table: VelocityTable, path: Path, *,
@@ -117,11 +117,12 @@ def plot_velocity_input(table: VelocityTable, path: Path, *,
     chosen = [c for c in (cables or table.cables) if c in table.cables]
     fig = _cable_panels(chosen, columns, "V* [mm/s]", 2.0, draw)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
-def _save(fig: Figure, path: Path) -> Path:
+def save_figure(fig: Figure, path: Path, dpi: int = 120) -> Path:
+    """Writes ``fig`` as a PNG atomically and closes it."""
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
+        fig.savefig(tmp, dpi=dpi, format="png")
     plt.close(fig)
     return path
