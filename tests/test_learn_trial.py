@@ -17,11 +17,12 @@ from tensim.control import (
 )
 from tensim.control.sine_parameters import sine_parameters, tetraspine_sine_parameters
 from tensim.learn import Objective, TrialProblem, default_base, parse_direction
-from tensim.learn.objective import max_tilt, motor_work
+from tensim.learn.objective import max_tilt, motor_work, target_progress
 from tensim.learn.problem import FLIPPED, GAIT, OK, UNSTABLE
-from tensim.model import compile_structure
+from tensim.model import WorldOptions, compile_structure
 from tensim.models import tetraspine3
 from tensim.sim import SimulationError, TimeSeries, simulate
+from tensim.terrain import parse_terrain
 
 # -- the objective on synthetic trajectories -----------------------------------------------------
 
@@ -75,11 +76,31 @@ def test_tilt_past_the_limit_flips_the_trial():
     assert Objective(max_tilt_deg=180.0).score(series, ("seg",))[2] is None
 
 
+def test_a_target_scores_the_progress_toward_it():
+    # com (1, 2) -> (1.3, 1.6); target (4, 6): distance 5 -> |(2.7, 4.4)| by Pythagoras
+    series = _series(np.linspace(1.0, 1.3, 11), np.linspace(2.0, 1.6, 11))
+    score, metrics, reason = Objective(target_xy=(4.0, 6.0)).score(series, ("seg",))
+    assert reason is None
+    assert score == pytest.approx(5.0 - math.hypot(2.7, 4.4), abs=1e-12)
+    assert metrics["target_distance_m"] == pytest.approx(math.hypot(2.7, 4.4), abs=1e-12)
+    # along the path toward the target the progress is the distance travelled (0.5 m)
+    ahead = (1.0 + 0.3 * 10, 2.0 - 0.4 * 10)
+    assert Objective(target_xy=ahead).score(series, ("seg",))[0] == pytest.approx(0.5)
+    # settling: only the second half counts, 0.25 m of the straight path
+    settled = Objective(target_xy=ahead, settle_s=0.5).score(series, ("seg",))[0]
+    assert settled == pytest.approx(0.25)
+    assert "toward (4, 6) m" in Objective(target_xy=(4.0, 6.0)).describe()
+
+
 def test_bad_objectives_are_refused():
     with pytest.raises(ValueError, match="direction"):
         parse_direction("upward")
     with pytest.raises(ValueError, match="energy_weight"):
         Objective(energy_weight=-1.0)
+    with pytest.raises(ValueError, match="not both"):
+        Objective(direction_deg=0.0, target_xy=(1.0, 0.0))
+    with pytest.raises(ValueError, match="two finite coordinates"):
+        Objective(target_xy=(1.0, math.nan))
 
 
 # -- sine layouts ----------------------------------------------------------------------------------
@@ -189,7 +210,39 @@ def test_learn_command_end_to_end_with_resume(tmp_path, capsys):
     assert table.exists()
 
 
+def test_learn_command_toward_a_target_on_rough_ground(tmp_path, capsys):
+    out = tmp_path / "goal"
+    terrain = "rough:roughness=0.01,correlation=0.2,seed=4,size=2.0,friction=0.8"
+    assert main(["--quiet", "learn", "--model", "tetraspine3", "--controller", "sine-pattern",
+                 "--optimizer", "cma", "--evaluations", "2", "--trial-duration", "0.4",
+                 "--workers", "0", "--target", "1,0.5", "--terrain", terrain,
+                 "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert f"try it: tensim simulate tetraspine3 --controller {out}" in printed
+    assert "--terrain 'rough:roughness=0.01," in printed
+    config = json.loads((out / "config.json").read_text())["problem"]
+    assert config["objective"]["target_xy"] == [1.0, 0.5]
+    assert parse_terrain(config["terrain"]) == parse_terrain(terrain)
+    # the best trial replays on that ground and scores the same progress
+    robot = tetraspine3()
+    best = load_controller(out / "best_controller.yaml", robot)
+    compiled = compile_structure(robot, WorldOptions(terrain=parse_terrain(terrain)))
+    result = simulate(compiled, best.duration, controller=best.build(1e-3))
+    summary = json.loads((out / "summary.json").read_text())
+    assert target_progress(result.trajectory, (1.0, 0.5)) == summary["best_score"]
+    # the ground and the target are part of the run: a resume may not change them
+    assert main(["learn", "--resume", str(out), "--terrain", "flat"]) == 2
+    assert "--terrain" in capsys.readouterr().err
+
+
 def test_learn_command_refuses_bad_input(tmp_path, capsys):
+    assert main(["learn", "--target", "1", "--out", str(tmp_path / "t")]) == 2
+    assert "expected two numbers X,Y" in capsys.readouterr().err
+    assert main(["learn", "--target", "1,0", "--direction", "left", "--out",
+                 str(tmp_path / "t")]) == 2
+    assert "not both" in capsys.readouterr().err
+    assert main(["learn", "--terrain", "lava", "--out", str(tmp_path / "t")]) == 2
+    assert "unknown kind 'lava'" in capsys.readouterr().err
     assert main(["learn", "--resume", str(tmp_path), "--model", "six_bar"]) == 2
     assert "--resume takes the run's configuration" in capsys.readouterr().err
     assert main(["learn", "--segment", "tail", "--out", str(tmp_path / "x")]) == 2

@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 import tensim
 from tensim.cli import main
-from tensim.control import SineController, load_controller
+from tensim.control import SineController, SpineWave, load_controller
 from tensim.experiments.climb import climb_controller, run_climb, wall_progress
 from tensim.experiments.goal import (
     REACHED_RADIUS,
@@ -21,7 +21,6 @@ from tensim.experiments.goal import (
     run_goal,
     write_goal,
 )
-from tensim.experiments.scenarios import SpineWave
 from tensim.experiments.sidewind import run_sidewind, sideways_share, transferred_cpg
 from tensim.models import preset
 from tensim.sim import TimeSeries
@@ -181,6 +180,19 @@ def test_goal_run_writes_its_folder(tmp_path):
     assert written["target_xy_m"] == [1.0, 0.5]
     for name in (*written["figures"], "controller.yaml", "trajectory.parquet"):
         assert (tmp_path / name).exists(), name
+
+
+def test_goal_from_the_command_line_with_a_target(tmp_path, capsys):
+    out = tmp_path / "goal"
+    assert main(["--quiet", "experiment", "goal", "--duration", "0.5", "--target=-2,1",
+                 "--terrain", "rough:roughness=0.005,seed=3,size=3", "--out", str(out)]) == 0
+    assert "target (-2.0, 1.0) m" in capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["target_xy_m"] == [-2.0, 1.0]
+    assert main(["experiment", "goal", "--target", "1;2", "--out", str(out)]) == 2
+    assert "expected two numbers X,Y" in capsys.readouterr().err
+    assert main(["experiment", "climb", "--target", "1,2", "--out", str(out)]) == 2
+    assert "--target is for the goal experiment" in capsys.readouterr().err
 
 
 def test_climb_from_the_command_line(tmp_path, capsys):

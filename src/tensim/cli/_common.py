@@ -117,11 +117,17 @@ def print_summary(summary: dict[str, Any], out: Path) -> None:
 def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None:
     """Adds the options that describe the simulated world (physics step, ...)."""
     parser.add_argument("--dt", type=float, default=dt, help="physics step [s]")
+    add_terrain_option(parser, "flat, or the experiment's own")
+
+
+def add_terrain_option(parser: argparse.ArgumentParser | argparse._ArgumentGroup,
+                       default: str = "flat") -> None:
+    """Adds ``--terrain NAME[:key=value,...]`` (parsed by :func:`world_from_args`)."""
     parser.add_argument("--terrain", default=None, metavar="NAME[:key=value,...]",
                         help="ground: flat, slope, hills, rough, stairs, blocks, wall or "
                              "heightfield, e.g. 'rough:roughness=0.02,seed=3' or "
-                             "'wall:height=0.1,friction=0.5' (default flat, or the experiment's "
-                             "own; see docs/terrain.md)")
+                             f"'wall:height=0.1,friction=0.5' (default {default}; see "
+                             "docs/terrain.md)")
 
 
 def world_from_args(args: argparse.Namespace) -> WorldOptions:
@@ -134,6 +140,23 @@ def world_from_args(args: argparse.Namespace) -> WorldOptions:
 
     text = getattr(args, "terrain", None)
     return WorldOptions(timestep=args.dt, terrain=parse_terrain(text) if text else Flat())
+
+
+def parse_point(text: str, what: str) -> tuple[float, float]:
+    """``"X,Y"`` as a point (x, y) [m].
+
+    Raises:
+        ValueError: not two finite numbers, naming the option ``what``.
+    """
+    parts = text.split(",")
+    try:
+        x, y = (float(p) for p in parts)
+    except ValueError:
+        raise ValueError(f"{what} {text!r}: expected two numbers X,Y in metres, e.g. "
+                         "1.5,0") from None
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise ValueError(f"{what} {text!r}: expected finite coordinates")
+    return x, y
 
 
 def add_controller_option(parser: argparse.ArgumentParser, default: str | None = None) -> None:

@@ -13,6 +13,7 @@ from tensim.cli._common import (
     add_controller_option,
     add_world_options,
     load_model,
+    parse_point,
     print_summary,
     world_from_args,
 )
@@ -115,9 +116,11 @@ def _sidewind(args: argparse.Namespace, out: Path) -> dict[str, Any]:
 
 
 def _goal(args: argparse.Namespace, out: Path) -> dict[str, Any]:
-    from tensim.experiments.goal import run_goal, write_goal
+    from tensim.experiments.goal import GOAL_TARGET, run_goal, write_goal
 
-    result, summary, config, terrain = run_goal(**_scenario_args(args, "goal"))
+    target = GOAL_TARGET if args.target is None else parse_point(args.target, "--target")
+    result, summary, config, terrain = run_goal(target_xy=target,
+                                                **_scenario_args(args, "goal"))
     write_goal(out, result, summary, config, terrain)
     print(f"target {tuple(summary['target_xy_m'])} m: distance {summary['start_distance_m']:.3f}"
           f" -> {summary['final_distance_m']:.3f} m (progress {summary['goal_progress_m']:.3f} m"
@@ -158,11 +161,16 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "of `tensim sysid`)")
     p.add_argument("--duration", type=float, default=None,
                    help="simulated time [s] (default: the experiment's own)")
+    p.add_argument("--target", default=None, metavar="X,Y",
+                   help="goal: the target point in the world frame [m] (default 1.5,0, "
+                        "2.7 m ahead of the robot; write --target=-2,1 for a negative X)")
     p.add_argument("--out", default=None, help="output folder (default runs/NAME)")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.target is not None and args.name != "goal":
+        raise ValueError(f"--target is for the goal experiment, not {args.name!r}")
     out = Path(args.out or f"runs/{args.name}")
     summary = EXPERIMENTS[args.name][1](args, out)
     if "duration_s" in summary:

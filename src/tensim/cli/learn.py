@@ -8,7 +8,13 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from tensim.cli._common import Progress, load_model
+from tensim.cli._common import (
+    Progress,
+    add_terrain_option,
+    load_model,
+    parse_point,
+    world_from_args,
+)
 
 if TYPE_CHECKING:
     from tensim.learn import TrialProblem
@@ -16,10 +22,11 @@ if TYPE_CHECKING:
 # options that define a run; a resumed run takes them from its folder
 _PROBLEM_OPTIONS = ("model", "controller", "base_controller", "optimizer", "trial_duration",
                     "seed", "segment", "direction", "energy_weight", "settle", "max_tilt",
-                    "penalty", "dt", "record_dt", "step", "batch", "monte_carlo")
+                    "penalty", "dt", "record_dt", "terrain", "target", "step", "batch",
+                    "monte_carlo")
 _DEFAULTS: dict[str, Any] = {
     "model": "tetraspine3", "controller": "cpg", "optimizer": "ntrt", "evaluations": 100,
-    "trial_duration": 10.0, "seed": 0, "segment": "com", "direction": "any",
+    "trial_duration": 10.0, "seed": 0, "segment": "com",
     "energy_weight": 0.0, "settle": 0.0, "max_tilt": 90.0, "penalty": -1.0, "dt": 1e-3,
     "record_dt": 0.01, "monte_carlo": 48, "out": "runs/learn",
 }
@@ -36,9 +43,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     d = _DEFAULTS
     problem = p.add_argument_group("problem (taken from DIR when resuming)")
     problem.add_argument("--model", help=f"preset or structure .yaml file (default {d['model']})")
-    problem.add_argument("--controller", choices=("cpg", "sine", "sine-pattern"),
+    problem.add_argument("--controller", choices=("cpg", "sine", "sine-pattern", "wave"),
                          help="controller family: spine CPG (116 parameters for Tetraspine3), "
-                         "per-cable sine waves, or the paper's 4-number sine pattern "
+                         "per-cable sine waves, the paper's 4-number sine pattern, or a "
+                         "travelling wave of joint bending along any Tetraspine (8 numbers) "
                          f"(default {d['controller']})")
     problem.add_argument("--base-controller", metavar="FILE|NAME",
                          help="controller file whose impedance laws the gait drives (default: "
@@ -51,6 +59,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     problem.add_argument("--direction", help="any (planar distance), forward (+x), backward, "
                          "left (+y), right, sideways (either side), or an angle in degrees "
                          "from +x toward +y (default any)")
+    problem.add_argument("--target", metavar="X,Y",
+                         help="score the progress toward this point [m] instead of a "
+                         "displacement (goal-directed locomotion; not with --direction; write "
+                         "--target=-2,1 for a negative X)")
     problem.add_argument("--energy-weight", type=float, metavar="M_PER_J",
                          help="subtract this times the motor work [m/J] (default 0)")
     problem.add_argument("--settle", type=float, metavar="S",
@@ -64,6 +76,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     problem.add_argument("--dt", type=float, help="physics step [s] (default 0.001)")
     problem.add_argument("--record-dt", type=float, help="trial recording period [s] "
                          "(default 0.01)")
+    add_terrain_option(problem)
     search = p.add_argument_group("search (taken from DIR when resuming)")
     search.add_argument("--optimizer", choices=("ntrt", "cma", "nelder-mead"),
                         help="ntrt: Monte Carlo then Gaussian hill climbing (the original "
@@ -95,17 +108,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _problem(args: argparse.Namespace) -> TrialProblem:
     from tensim.control import load_controller
     from tensim.learn import Objective, TrialProblem, default_base, parse_direction
-    from tensim.model import WorldOptions
 
     structure = load_model(args.model)
     base = (load_controller(args.base_controller, structure) if args.base_controller
             else default_base(args.model, args.controller, structure))
-    direction, either_way = parse_direction(args.direction)
-    objective = Objective(args.segment, direction, either_way, args.energy_weight,
-                          args.settle, args.max_tilt)
+    if args.target is not None and args.direction is not None:
+        raise ValueError("give --direction or --target, not both")
+    direction, either_way = parse_direction(args.direction or "any")
+    target = parse_point(args.target, "--target") if args.target is not None else None
+    objective = Objective(args.segment, None if target else direction, either_way,
+                          args.energy_weight, args.settle, args.max_tilt, target)
     return TrialProblem(structure, base, args.controller, args.trial_duration, objective,
-                        WorldOptions(timestep=args.dt), args.record_dt, args.penalty,
-                        args.model)
+                        world_from_args(args), args.record_dt, args.penalty, args.model)
 
 
 class _LearningProgress:
@@ -181,9 +195,21 @@ def _report(out: Path, summary: dict[str, Any]) -> None:
     if summary["failed"]:
         failed = ", ".join(f"{n} {status}" for status, n in summary["failed"].items())
         print(f"failed trials: {failed} (reasons in evaluations.jsonl)")
-    if "best_controller" in summary and problem.get("family") == "cpg":
-        print(f"try it: tensim experiment cpg --controller {out}/best_controller.yaml")
-    elif "best_controller" in summary:
-        print(f"try it: tensim experiment sine --controller {out}/best_controller.yaml")
+    if "best_controller" in summary:
+        print(f"try it: {_try_command(problem, out / 'best_controller.yaml')}")
     if not summary["finished"]:
         print(f"continue with: tensim learn --resume {out}", file=sys.stderr)
+
+
+def _try_command(problem: dict[str, Any], controller: Path) -> str:
+    """The command that runs a learned controller as the matching experiment."""
+    model, family = problem.get("model"), problem.get("family")
+    terrain = problem.get("terrain", "flat")
+    if model == "tetraspine3" and terrain == "flat" and family in ("cpg", "sine"):
+        return f"tensim experiment {family} --controller {controller}"
+    if model == "tetraspine" and problem.get("objective", {}).get("target_xy") is not None:
+        x, y = problem["objective"]["target_xy"]
+        return (f"tensim experiment goal --controller {controller} --target {x:g},{y:g} "
+                f"--terrain '{terrain}'")
+    return (f"tensim simulate {model} --controller {controller}"
+            + ("" if terrain == "flat" else f" --terrain '{terrain}'"))

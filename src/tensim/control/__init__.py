@@ -1,5 +1,5 @@
-"""Controllers: the per-cable impedance law, the gait generators (CPG, sine) that drive its
-target velocity V*, sampled V* tables, and controller files."""
+"""Controllers: the per-cable impedance law, the gait generators (CPG, sine, spine waves) that
+drive its target velocity V*, sampled V* tables, and controller files."""
 
 from tensim.control.cpg import (
     Coupling,
@@ -37,6 +37,7 @@ from tensim.control.velocity_table import (
     load_velocity_table,
     save_velocity_table,
 )
+from tensim.control.wave import SpineWave, SpineWaveParameters, spine_wave_parameters
 
 __all__ = [
     "Bounds",
@@ -56,6 +57,8 @@ __all__ = [
     "SineGait",
     "SolverSettings",
     "SpineCPG",
+    "SpineWave",
+    "SpineWaveParameters",
     "TableController",
     "VelocityFileError",
     "VelocityTable",
@@ -71,6 +74,7 @@ __all__ = [
     "solve",
     "spine_network",
     "spine_parameters",
+    "spine_wave_parameters",
     "tagged_sine",
     "tetraspine_sine",
 ]

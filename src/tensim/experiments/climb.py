@@ -13,9 +13,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from tensim.control import ControllerConfig
+from tensim.control import ControllerConfig, SpineWave
 from tensim.experiments.scenarios import (
-    SpineWave,
     resolve,
     run_scenario,
     segments,

@@ -18,13 +18,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tensim._files import atomic_path
 from tensim.control import ControllerConfig
 from tensim.experiments.climb import CLIMB_WAVE
 from tensim.experiments.scenarios import resolve, run_scenario, wave_controller, write_scenario
+from tensim.learn.objective import target_distance, target_progress
 from tensim.model import WorldOptions
 from tensim.sim import COM, SimulationResult, TimeSeries
 from tensim.terrain import Rough, Terrain
+from tensim.viz.plots import save_figure
 
 GOAL_TARGET = (1.5, 0.0)  # m; the 12-segment spine's centre of mass starts at x = -1.23
 # 2 cm RMS bumps, 20 cm across; friction 1.0 as in the climb (the gait's own ground)
@@ -38,8 +39,7 @@ def goal_distance(trajectory: TimeSeries, target_xy: tuple[float, float],
                   item: str = COM) -> np.ndarray:
     """(T,) horizontal distance from ``item`` (default the robot's centre of mass) to the
     target at every sample [m]."""
-    x, y = trajectory[f"pos_x/{item}"], trajectory[f"pos_y/{item}"]
-    return np.hypot(x - target_xy[0], y - target_xy[1])
+    return target_distance(trajectory, target_xy, item)
 
 
 def goal_progress(trajectory: TimeSeries, target_xy: tuple[float, float]) -> float:
@@ -48,14 +48,14 @@ def goal_progress(trajectory: TimeSeries, target_xy: tuple[float, float]) -> flo
     The reduction of the horizontal (x-y) distance between the robot's centre of mass and
     ``target_xy`` from the first to the last sample: positive when it approached, negative
     when it moved away, 0 for a robot that stayed put or circled at a constant distance. A
-    larger score is better, so it serves directly as an optimizer's objective.
+    larger score is better, so it serves directly as an optimizer's objective; ``tensim learn
+    --target X,Y`` scores trials with it (:class:`tensim.learn.Objective`).
 
     Args:
         trajectory: a recorded run (needs the ``pos_x/com`` and ``pos_y/com`` channels).
         target_xy: (x, y) of the target in the world frame [m].
     """
-    distance = goal_distance(trajectory, target_xy)
-    return float(distance[0] - distance[-1])
+    return target_progress(trajectory, target_xy)
 
 
 def goal_objective(target_xy: tuple[float, float]) -> Callable[[TimeSeries], float]:
@@ -124,10 +124,7 @@ def plot_goal_distance(trajectory: TimeSeries, target_xy: tuple[float, float],
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def write_goal(out: Path, result: SimulationResult, summary: dict[str, Any],

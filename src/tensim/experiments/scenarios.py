@@ -1,23 +1,11 @@
-"""The 12-segment Tetraspine scenarios (paper Fig. 1): their wave gait, run and report.
+"""The 12-segment Tetraspine scenarios (paper Fig. 1): their wave gaits, run and report.
 
-The scenarios drive the impedance laws' target velocity V* with a travelling wave of joint
-bending. A Tetraspine joint bends in three ways, each a fixed pattern over the outer cables'
-sides (``top``, ``left``, ``right``; every inner cable takes the inverse of its side's outer
-cable, as in the paper's hand-tuned gait):
-
-- ``axial``: all three sides alike, the joint lengthens and shortens;
-- ``pitch``: top against the two bottom corners (weights 1, -1/2, -1/2: the top anchor sits twice
-  as far above the base triangle's centroid as the bottom ones below it), the spine bends up and
-  down;
-- ``yaw``: left against right, the spine bends sideways.
-
-Each mode has an amplitude [m/s] and phase [rad]; joint j runs ``joint_lag`` behind joint j - 1,
-so the bending travels along the spine.
+The scenarios drive the impedance laws' target velocity V* with travelling waves of joint
+bending (:class:`~tensim.control.wave.SpineWave`) or with learned gaits.
 """
 
 from __future__ import annotations
 
-import cmath
 import dataclasses
 from collections.abc import Callable
 from pathlib import Path
@@ -29,76 +17,21 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tensim._files import atomic_path
-from tensim.control import ControllerConfig, SineGait, load_controller, save_controller
+from tensim.control import ControllerConfig, load_controller, save_controller
+from tensim.control.wave import SpineWave
 from tensim.experiments.gait import locomotion
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.runs import write_run
 from tensim.sim import COM, SimulationResult, TimeSeries, simulate
-from tensim.structure import Structure
 from tensim.terrain import Terrain, format_terrain
 from tensim.viz import plot_cable_tensions, plot_path
+from tensim.viz.plots import save_figure
 
 MODEL = "tetraspine"  # the 12-segment preset
 COMMAND_PERIOD = 0.01  # s between V* commands, as the hardware's packets
-SIDES = ("top", "left", "right")
-MODES: dict[str, dict[str, float]] = {
-    "axial": {"top": 1.0, "left": 1.0, "right": 1.0},
-    "pitch": {"top": 1.0, "left": -0.5, "right": -0.5},
-    "yaw": {"top": 0.0, "left": 1.0, "right": -1.0},
-}
-Mode = tuple[float, float]  # (amplitude [m/s], phase [rad])
 _CABLE_KINDS = ("outer_top", "outer_left", "outer_right", "inner_top", "inner_left",
                 "inner_right")
-
-
-@dataclasses.dataclass(frozen=True)
-class SpineWave:
-    """A travelling wave of joint bending along a Tetraspine, on V*.
-
-    Attributes:
-        frequency: [Hz].
-        joint_lag: phase by which each joint runs behind the one in front of it [rad].
-        axial, pitch, yaw: (amplitude [m/s], phase [rad]) of each bending mode on the outer
-            cables.
-    """
-
-    frequency: float
-    joint_lag: float
-    axial: Mode = (0.0, 0.0)
-    pitch: Mode = (0.0, 0.0)
-    yaw: Mode = (0.0, 0.0)
-
-    def gait(self, structure: Structure) -> SineGait:
-        """The per-cable sine waves for ``structure`` (cables tagged by side, inner/outer and
-        joint, as the Tetraspine presets are).
-
-        Raises:
-            ValueError: a cable lacks a side, inner/outer or joint tag.
-        """
-        joints = {c.name: _joint(c.name, c.tags) for c in structure.cables}
-        front = min(joints.values())
-        names, amplitude, phase = [], [], []
-        for cable in structure.cables:
-            sides = [s for s in SIDES if s in cable.tags]
-            if len(sides) != 1 or ("inner" in cable.tags) == ("outer" in cable.tags):
-                raise ValueError(f"cable {cable.name!r} needs one side tag of {SIDES} and one "
-                                 f"of 'inner'/'outer', has {cable.tags!r}")
-            wave = sum(MODES[m][sides[0]] * a * cmath.exp(1j * p) for m, (a, p) in
-                       (("axial", self.axial), ("pitch", self.pitch), ("yaw", self.yaw)))
-            wave = -wave if "inner" in cable.tags else wave
-            names.append(cable.name)
-            amplitude.append(abs(wave))
-            phase.append(cmath.phase(wave) - (joints[cable.name] - front) * self.joint_lag)
-        return SineGait(tuple(names), tuple(amplitude), self.frequency, tuple(phase))
-
-
-def _joint(cable: str, tags: tuple[str, ...]) -> int:
-    found = [int(t[6:]) for t in tags if t.startswith("joint_") and t[6:].isdigit()]
-    if len(found) != 1:
-        raise ValueError(f"cable {cable!r} needs one 'joint_<j>' tag, has {tags!r}")
-    return found[0]
 
 
 def wave_controller(wave: SpineWave, duration: float, model: str = MODEL,
@@ -215,7 +148,4 @@ def plot_side_view(series: TimeSeries, terrain: Terrain, path: Path) -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

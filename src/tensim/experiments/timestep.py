@@ -17,10 +17,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tensim._files import atomic_path
 from tensim.experiments.disturbance import run_disturbance
 from tensim.model import WorldOptions
 from tensim.runs import finish_run
+from tensim.viz.plots import save_figure
 
 RATES_HZ = (250, 1000, 4000)
 REFERENCE_HZ = 1000
@@ -100,8 +100,6 @@ def write_timestep_study(out: Path, summary: dict[str, Any]) -> Path:
     ax.legend()
     ax.grid(alpha=0.3, axis="y")
     fig.tight_layout()
-    with atomic_path(out / "timestep.png") as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
-    plt.close(fig)
+    save_figure(fig, out / "timestep.png")
     finish_run(out, {**summary, "figures": ["timestep.png"]})  # log, report, summary.json
     return out

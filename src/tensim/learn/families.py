@@ -2,7 +2,9 @@
 
 A family names a :class:`~tensim.control.parameters.ParameterLayout`: ``cpg`` the spine CPG
 of :mod:`tensim.control.spine` (116 parameters for Tetraspine3), ``sine`` per-cable sine waves
-with a shared frequency, ``sine-pattern`` the paper's four-number Tetraspine sine pattern. The
+with a shared frequency, ``sine-pattern`` the paper's four-number Tetraspine sine pattern,
+``wave`` a travelling wave of joint bending along any Tetraspine (:mod:`tensim.control.wave`,
+eight parameters whatever the spine's length). The
 base controller file gives the impedance laws, the command period and, where its gait is of
 the family, the layout's bounds and the starting point.
 """
@@ -19,14 +21,15 @@ from tensim.control import (
     load_controller,
     resolve_controller,
     spine_parameters,
+    spine_wave_parameters,
 )
 from tensim.control.sine_parameters import sine_parameters, tetraspine_sine_parameters
 from tensim.structure import Structure
 
-FAMILIES = ("cpg", "sine", "sine-pattern")
+FAMILIES = ("cpg", "sine", "sine-pattern", "wave")
 # shipped controller files used as the base for the Tetraspine3 preset
 SHIPPED_BASE = {"cpg": "tetraspine3_cpg", "sine": "tetraspine3_sine",
-                "sine-pattern": "tetraspine3_sine"}
+                "sine-pattern": "tetraspine3_sine", "wave": "tetraspine3_sine"}
 
 
 def check_family(family: str) -> str:
@@ -62,6 +65,9 @@ def gait_layout(family: str, structure: Structure, base: ControllerConfig
         start = gait if isinstance(gait, SineGait) and len(set(gait.frequency)) == 1 else None
         layout = sine_parameters(structure, None if start else cables, start=start)
         return layout, layout.nominal
+    if family == "wave":
+        waves = spine_wave_parameters(structure)
+        return waves, waves.nominal
     pattern = tetraspine_sine_parameters(structure)
     return pattern, pattern.nominal
 

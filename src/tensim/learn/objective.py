@@ -3,7 +3,8 @@
 The score of a recorded trial is the displacement of a chosen segment's centre of mass (or the
 whole robot's, ``"com"``) in the ground plane from ``settle_s`` to the end: its length, or its
 component along a direction, or the size of that component either way (sideways to the left
-or right); optionally minus ``energy_weight`` times the motor work. A trial in which any rigid
+or right), or, with a target point, how much closer to it the segment got (goal-directed
+locomotion); optionally minus ``energy_weight`` times the motor work. A trial in which any rigid
 body's up axis tilts past ``max_tilt_deg`` has flipped over: it gets the problem's penalty.
 """
 
@@ -59,6 +60,8 @@ class Objective:
         settle_s: time left for the robot to settle before the displacement counts [s].
         max_tilt_deg: a body whose up axis tilts further than this from vertical has flipped
             [deg]; 180 turns the check off (rolling robots).
+        target_xy: a target point (x, y) in the world frame [m]; the score is then the
+            progress toward it (:func:`target_progress`) instead of a displacement.
     """
 
     segment: str = COM
@@ -67,8 +70,15 @@ class Objective:
     energy_weight: float = 0.0
     settle_s: float = 0.0
     max_tilt_deg: float = 90.0
+    target_xy: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
+        if self.target_xy is not None:
+            if len(self.target_xy) != 2 or not all(math.isfinite(v) for v in self.target_xy):
+                raise ValueError(f"target_xy must be two finite coordinates [m], got "
+                                 f"{self.target_xy!r}")
+            if self.direction_deg is not None:
+                raise ValueError("give a direction or a target point, not both")
         if self.direction_deg is not None and not math.isfinite(self.direction_deg):
             raise ValueError(f"direction_deg must be finite, got {self.direction_deg}")
         if self.either_way and self.direction_deg is None:
@@ -83,7 +93,10 @@ class Objective:
     def describe(self) -> str:
         """One line, e.g. ``displacement of com along 90 deg, either way``."""
         what = f"displacement of {self.segment}"
-        if self.direction_deg is None:
+        if self.target_xy is not None:
+            text = (f"progress of {self.segment} toward ({self.target_xy[0]:g}, "
+                    f"{self.target_xy[1]:g}) m")
+        elif self.direction_deg is None:
             text = f"planar {what}"
         else:
             text = f"{what} along {self.direction_deg:g} deg" + (
@@ -103,18 +116,23 @@ class Objective:
         Returns:
             (score, metrics, reason): metrics ``dx_m``, ``dy_m`` (displacement [m]),
             ``distance_m`` (the scored distance [m]), ``work_J`` (motor work [J]),
-            ``max_tilt_deg``.
+            ``max_tilt_deg``, and with a target ``target_distance_m`` (at the end [m]).
         """
         start = int(np.searchsorted(trajectory.time, self.settle_s - 1e-9))
         if start >= trajectory.time.size - 1:
             raise ValueError(f"settle_s = {self.settle_s} s leaves no time to score in a "
                              f"{trajectory.time[-1]:g} s trial")
         dx, dy = planar_displacement(trajectory, self.segment, start)
-        distance = self.distance(dx, dy)
         work = motor_work(trajectory, start)
         tilt, body, when = max_tilt(trajectory, bodies)
-        metrics = {"dx_m": dx, "dy_m": dy, "distance_m": distance, "work_J": work,
-                   "max_tilt_deg": tilt}
+        metrics = {"dx_m": dx, "dy_m": dy}
+        if self.target_xy is None:
+            distance = self.distance(dx, dy)
+        else:
+            distance = target_progress(trajectory, self.target_xy, self.segment, start)
+            metrics["target_distance_m"] = float(
+                target_distance(trajectory, self.target_xy, self.segment)[-1])
+        metrics.update({"distance_m": distance, "work_J": work, "max_tilt_deg": tilt})
         reason = None
         if tilt > self.max_tilt_deg:
             reason = (f"flipped over: {body!r} tilted {tilt:.0f} deg from upright at "
@@ -136,6 +154,25 @@ def planar_displacement(trajectory: TimeSeries, item: str, start: int = 0
     """(dx, dy) of ``item``'s centre of mass from sample ``start`` to the last one [m]."""
     x, y = trajectory[f"pos_x/{item}"], trajectory[f"pos_y/{item}"]
     return float(x[-1] - x[start]), float(y[-1] - y[start])
+
+
+def target_distance(trajectory: TimeSeries, target_xy: tuple[float, float], item: str = COM
+                    ) -> np.ndarray:
+    """(T,) horizontal distance from ``item``'s centre of mass to a target point [m]."""
+    x, y = trajectory[f"pos_x/{item}"], trajectory[f"pos_y/{item}"]
+    return np.hypot(x - target_xy[0], y - target_xy[1])
+
+
+def target_progress(trajectory: TimeSeries, target_xy: tuple[float, float], item: str = COM,
+                    start: int = 0) -> float:
+    """How much closer ``item``'s centre of mass got to a target point [m].
+
+    The reduction of the horizontal (x-y) distance to ``target_xy`` from sample ``start`` to
+    the last one: positive when it approached, negative when it moved away, 0 for a robot that
+    stayed put or circled at a constant distance.
+    """
+    distance = target_distance(trajectory, target_xy, item)
+    return float(distance[start] - distance[-1])
 
 
 def motor_work(trajectory: TimeSeries, start: int = 0) -> float:

@@ -12,8 +12,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tensim._files import atomic_path
 from tensim.learn.problem import OK, Evaluation
+from tensim.viz.plots import save_figure
 
 
 def best_so_far(evaluations: Sequence[Evaluation]) -> np.ndarray:
@@ -54,10 +54,7 @@ def plot_learning_curve(evaluations: Sequence[Evaluation], path: Path, *, title:
     if title:
         ax.set_title(title, fontsize=9)
     fig.tight_layout()
-    with atomic_path(Path(path)) as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
-    plt.close(fig)
-    return Path(path)
+    return save_figure(fig, Path(path))
 
 
 def plot_best_so_far(runs: dict[str, Sequence[Evaluation]], path: Path, *, title: str = "",
@@ -84,7 +81,4 @@ def plot_best_so_far(runs: dict[str, Sequence[Evaluation]], path: Path, *, title
     if title:
         ax.set_title(title, fontsize=9)
     fig.tight_layout()
-    with atomic_path(Path(path)) as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
-    plt.close(fig)
-    return Path(path)
+    return save_figure(fig, Path(path))

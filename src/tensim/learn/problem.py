@@ -30,6 +30,7 @@ from tensim.learn.objective import Objective
 from tensim.model import CompiledModel, WorldOptions, compile_structure
 from tensim.sim import SimulationError, simulate
 from tensim.structure import Structure
+from tensim.terrain import format_terrain
 
 # trial status: "ok" is scored; the others get the penalty score
 OK, FLIPPED, UNSTABLE, GAIT, ERROR, LOST = "ok", "flipped", "unstable", "gait", "error", "lost"
@@ -135,7 +136,8 @@ class TrialProblem:
     Attributes:
         structure: the robot.
         base: impedance laws and command period the gaits are put on (its gait is replaced).
-        family: ``cpg``, ``sine`` or ``sine-pattern`` (see :mod:`tensim.learn.families`).
+        family: ``cpg``, ``sine``, ``sine-pattern`` or ``wave`` (see
+            :mod:`tensim.learn.families`).
         duration_s: simulated time of one trial [s].
         objective: how a trial is scored.
         world: physics step, gravity and ground.
@@ -241,7 +243,8 @@ class TrialProblem:
                 "duration_s": self.duration_s, "record_dt_s": self.record_dt,
                 "penalty": self.penalty, "objective": dataclasses.asdict(self.objective),
                 "objective_text": self.objective.describe(),
-                "world": _jsonable(self.world), "dimension": self.dimension,
+                "world": _jsonable(self.world), "terrain": format_terrain(self.world.terrain),
+                "dimension": self.dimension,
                 "parameter_names": list(self.layout.names)}
 
 

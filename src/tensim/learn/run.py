@@ -41,6 +41,7 @@ log = logging.getLogger(__name__)
 # progress(done, total, best score or None, failed trials) after every evaluation of a session
 ProgressFn = Callable[[int, int, float | None, int], None]
 ExecutorFactory = Callable[[Problem], Executor]
+_NAMED_VALUES = 8  # a best controller's description lists its parameters up to this many
 
 
 @dataclasses.dataclass(frozen=True)
@@ -230,6 +231,9 @@ class _Session:
         text = (f"learned by tensim learn ({self.config['optimizer']['name']}, seed "
                 f"{self.config['seed']}): evaluation {best.index}, score {best.score:.6g} "
                 f"({problem.objective.describe()}) over {problem.duration_s:g} s")
+        if problem.dimension <= _NAMED_VALUES:  # a few numbers: say them
+            text += "; " + ", ".join(f"{n} = {v:.6g}" for n, v in
+                                     zip(problem.layout.names, best.values, strict=True))
         save_controller(problem.controller(np.asarray(best.unit), text),
                         self.store.path(BEST_CONTROLLER))
 
