@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import textwrap
+
+import yaml
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,6 +21,10 @@ def run(args: argparse.Namespace) -> int:
     for preset in PRESETS.values():
         print(f"  {preset.name:<20} {preset.summary}")
     print("shipped controller files (use the name with --controller):")
-    for name, path in shipped_controllers().items():
-        print(f"  {name:<20} {path.name}")
+    shipped = shipped_controllers()
+    width = max(map(len, shipped), default=0)
+    for name, path in shipped.items():
+        data = yaml.safe_load(path.read_text())
+        about = str(data.get("description", "")).split(" (", 1)[0].split(", learned", 1)[0]
+        print(f"  {name:<{width}}  {data.get('model', '?')}: {textwrap.shorten(about, 72)}")
     return 0

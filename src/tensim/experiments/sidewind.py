@@ -1,14 +1,13 @@
 """Sidewinding (paper Fig. 1, middle): the 12-segment Tetraspine moves sideways.
 
-The gait follows the paper's link between the two robots ("similar to the side-winding gait for
-the twelve segment version"): the sideways CPG learned for Tetraspine3 (the shipped
-``tetraspine3_cpg_cma``, paper Fig. 5) put on the 12-segment spine. The spine CPG's parameters are
-named by joint offset and cable kinds, not by joint, so the same 116 values define the longer
-spine's couplings (each cable coupled to the cables that share a rigid body with it). A short
-scan of the two global parameters on the 12-segment robot then set the amplitude to its upper
-bound (0.07 m/s, the motors' speed) and the frequency to 1.4 Hz, which made the motion about
-twice as large and more purely sideways. The summary gives the displacement in the world and in
-the robot's own frame (forward along its spine, sideways to its left) and the turn.
+The gait is the shipped ``tetraspine_sidewind``: a travelling wave of pitch and yaw bending
+(:class:`~tensim.control.wave.SpineWave`, eight numbers) learned with ``tensim learn --controller
+wave --direction sideways`` (CMA-ES, 300 trials of 20 s on flat ground). As in a sidewinding
+snake, each section of the spine is lifted while it swings one way and set down while it swings
+back, so the robot travels across its own axis. :func:`transferred_cpg` carries a Tetraspine3
+spine CPG (paper Fig. 5) onto the long spine instead, for comparison. The summary gives the
+displacement in the world and in the robot's own frame (forward along its spine, sideways to its
+left) and the turn.
 """
 
 from __future__ import annotations
@@ -32,13 +31,11 @@ from tensim.sim import SimulationResult
 from tensim.terrain import Flat, Terrain
 
 SIDEWIND_DURATION = 60.0  # s
-SIDEWIND_SOURCE = "tetraspine3_cpg_cma"  # a shipped sideways CPG of Tetraspine3 (CMA-ES)
+SIDEWIND_GAIT = "tetraspine_sidewind"  # the shipped, learned sidewinding wave
 SIDEWIND_TERRAIN = Flat()  # the robot's own friction, as in the hardware tests
-SIDEWIND_AMPLITUDE = 0.07  # m/s, the CPG's amplitude (the source's: 0.064)
-SIDEWIND_FREQUENCY = 1.4  # Hz (the source's: 0.38)
 
 
-def transferred_cpg(source: str = SIDEWIND_SOURCE, model: str = MODEL, *,
+def transferred_cpg(source: str, model: str = MODEL, *,
                     amplitude: float | None = None, frequency: float | None = None) -> SpineCPG:
     """The CPG of controller ``source`` with its parameter values on ``model``'s spine.
 
@@ -68,16 +65,22 @@ def transferred_cpg(source: str = SIDEWIND_SOURCE, model: str = MODEL, *,
     return layout.gait([values[n] for n in layout.names])
 
 
-def sidewind_controller(duration: float = SIDEWIND_DURATION,
-                        source: str = SIDEWIND_SOURCE) -> ControllerConfig:
-    """The scenario's default controller: the 12-segment preset's impedance laws under the
-    sideways CPG transferred from ``source``."""
+def sidewind_controller(duration: float = SIDEWIND_DURATION) -> ControllerConfig:
+    """The scenario's default controller: the shipped sidewinding wave for ``duration`` s."""
+    return load_controller(SIDEWIND_GAIT).with_duration(duration)
+
+
+def transferred_controller(source: str, duration: float = SIDEWIND_DURATION, *,
+                           amplitude: float | None = None,
+                           frequency: float | None = None) -> ControllerConfig:
+    """The 12-segment preset's impedance laws under the spine CPG of ``source``
+    (:func:`transferred_cpg`), for ``duration`` s."""
     impedance = preset(MODEL).controller()
     assert impedance is not None  # the Tetraspine presets have impedance laws
-    gait = transferred_cpg(source, amplitude=SIDEWIND_AMPLITUDE, frequency=SIDEWIND_FREQUENCY)
+    gait = transferred_cpg(source, amplitude=amplitude, frequency=frequency)
     return ControllerConfig(impedance, gait, duration=duration, command_period=COMMAND_PERIOD,
-                            model=MODEL, description=f"sideways CPG of {source} on the {MODEL} "
-                            f"spine, amplitude {SIDEWIND_AMPLITUDE} m/s, {SIDEWIND_FREQUENCY} Hz")
+                            model=MODEL, description=f"spine CPG of {source} on the {MODEL} "
+                            "spine")
 
 
 def sideways_share(summary: dict[str, Any]) -> float:
