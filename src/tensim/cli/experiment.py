@@ -125,7 +125,8 @@ def _goal(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     print(f"target {tuple(summary['target_xy_m'])} m: distance {summary['start_distance_m']:.3f}"
           f" -> {summary['final_distance_m']:.3f} m (progress {summary['goal_progress_m']:.3f} m"
           f", closest {summary['closest_distance_m']:.3f} m, "
-          f"{'reached' if summary['reached'] else 'not reached'})")
+          + (f"reached at {summary['reached_time_s']:.1f} s)" if summary["reached"]
+             else "not reached)"))
     return summary
 
 

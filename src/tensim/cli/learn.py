@@ -209,7 +209,7 @@ def _try_command(problem: dict[str, Any], controller: Path) -> str:
         return f"tensim experiment {family} --controller {controller}"
     if model == "tetraspine" and problem.get("objective", {}).get("target_xy") is not None:
         x, y = problem["objective"]["target_xy"]
-        return (f"tensim experiment goal --controller {controller} --target {x:g},{y:g} "
+        return (f"tensim experiment goal --controller {controller} --target={x:g},{y:g} "
                 f"--terrain '{terrain}'")
     return (f"tensim simulate {model} --controller {controller}"
             + ("" if terrain == "flat" else f" --terrain '{terrain}'"))
