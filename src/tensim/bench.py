@@ -17,11 +17,14 @@ import numpy as np
 from mujoco import rollout
 
 from tensim.control import load_controller
-from tensim.model import compile_structure
+from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.sim import Simulation, compiled_available
+from tensim.terrain import Flat, Rough, Terrain
 
 SETTLE_S = 1.0
+# the goal scenario's ground: 2 cm RMS bumps on a 4 cm grid
+ROUGH = Rough(roughness=0.02, correlation=0.2, seed=1, size=4.0, resolution=0.04, friction=1.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,7 +56,8 @@ def _best(fn: Callable[[], float], repeats: int) -> float:
 
 
 def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
-                controlled: bool = True, controller_file: str | None = None) -> BenchCase:
+                controlled: bool = True, controller_file: str | None = None,
+                terrain: Terrain | None = None) -> BenchCase:
     """Benchmarks preset ``name`` for ``duration`` simulated seconds (best of ``repeats``).
 
     Args:
@@ -63,10 +67,11 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
         controlled: drive the cables with the preset's impedance controller.
         controller_file: drive them with this controller file's gait instead (its V* table
             is computed before the timed loop, as in any simulation).
+        terrain: the ground (None: flat).
     """
     model = preset(name)
     structure = model.build()
-    compiled = compile_structure(structure)
+    compiled = compile_structure(structure, WorldOptions(terrain=terrain or Flat()))
     m = compiled.model
     controller = model.controller() if controlled else None
     if controller_file is not None:
@@ -110,15 +115,21 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
 
     engine_wall = _best(engine, repeats)
     label = f" ({controller_file})" if controller_file else "" if controlled else " (passive)"
+    label += f" on {type(terrain).__name__.lower()}" if terrain else ""
     return BenchCase(f"{name}{label}", duration / wall,
                      duration / engine_wall, wall / n_steps * 1e6, engine_wall / n_steps * 1e6)
 
 
 def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, object]:
-    """The cases: Tetraspine3 under impedance control and on its CPG gait; a passive six-bar."""
+    """The cases: Tetraspine3 under impedance control and on its CPG gait; a passive six-bar;
+    the 12-segment Tetraspine sidewinding on flat ground and on its goal gait over the goal
+    scenario's rough height field."""
     cases = [bench_model("tetraspine3", duration, repeats),
              bench_model("tetraspine3", duration, repeats, controller_file="tetraspine3_cpg"),
-             bench_model("six_bar", duration, repeats, controlled=False)]
+             bench_model("six_bar", duration, repeats, controlled=False),
+             bench_model("tetraspine", duration, repeats, controller_file="tetraspine_sidewind"),
+             bench_model("tetraspine", duration, repeats, controller_file="tetraspine_goal",
+                         terrain=ROUGH)]
     return {
         "compiled_callback": compiled_available(),
         "duration_s": duration,

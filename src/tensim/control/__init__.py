@@ -21,7 +21,7 @@ from tensim.control.files import (
     shipped_controllers,
 )
 from tensim.control.impedance import ImpedanceController, ImpedanceGains
-from tensim.control.parameters import Bounds, Parameter, ParameterLayout
+from tensim.control.parameters import Bounds, Parameter, ParameterLayout, ParameterVector
 from tensim.control.sine import SineController, SineGait, tagged_sine, tetraspine_sine
 from tensim.control.spine import (
     CPGParameters,
@@ -53,6 +53,7 @@ __all__ = [
     "ImpedanceGains",
     "Parameter",
     "ParameterLayout",
+    "ParameterVector",
     "SineController",
     "SineGait",
     "SolverSettings",

@@ -1,9 +1,10 @@
 """Named, bounded parameter vectors for gaits, and their map to the unit cube for optimizers.
 
 A gait family (a spine CPG, a sine gait) describes its learnable parameters as a
-:class:`ParameterLayout`: an ordered tuple of :class:`Parameter` entries, each with bounds and
-a nominal value. Optimizers search the unit cube; :meth:`ParameterLayout.from_unit` maps a
-point back to physical values, and the layout's ``gait(values)`` builds the gait.
+:class:`ParameterLayout`, a :class:`ParameterVector` that makes a gait (system identification
+fits a plain :class:`ParameterVector`): an ordered tuple of :class:`Parameter` entries, each with
+bounds and a nominal value. Optimizers search the unit cube; :meth:`ParameterVector.from_unit`
+maps a point back to physical values, and the layout's ``gait(values)`` builds the gait.
 """
 
 from __future__ import annotations
@@ -53,17 +54,14 @@ class Parameter:
     bounds: Bounds
 
 
-class ParameterLayout(abc.ABC):
-    """The vector operations shared by every gait family's parameter layout."""
+class ParameterVector(abc.ABC):
+    """Named, bounded entries in vector order, and the vector operations on them (checks,
+    clipping, the unit-cube map, name <-> value)."""
 
     @property
     @abc.abstractmethod
     def parameters(self) -> tuple[Parameter, ...]:
         """The entries, in vector order."""
-
-    @abc.abstractmethod
-    def gait(self, values: Sequence[float] | np.ndarray | None = None) -> object:
-        """The gait for a parameter vector (None: the nominal values)."""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -147,3 +145,11 @@ class ParameterLayout(abc.ABC):
                              f", unknown {unknown[:5]}; expected the {self.size} entries "
                              f"{list(self.names[:3])}...")
         return self.check_bounds([float(named[n]) for n in self.names])
+
+
+class ParameterLayout(ParameterVector):
+    """A gait family's parameter vector: its values make a gait."""
+
+    @abc.abstractmethod
+    def gait(self, values: Sequence[float] | np.ndarray | None = None) -> object:
+        """The gait for a parameter vector (None: the nominal values)."""

@@ -15,7 +15,7 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from tensim.control import Bounds, Parameter
+from tensim.control import Bounds, Parameter, ParameterVector
 from tensim.hardware.sensor import SensorModel
 from tensim.structure import Structure
 
@@ -132,16 +132,17 @@ def apply_measurement(sensor: SensorModel, values: Mapping[str, float]) -> Senso
 
 
 @dataclasses.dataclass(frozen=True)
-class SysidSpace:
-    """The fitted parameters: names, bounds and nominal values, and the unit-cube map.
+class SysidSpace(ParameterVector):
+    """The fitted parameters: names, bounds and starting values (each entry's ``nominal``),
+    and the unit-cube map.
 
     Attributes:
-        structure: the nominal structure (nominal values come from it).
-        parameters: the entries, in vector order (nominal = the starting value).
+        structure: the nominal structure (the structure's own values come from it).
+        entries: the parameters, in vector order (see :meth:`build`).
     """
 
     structure: Structure
-    parameters: tuple[Parameter, ...]
+    entries: tuple[Parameter, ...]
 
     @classmethod
     def build(cls, structure: Structure, names: Sequence[str], *,
@@ -171,26 +172,16 @@ class SysidSpace:
         return cls(structure, tuple(entries))
 
     @property
-    def names(self) -> tuple[str, ...]:
-        """Entry names, in vector order."""
-        return tuple(p.name for p in self.parameters)
-
-    @property
-    def low(self) -> np.ndarray:
-        """(n,) lower bounds."""
-        return np.array([p.bounds.low for p in self.parameters])
-
-    @property
-    def high(self) -> np.ndarray:
-        """(n,) upper bounds."""
-        return np.array([p.bounds.high for p in self.parameters])
+    def parameters(self) -> tuple[Parameter, ...]:
+        """The entries, in vector order."""
+        return self.entries
 
     @property
     def start(self) -> np.ndarray:
         """(n,) starting values."""
-        return np.array([p.bounds.nominal for p in self.parameters])
+        return self.nominal
 
-    def nominal(self) -> np.ndarray:
+    def structure_values(self) -> np.ndarray:
         """(n,) the values in the nominal structure (measurement defaults: no offset etc.)."""
         return np.array([definition(n).nominal(self.structure) for n in self.names])
 
@@ -199,17 +190,9 @@ class SysidSpace:
         """(n,) True for the entries that need a new simulation."""
         return np.array([definition(n).kind == PHYSICAL for n in self.names])
 
-    def to_unit(self, values: np.ndarray) -> np.ndarray:
-        """Values in the bounds -> [0, 1]."""
-        return (np.asarray(values, dtype=float) - self.low) / (self.high - self.low)
-
-    def from_unit(self, unit: np.ndarray) -> np.ndarray:
-        """[0, 1] -> values in the bounds."""
-        return self.low + np.clip(unit, 0.0, 1.0) * (self.high - self.low)
-
-    def as_dict(self, values: np.ndarray) -> dict[str, float]:
-        """name -> value."""
-        return {n: float(v) for n, v in zip(self.names, values, strict=True)}
+    def from_unit(self, unit: Sequence[float] | np.ndarray) -> np.ndarray:
+        """[0, 1] -> values in the bounds; a point a rounding error outside is clipped."""
+        return super().from_unit(np.clip(self.vector(unit, "unit"), 0.0, 1.0))
 
     def snap(self, values: np.ndarray, resolution: float = 1e-4) -> np.ndarray:
         """``values`` with the physical entries rounded to ``resolution`` of their range.

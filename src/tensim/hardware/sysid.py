@@ -90,7 +90,7 @@ class SysidResult:
         for k, p in enumerate(self.space.parameters):
             d = definition(p.name)
             out[p.name] = {"unit": d.unit, "kind": d.kind,
-                           "nominal": float(self.space.nominal()[k]),
+                           "nominal": float(self.space.structure_values()[k]),
                            "start": p.bounds.nominal, "fitted": float(self.fitted[k]),
                            "stderr": _finite(self.stderr[k]),
                            "ci95": _finite(1.96 * self.stderr[k]),
@@ -251,7 +251,7 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
 
 def _nominal_comparisons(problem: _Problem, space: SysidSpace) -> list[Comparison]:
     """The nominal model against each log, the time offset estimated as ``compare`` does."""
-    runs = problem.simulate(space.nominal(), snap=False)
+    runs = problem.simulate(space.structure_values(), snap=False)
     return [compare_tensions(log, run, max_offset=problem.settings.max_offset,
                              skip=problem.settings.skip)
             for log, run in zip(problem.logs, runs, strict=True)]
