@@ -20,11 +20,9 @@ from tensim.control import load_controller
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.sim import Simulation, compiled_available
-from tensim.terrain import Flat, Rough, Terrain
+from tensim.terrain import Flat, Terrain
 
 SETTLE_S = 1.0
-# the goal scenario's ground: 2 cm RMS bumps on a 4 cm grid
-ROUGH = Rough(roughness=0.02, correlation=0.2, seed=1, size=4.0, resolution=0.04, friction=1.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,12 +122,14 @@ def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, object
     """The cases: Tetraspine3 under impedance control and on its CPG gait; a passive six-bar;
     the 12-segment Tetraspine sidewinding on flat ground and on its goal gait over the goal
     scenario's rough height field."""
+    from tensim.experiments.goal import GOAL_TERRAIN  # 2 cm RMS bumps on a 4 cm grid
+
     cases = [bench_model("tetraspine3", duration, repeats),
              bench_model("tetraspine3", duration, repeats, controller_file="tetraspine3_cpg"),
              bench_model("six_bar", duration, repeats, controlled=False),
              bench_model("tetraspine", duration, repeats, controller_file="tetraspine_sidewind"),
              bench_model("tetraspine", duration, repeats, controller_file="tetraspine_goal",
-                         terrain=ROUGH)]
+                         terrain=GOAL_TERRAIN)]
     return {
         "compiled_callback": compiled_available(),
         "duration_s": duration,
