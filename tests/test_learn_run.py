@@ -113,3 +113,21 @@ def test_a_run_folder_is_never_overwritten_and_must_exist_to_resume(tmp_path):
         learn(SphereProblem(2), settings, tmp_path / "run", executor=InlineExecutor)
     with pytest.raises(RunFolderError, match="not a learning run folder"):
         resume(tmp_path / "nothing", executor=InlineExecutor)
+
+
+def test_best_so_far_skips_failed_trials_and_the_comparison_plot_is_written(tmp_path):
+    from matplotlib.image import imread
+
+    from tensim.learn.plots import best_so_far, plot_best_so_far
+    from tensim.learn.problem import FLIPPED, OK, Evaluation
+
+    def trial(i: int, score: float, status: str = OK) -> Evaluation:
+        return Evaluation(i, (0.5,), (0.5,), score, status, "", 0.1)
+
+    # a failed first trial leaves no best yet; a failed trial's penalty never counts
+    runs = [trial(0, -1.0, FLIPPED), trial(1, 0.2), trial(2, 0.1), trial(3, 5.0, FLIPPED),
+            trial(4, 0.3)]
+    np.testing.assert_array_equal(best_so_far(runs), [np.nan, 0.2, 0.2, 0.2, 0.3])
+    path = plot_best_so_far({"a": runs, "b": runs[1:3]}, tmp_path / "best.png",
+                            styles={"a": {"color": "tab:red"}})
+    assert imread(path).shape[:2] == (504, 900)  # 7.5 x 4.2 in at 120 dpi

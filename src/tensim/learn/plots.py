@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
@@ -14,6 +14,10 @@ import numpy as np
 
 from tensim.learn.problem import OK, Evaluation
 from tensim.viz.plots import save_figure
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 
 def best_so_far(evaluations: Sequence[Evaluation]) -> np.ndarray:
@@ -47,14 +51,7 @@ def plot_learning_curve(evaluations: Sequence[Evaluation], path: Path, *, title:
         bottom = low - 0.05 * max(high - low, 1e-9)
         ax.plot(index[~ok], np.full((~ok).sum(), bottom), "x", color="tab:red", ms=4,
                 label=f"failed ({(~ok).sum()}; score {scores[~ok][0]:g})")
-    ax.set_xlabel("evaluation")
-    ax.set_ylabel(f"score [{unit}]")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="lower right")
-    if title:
-        ax.set_title(title, fontsize=9)
-    fig.tight_layout()
-    return save_figure(fig, Path(path))
+    return _finish(fig, ax, path, "evaluation", f"score [{unit}]", title)
 
 
 def plot_best_so_far(runs: dict[str, Sequence[Evaluation]], path: Path, *, title: str = "",
@@ -74,8 +71,13 @@ def plot_best_so_far(runs: dict[str, Sequence[Evaluation]], path: Path, *, title
         index = np.array([e.index for e in evaluations])
         ax.step(index + 1, best_so_far(evaluations), where="post", label=label,
                 **{"lw": 1.5, **(styles or {}).get(label, {})})
-    ax.set_xlabel("evaluations")
-    ax.set_ylabel(f"best score so far [{unit}]")
+    return _finish(fig, ax, path, "evaluations", f"best score so far [{unit}]", title)
+
+
+def _finish(fig: Figure, ax: Axes, path: Path, xlabel: str, ylabel: str, title: str) -> Path:
+    """Labels, grid, legend and title shared by the learning plots; writes the PNG."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="lower right")
     if title:
