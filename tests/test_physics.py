@@ -12,6 +12,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from statics import self_stress
 from tensim.control import ImpedanceController, ImpedanceGains
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import prism3, six_bar
@@ -96,23 +97,6 @@ def test_damped_mass_settles_at_static_stretch(backend):
 # -- prism3 and six_bar: statics by the force-density method -----------------------------------
 
 
-def _self_stress(structure: Structure) -> tuple[list[tuple[str, str]], np.ndarray]:
-    """Member ends and the one state of self-stress (force densities) from node positions."""
-    names = [n.name for n in structure.nodes]
-    x = np.array([n.position for n in structure.nodes])
-    members = [r.nodes for r in structure.rods] + [c.nodes for c in structure.cables]
-    # equilibrium matrix: node i gets q_ij (x_j - x_i) from each member ij
-    a = np.zeros((3 * len(names), len(members)))
-    for j, (p, q) in enumerate(members):
-        i, k = names.index(p), names.index(q)
-        a[3 * i:3 * i + 3, j] = x[k] - x[i]
-        a[3 * k:3 * k + 3, j] = x[i] - x[k]
-    _, sv, vt = np.linalg.svd(a)
-    null = sv < 1e-10 * sv[0]
-    assert null.sum() == 1  # both structures have exactly one state of self-stress
-    return members, vt[-1]
-
-
 def _node_positions(compiled, ts, k: int) -> dict[str, np.ndarray]:
     """World positions of every node at sample k, from the recorded body poses."""
     out = {}
@@ -130,7 +114,7 @@ def _node_positions(compiled, ts, k: int) -> dict[str, np.ndarray]:
 @pytest.mark.parametrize("build", [prism3, six_bar], ids=["prism3", "six_bar"])
 def test_self_stressed_preset_holds_in_zero_gravity(build):
     structure = build()
-    members, q = _self_stress(structure)
+    members, q = self_stress(structure)
     n_rods = len(structure.rods)
     lengths = np.array([structure.distance(*m) for m in members])
     forces = q * lengths  # member forces of the unit self-stress, tension positive

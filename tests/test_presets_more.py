@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from statics import self_stress
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import (
     octahedral_complex,
@@ -27,21 +28,6 @@ from tensim.sim import simulate
 from tensim.structure import Structure
 
 ZERO_G = WorldOptions(gravity=(0.0, 0.0, 0.0), ground=False)
-
-
-def _self_stress(structure: Structure) -> np.ndarray:
-    """The one state of self-stress (force densities of rods, then cables) from the SVD."""
-    names = [n.name for n in structure.nodes]
-    x = np.array([n.position for n in structure.nodes])
-    members = [r.nodes for r in structure.rods] + [c.nodes for c in structure.cables]
-    a = np.zeros((3 * len(names), len(members)))
-    for j, (p, q) in enumerate(members):
-        i, k = names.index(p), names.index(q)
-        a[3 * i:3 * i + 3, j] = x[k] - x[i]
-        a[3 * k:3 * k + 3, j] = x[i] - x[k]
-    _, sv, vt = np.linalg.svd(a)
-    assert (sv < 1e-10 * sv[0]).sum() == 1  # exactly one state of self-stress
-    return vt[-1]
 
 
 def _moved(compiled, duration: float) -> float:
@@ -65,7 +51,7 @@ def _moved(compiled, duration: float) -> float:
 @pytest.mark.parametrize("n", [4, 5, 6])
 def test_prism_pretensions_are_its_state_of_self_stress(n):
     s = prism(n)
-    q = _self_stress(s)
+    _, q = self_stress(s)
     n_rods = len(s.rods)
     lengths = np.array([s.distance(*r.nodes) for r in s.rods]
                        + [s.distance(*c.nodes) for c in s.cables])
@@ -107,7 +93,7 @@ def test_superball_scale():
     compiled = compile_structure(s)
     assert compiled.model.body_mass[1:].sum() == pytest.approx(6 * strut, rel=1e-12)
     # equal pretension in all 24 cables is this form's self-stress (one per cable: no rod sign)
-    q = _self_stress(s)
+    _, q = self_stress(s)
     cables = q[6:] * np.array([s.distance(*c.nodes) for c in s.cables])
     np.testing.assert_allclose(cables / cables[0], 1.0, rtol=1e-9)
     assert min(s.position(n.name)[2] for n in s.nodes) - 0.031 == pytest.approx(0.01)
