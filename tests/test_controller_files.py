@@ -61,7 +61,8 @@ def test_groups_then_cables_resolve_in_order(robot, tmp_path) -> None:
             "groups": [{"tag": "inner", "stiffness_gain": 100, "damping_gain": 50,
                         "offset_tension": 5, "target_length": 0.2},
                        {"tag": "inner_top", "stiffness_gain": 500}],
-            "cables": {"inner_top_2": {"offset_tension": 9}}},
+            "cables": {"inner_top_2": {"offset_tension": 9}},
+            "passive": ["outer"]},
     }))
     gains = load_controller(path, robot).impedance.gains
     assert set(gains) == {c.name for c in robot.cables if "inner" in c.tags}

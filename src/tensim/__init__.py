@@ -1,5 +1,6 @@
 """tensim: model, simulate and control tensegrity robots on MuJoCo."""
 
+from tensim._input import InputError
 from tensim.control import ImpedanceController, ImpedanceGains
 from tensim.model import CompiledModel, WorldOptions, compile_structure
 from tensim.sim import (
@@ -29,6 +30,7 @@ __all__ = [
     "CompiledModel",
     "ImpedanceController",
     "ImpedanceGains",
+    "InputError",
     "Motor",
     "Node",
     "NodeLoad",

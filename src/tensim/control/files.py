@@ -14,6 +14,8 @@ K N/m, B N·s/m, V* m/s, frequencies Hz, phases rad, times s. The layout::
         - {tag: top, stiffness_gain: 500, damping_gain: 150}
       cables:                     # per cable; overrides its groups; all four fields in the end
         inner_top_1: {offset_tension: 28, target_length: 0.19}
+      passive: [outer]            # optional: cables (names or tags) left without gains on
+                                  # purpose; any other cable without gains is an error
     gait:                         # optional
       type: cpg                   # cpg | sine | table
       duration: 60                # s of gait
@@ -40,6 +42,7 @@ was expected. :func:`save_controller` writes the fully expanded form (per-cable 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import os
@@ -50,6 +53,7 @@ from typing import Any
 import yaml
 
 from tensim._files import write_text
+from tensim._input import InputError, describe, load_json, load_yaml, read_text
 from tensim.control.impedance import ImpedanceController, ImpedanceGains
 from tensim.control.parameters import Bounds
 from tensim.control.sine import SineGait, tetraspine_sine
@@ -72,7 +76,7 @@ _SINE_FIELDS = ("amplitude", "frequency", "phase", "offset")
 _BOUND_NAMES = ("weight", "phase", "amplitude", "frequency")
 
 
-class ControllerFileError(ValueError):
+class ControllerFileError(InputError):
     """A controller file is invalid; the message names the file, the field and the fix."""
 
     def __init__(self, message: str, *, field: str | None = None, source: str | None = None):
@@ -97,6 +101,8 @@ class ControllerConfig:
             0.01 s); None samples V* at every physics step.
         model: the preset the file was made for, if any.
         description: free text.
+        passive: cable names or tags the file leaves without impedance gains on purpose
+            (``impedance.passive``); every other cable must have gains.
     """
 
     impedance: ImpedanceController
@@ -105,6 +111,7 @@ class ControllerConfig:
     command_period: float | None = None
     model: str | None = None
     description: str = ""
+    passive: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.duration) and self.duration > 0):
@@ -168,8 +175,23 @@ def _only(raw: dict[str, Any], allowed: tuple[str, ...], field: str) -> None:
                                   f"{list(allowed)}", field=field)
 
 
-def _gains(raw: dict[str, Any], structure: Structure, field: str) -> ImpedanceController:
-    _only(raw, ("groups", "cables", "target_velocity"), field)
+def _passive(raw: dict[str, Any], structure: Structure, field: str) -> tuple[str, ...]:
+    """The names and tags of ``impedance.passive``, each matching some cable."""
+    passive = raw.get("passive") or []
+    if not (isinstance(passive, list) and all(isinstance(p, str) for p in passive)):
+        raise ControllerFileError(f"expected a list of cable names or tags, got "
+                                  f"{describe(passive)}", field=f"{field}.passive")
+    for entry in passive:
+        if not any(entry == c.name or entry in c.tags for c in structure.cables):
+            raise ControllerFileError(f"no cable of {structure.name!r} has the name or tag "
+                                      f"{entry!r}", field=f"{field}.passive")
+    return tuple(passive)
+
+
+def _gains(raw: dict[str, Any], structure: Structure, field: str
+           ) -> tuple[ImpedanceController, tuple[str, ...]]:
+    _only(raw, ("groups", "cables", "target_velocity", "passive"), field)
+    passive = _passive(raw, structure, field)
     partial: dict[str, dict[str, float]] = {}
     groups = raw.get("groups") or []
     if not isinstance(groups, list):
@@ -180,6 +202,9 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str) -> ImpedanceCo
         group = _mapping(group, where, f"'tag' and gain fields {list(_GAIN_FIELDS)}")
         _only(group, ("tag", *_GAIN_FIELDS), where)
         tag = group.get("tag")
+        if not isinstance(tag, str):
+            raise ControllerFileError(f"expected a tag name, got {describe(tag)}",
+                                      field=f"{where}.tag")
         members = [c.name for c in structure.cables if tag in c.tags]
         if not members:
             raise ControllerFileError(f"no cable of {structure.name!r} has the tag {tag!r}",
@@ -210,10 +235,18 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str) -> ImpedanceCo
             gains[cable.name] = ImpedanceGains(**fields)
         except ValueError as err:
             raise ControllerFileError(str(err), field=f"{field}.cables.{cable.name}") from None
+    missing = [c.name for c in structure.cables if c.name not in gains
+               and not any(p == c.name or p in c.tags for p in passive)]
+    if missing:
+        raise ControllerFileError(
+            f"{len(missing)} of the {len(structure.cables)} cables of {structure.name!r} get "
+            f"no impedance gains: {missing}; give every cable its four gains {list(_GAIN_FIELDS)} "
+            "(through 'groups' or 'cables'), or list the cables left passive on purpose in "
+            f"'{field}.passive'", field=field)
     if not gains:
         raise ControllerFileError("no cable gets impedance gains", field=field)
     velocity = _number(raw.get("target_velocity", 0.0), f"{field}.target_velocity")
-    return ImpedanceController(gains, velocity)
+    return ImpedanceController(gains, velocity), passive
 
 
 def _bounds(raw: Any, field: str) -> dict[str, Bounds]:
@@ -237,7 +270,8 @@ def _cpg(raw: dict[str, Any], structure: Structure, field: str) -> SpineCPG:
         raise ControllerFileError(f"unknown layout {raw['layout']!r}; expected 'spine'",
                                   field=f"{field}.layout")
     cables = raw.get("cables")
-    if cables is not None and not (isinstance(cables, list) and cables):
+    if cables is not None and not (isinstance(cables, list) and cables
+                                   and all(isinstance(c, str) for c in cables)):
         raise ControllerFileError("expected a list of cable names", field=f"{field}.cables")
     bounds = _bounds(raw.get("bounds"), f"{field}.bounds")
     convergence = _number(raw.get("convergence", 20.0), f"{field}.convergence", positive=True)
@@ -331,11 +365,12 @@ def controller_from_dict(data: Any, structure: Structure, base: Path | None = No
     if data.get("format") != FORMAT:
         raise ControllerFileError(f"expected 'format: {FORMAT}', got {data.get('format')!r}",
                                   field="format")
-    if data.get("version", VERSION) != VERSION:
+    version = data.get("version", VERSION)
+    if isinstance(version, bool) or version != VERSION:
         raise ControllerFileError(f"this tensim reads version {VERSION}, got "
                                   f"{data.get('version')!r}", field="version")
-    impedance = _gains(_mapping(data.get("impedance"), "impedance", "'groups' and 'cables'"),
-                       structure, "impedance")
+    raw_impedance = _mapping(data.get("impedance"), "impedance", "'groups' and 'cables'")
+    impedance, passive = _gains(raw_impedance, structure, "impedance")
     gait: Gait | None = None
     duration, period = 60.0, None
     if data.get("gait") is not None:
@@ -352,20 +387,42 @@ def controller_from_dict(data: Any, structure: Structure, base: Path | None = No
         duration = _number(raw.get("duration", default), "gait.duration", positive=True)
         if "command_period" in raw and raw["command_period"] is not None:
             period = _number(raw["command_period"], "gait.command_period", positive=True)
+    for key in ("model", "description"):
+        if data.get(key) is not None and not isinstance(data[key], str):
+            raise ControllerFileError(f"expected text, got {describe(data[key])}", field=key)
     try:
         return ControllerConfig(impedance, gait, duration, period, data.get("model"),
-                                str(data.get("description", "")))
+                                data.get("description") or "", passive)
     except ValueError as err:
         raise ControllerFileError(str(err), field="gait") from None
 
 
 def _parse(path: Path) -> Any:
-    text = path.read_text()
     try:
-        return json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
-    except (json.JSONDecodeError, yaml.YAMLError) as err:
-        raise ControllerFileError(f"not valid {'JSON' if path.suffix == '.json' else 'YAML'}: "
-                                  f"{err}", source=str(path)) from None
+        text = read_text(path)
+        return load_json(text, str(path)) if path.suffix == ".json" else load_yaml(text,
+                                                                                   str(path))
+    except InputError as err:  # the message names the file already
+        raise ControllerFileError(str(err)) from None
+
+
+def _check_model(data: Any, structure: Structure) -> None:
+    """Refuses a file made for another preset than ``structure``."""
+    from tensim.models import PRESETS
+
+    model = data.get("model") if isinstance(data, dict) else None
+    if isinstance(model, str) and model in PRESETS \
+            and _preset_structure_name(model) != structure.name:
+        raise ControllerFileError(f"the file is made for {model!r}, not for the robot "
+                                  f"{structure.name!r}; pass that robot, or remove 'model'",
+                                  field="model")
+
+
+@functools.cache
+def _preset_structure_name(model: str) -> str:
+    from tensim.models import PRESETS
+
+    return PRESETS[model].build().name
 
 
 def load_controller(source: str | os.PathLike[str], structure: Structure | None = None
@@ -378,7 +435,9 @@ def load_controller(source: str | os.PathLike[str], structure: Structure | None 
 
     Raises:
         FileNotFoundError: neither a file nor a shipped controller.
-        ControllerFileError: naming the file, the field and what was expected.
+        ControllerFileError: naming the file, the field and what was expected (also a file
+            that is not UTF-8 YAML/JSON, has duplicate keys, or names another preset in
+            ``model`` than ``structure``).
     """
     path = controller_path(source)
     data = _parse(path)
@@ -391,6 +450,7 @@ def load_controller(source: str | os.PathLike[str], structure: Structure | None 
                 raise ControllerFileError(f"names no preset ({model!r}); pass the structure "
                                           "it drives", field="model")
             structure = PRESETS[model].build()
+        _check_model(data, structure)
         return controller_from_dict(data, structure, path.parent)
     except ControllerFileError as err:
         raise err.with_source(str(path)) from None
@@ -433,6 +493,8 @@ def controller_to_dict(config: ControllerConfig, path: Path) -> dict[str, Any]:
         out["description"] = config.description
     out["impedance"] = {"cables": {name: {f: float(getattr(g, f)) for f in _GAIN_FIELDS}
                                    for name, g in config.impedance.gains.items()}}
+    if config.passive:
+        out["impedance"]["passive"] = list(config.passive)
     if config.impedance.target_velocity:
         out["impedance"]["target_velocity"] = float(config.impedance.target_velocity)
     if config.gait is not None:

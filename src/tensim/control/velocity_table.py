@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from tensim._files import write_text
+from tensim._input import InputError
 from tensim.control._common import check_driven, write_target_velocity
 from tensim.control.impedance import ImpedanceController
 from tensim.sim import Simulation
@@ -37,7 +38,7 @@ from tensim.sim import Simulation
 HEADER = "# tensim velocity input: target cable velocity V* of the impedance law (eq. 3)"
 
 
-class VelocityFileError(ValueError):
+class VelocityFileError(InputError):
     """A velocity-input file is malformed; the message names the file, line and column."""
 
 

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from tensim._files import write_text
+from tensim._input import InputError
 from tensim.control import VelocityTable
 from tensim.sim import TimeSeries
 from tensim.structure import Structure
@@ -68,7 +69,7 @@ QUANTITIES: dict[str, Quantity] = {
 _BY_CHANNEL = {q.channel: name for name, q in QUANTITIES.items()}
 
 
-class LogError(ValueError):
+class LogError(InputError):
     """A hardware log is malformed; the message names the file, line and column."""
 
 

@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from tensim._files import atomic_path, write_json
+from tensim._input import InputError
 from tensim.control import save_controller
 from tensim.learn.problem import Evaluation, Problem, TrialProblem
 from tensim.structure import save_structure
@@ -43,7 +44,7 @@ CURVE = "learning_curve.png"
 SUMMARY = "summary.json"
 
 
-class RunFolderError(ValueError):
+class RunFolderError(InputError):
     """A run folder is missing, incomplete or inconsistent; the message names the file."""
 
 

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from tensim._input import InputError
 
-class StructureError(ValueError):
+
+class StructureError(InputError):
     """A structure description is invalid.
 
     The message names the file (when read from one), the item and what was expected.

@@ -10,6 +10,9 @@ import itertools
 import math
 from collections.abc import Sequence
 
+import numpy as np
+
+from tensim._input import describe, is_real
 from tensim.structure._errors import StructureError
 
 
@@ -18,20 +21,50 @@ def _check(condition: bool, item: str, message: str) -> None:
         raise StructureError(message, item=item)
 
 
+def _real(record: object, item: str, field: str, unit: str, optional: bool = False) -> None:
+    """Checks that ``record.field`` is a finite number (not a boolean, not a string) and stores
+    it as a float."""
+    value = getattr(record, field)
+    if optional and value is None:
+        return
+    if not is_real(value):
+        raise StructureError(f"{field} must be a finite number [{unit}], got {describe(value)}",
+                             item=item)
+    object.__setattr__(record, field, float(value))
+
+
+def _name(value: object, item: str, field: str = "name") -> str:
+    _check(isinstance(value, str) and bool(value), item,
+           f"{field} must be a non-empty string, got {describe(value)}")
+    return value  # type: ignore[return-value]
+
+
+def _names(value: object, item: str, field: str) -> tuple[str, ...]:
+    if isinstance(value, str) or not isinstance(value, Sequence):
+        raise StructureError(f"{field} must be a list of names, got {describe(value)}",
+                             item=item)
+    return tuple(_name(v, item, f"each of {field}") for v in value)
+
+
+def _ends(value: object, item: str) -> tuple[str, str]:
+    ends = _names(value, item, "nodes")
+    _check(len(ends) == 2, item, f"nodes must be two node names, got {list(ends)!r}")
+    return ends  # type: ignore[return-value]
+
+
 def _vec3(value: Sequence[float], item: str, field: str) -> tuple[float, float, float]:
-    try:
-        out = tuple(float(v) for v in value)
-    except (TypeError, ValueError):
-        raise StructureError(f"{field} must be three numbers, got {value!r}", item=item) from None
-    _check(len(out) == 3, item, f"{field} must be three numbers [m], got {len(out)}")
-    _check(all(math.isfinite(v) for v in out), item, f"{field} must be finite, got {value!r}")
-    return out  # type: ignore[return-value]
+    if isinstance(value, str) or not isinstance(value, Sequence | np.ndarray) \
+            or not all(is_real(v) for v in value):
+        raise StructureError(f"{field} must be three finite numbers [m], got "
+                             f"{describe(value)}", item=item)
+    _check(len(value) == 3, item, f"{field} must be three numbers [m], got {len(value)}")
+    return tuple(float(v) for v in value)  # type: ignore[return-value]
 
 
 def _tags(value: Sequence[str], item: str) -> tuple[str, ...]:
     if isinstance(value, str):
         raise StructureError("tags must be a list of strings, got a single string", item=item)
-    return tuple(str(t) for t in value)
+    return _names(value, item, "tags")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -51,7 +84,9 @@ class Node:
     fixed: bool = False
 
     def __post_init__(self) -> None:
-        _check(bool(self.name), "node", "every node needs a non-empty name")
+        _name(self.name, "node")
+        _check(isinstance(self.fixed, bool), f"node {self.name!r}",
+               f"fixed must be true or false, got {describe(self.fixed)}")
         position = _vec3(self.position, f"node {self.name!r}", "position")
         object.__setattr__(self, "position", position)
         object.__setattr__(self, "tags", _tags(self.tags, f"node {self.name!r}"))
@@ -85,10 +120,14 @@ class Rod:
 
     def __post_init__(self) -> None:
         item = f"rod {self.name!r}"
-        _check(bool(self.name), "rod", "every rod needs a non-empty name")
-        _check(len(self.nodes) == 2, item, f"nodes must be two node names, got {self.nodes!r}")
-        object.__setattr__(self, "nodes", (str(self.nodes[0]), str(self.nodes[1])))
+        _name(self.name, "rod")
+        object.__setattr__(self, "nodes", _ends(self.nodes, item))
         _check(self.nodes[0] != self.nodes[1], item, "a rod needs two different nodes")
+        _real(self, item, "radius", "m")
+        _real(self, item, "linear_density", "kg/m", optional=True)
+        _real(self, item, "density", "kg/m^3", optional=True)
+        _real(self, item, "friction", "-")
+        _real(self, item, "restitution", "-")
         _check(self.radius > 0, item, f"radius must be > 0 m, got {self.radius}")
         _check(
             (self.linear_density is None) != (self.density is None),
@@ -127,6 +166,9 @@ class PointMass:
 
     def __post_init__(self) -> None:
         item = f"point mass at {self.node!r}"
+        _name(self.node, "point mass", "node")
+        _real(self, item, "mass", "kg")
+        _real(self, item, "radius", "m")
         _check(self.mass > 0, item, f"mass must be > 0 kg, got {self.mass}")
         _check(self.radius > 0, item, f"radius must be > 0 m, got {self.radius}")
 
@@ -149,6 +191,9 @@ class Motor:
     min_length: float = 0.01
 
     def __post_init__(self) -> None:
+        for field, unit in (("max_speed", "m/s"), ("max_tension", "N"),
+                            ("min_rest_length", "m"), ("min_length", "m")):
+            _real(self, "motor", field, unit)
         for field in ("max_speed", "max_tension"):
             value = getattr(self, field)
             _check(value > 0, "motor", f"{field} must be > 0, got {value}")
@@ -193,10 +238,15 @@ class Cable:
 
     def __post_init__(self) -> None:
         item = f"cable {self.name!r}"
-        _check(bool(self.name), "cable", "every cable needs a non-empty name")
-        _check(len(self.nodes) == 2, item, f"nodes must be two node names, got {self.nodes!r}")
-        object.__setattr__(self, "nodes", (str(self.nodes[0]), str(self.nodes[1])))
+        _name(self.name, "cable")
+        object.__setattr__(self, "nodes", _ends(self.nodes, item))
         _check(self.nodes[0] != self.nodes[1], item, "a cable needs two different nodes")
+        for field, unit in (("stiffness", "N/m"), ("damping", "N s/m"), ("anchor_offset", "m")):
+            _real(self, item, field, unit)
+        _real(self, item, "pretension", "N", optional=True)
+        _real(self, item, "rest_length", "m", optional=True)
+        _check(isinstance(self.motor, Motor), item,
+               f"motor must be a mapping of motor limits, got {describe(self.motor)}")
         _check(self.stiffness > 0, item, f"stiffness must be > 0 N/m, got {self.stiffness}")
         _check(self.damping >= 0, item, f"damping must be >= 0 N s/m, got {self.damping}")
         _check(
@@ -219,7 +269,7 @@ class Cable:
         if isinstance(self.via, str):
             raise StructureError("via must be a list of node names, got a single string",
                                  item=item)
-        object.__setattr__(self, "via", tuple(str(v) for v in self.via))
+        object.__setattr__(self, "via", _names(self.via, item, "via"))
         path = self.path
         for a, b in itertools.pairwise(path):
             _check(a != b, item, f"node {a!r} follows itself on the cable's path {list(path)}")

@@ -17,6 +17,7 @@ from typing import Any
 import yaml
 
 from tensim._files import write_text
+from tensim._input import InputError, describe, load_yaml_file
 from tensim.structure._errors import StructureError
 from tensim.structure._records import Cable, Motor, Node, PointMass, Rod
 from tensim.structure._structure import Structure
@@ -24,6 +25,7 @@ from tensim.structure._structure import Structure
 _SECTIONS = {"nodes": Node, "rods": Rod, "cables": Cable, "point_masses": PointMass}
 _DEFAULTS = {"rod": "rods", "cable": "cables", "point_mass": "point_masses"}
 _TOP = {"name", "defaults", *_SECTIONS}
+MAX_ITEMS = 10_000  # most nodes, rods, cables or point masses a structure file may list
 
 
 def _fields(cls: type) -> list[str]:
@@ -68,7 +70,14 @@ def structure_from_dict(data: Any) -> Structure:
     unknown = sorted(set(data) - _TOP)
     if unknown:
         raise StructureError(f"unknown top-level field {unknown[0]!r}; expected {sorted(_TOP)}")
+    name = data.get("name", "structure")
+    if not isinstance(name, str) or not name:
+        raise StructureError(f"name must be a non-empty string, got {describe(name)}",
+                             item="name")
     defaults = data.get("defaults") or {}
+    if not isinstance(defaults, dict) or not all(isinstance(d, dict) for d in defaults.values()):
+        raise StructureError("defaults must map 'rod', 'cable' or 'point_mass' to a mapping of "
+                             f"fields, got {describe(defaults)}", item="defaults")
     bad = sorted(set(defaults) - set(_DEFAULTS))
     if bad:
         raise StructureError(f"unknown defaults entry {bad[0]!r}; expected {sorted(_DEFAULTS)}")
@@ -76,14 +85,18 @@ def structure_from_dict(data: Any) -> Structure:
     for section, cls in _SECTIONS.items():
         items = data.get(section) or []
         if not isinstance(items, list):
-            raise StructureError(f"'{section}' must be a list of mappings")
+            raise StructureError(f"'{section}' must be a list of mappings, got "
+                                 f"{describe(items)}")
+        if len(items) > MAX_ITEMS:
+            raise StructureError(f"{len(items)} {section} is more than the limit of "
+                                 f"{MAX_ITEMS}", item=section)
         default = next((d for k, d in defaults.items() if _DEFAULTS[k] == section), {})
         sections[section] = tuple(
             _build(cls, _merge(default, raw), f"{section}[{i}]"
                    + (f" {raw.get('name')!r}" if isinstance(raw, dict) and "name" in raw else ""))
             for i, raw in enumerate(items)
         )
-    return Structure(name=str(data.get("name", "structure")), **sections)
+    return Structure(name=name, **sections)
 
 
 def structure_to_dict(structure: Structure) -> dict[str, Any]:
@@ -107,13 +120,15 @@ def load_structure(path: str | os.PathLike[str]) -> Structure:
     """Reads a structure from a YAML file.
 
     Raises:
-        StructureError: naming the file, the item and what was expected.
+        StructureError: naming the file, the item and what was expected (also for a file that
+            is not UTF-8 YAML, has a duplicate key, or is too deep or too large).
+        FileNotFoundError: no such file.
     """
     path = Path(path)
     try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise StructureError(f"not valid YAML: {err}", source=str(path)) from None
+        data = load_yaml_file(path)
+    except InputError as err:  # the message names the file already
+        raise StructureError(str(err)) from None
     try:
         return structure_from_dict(data)
     except StructureError as err:

@@ -17,6 +17,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from tensim._input import InputError
 from tensim.model import CompiledModel, WorldOptions, compile_structure
 from tensim.sim import TimeSeries
 from tensim.structure import Structure
@@ -24,7 +25,7 @@ from tensim.structure import Structure
 _POSE = ("pos_x", "pos_y", "pos_z", "quat_w", "quat_x", "quat_y", "quat_z")
 
 
-class RunFolderError(ValueError):
+class RunFolderError(InputError):
     """A run folder cannot be replayed; the message names the file and what is missing."""
 
 
