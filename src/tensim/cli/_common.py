@@ -116,7 +116,7 @@ def print_summary(summary: dict[str, Any], out: Path) -> None:
 
 def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None:
     """Adds the options that describe the simulated world (physics step, ...)."""
-    parser.add_argument("--dt", type=float, default=dt, help="physics step [s]")
+    parser.add_argument("--dt", type=positive, default=dt, help="physics step [s]")
     add_terrain_option(parser, "flat, or the experiment's own")
 
 
@@ -139,7 +139,8 @@ def world_from_args(args: argparse.Namespace) -> WorldOptions:
     from tensim.terrain import Flat, parse_terrain
 
     text = getattr(args, "terrain", None)
-    return WorldOptions(timestep=args.dt, terrain=parse_terrain(text) if text else Flat())
+    return WorldOptions(timestep=args.dt,
+                        terrain=parse_terrain(text) if text is not None else Flat())
 
 
 def parse_point(text: str, what: str) -> tuple[float, float]:
@@ -166,3 +167,57 @@ def add_controller_option(parser: argparse.ArgumentParser, default: str | None =
                         help="controller file (.yaml/.json) or a shipped controller's name"
                         + (f" (default {default})" if default else " (default: the model's "
                            "own impedance controller)") + shipped)
+
+
+# -- numbers on the command line: argparse types that name what they expect ----------------------
+
+
+def _float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def finite(text: str) -> float:
+    """A finite number."""
+    return _float(text)
+
+
+def positive(text: str) -> float:
+    """A finite number > 0."""
+    value = _float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return value
+
+
+def nonnegative(text: str) -> float:
+    """A finite number >= 0."""
+    value = _float(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
+    return value
+
+
+def _int(text: str, minimum: int) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < minimum:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= {minimum}, got {text!r}")
+    return value
+
+
+def count(text: str) -> int:
+    """A whole number >= 1."""
+    return _int(text, 1)
+
+
+def natural(text: str) -> int:
+    """A whole number >= 0."""
+    return _int(text, 0)

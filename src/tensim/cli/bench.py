@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from tensim.cli._common import count, positive
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="speed benchmark against MuJoCo alone")
     p.add_argument("--json", default=None, help="also write the figures to this JSON file")
-    p.add_argument("--duration", type=float, default=10.0, help="simulated time per case [s]")
-    p.add_argument("--repeats", type=int, default=3, help="best of this many runs")
+    p.add_argument("--duration", type=positive, default=10.0, help="simulated time per case [s]")
+    p.add_argument("--repeats", type=count, default=3, help="best of this many runs")
     p.add_argument("--learning", action="store_true", help="also learning throughput: "
                    "evaluations/s of Tetraspine3 trials with 1 and 2 worker processes")
     p.set_defaults(run=run)

@@ -14,6 +14,7 @@ from tensim.cli._common import (
     add_world_options,
     load_model,
     parse_point,
+    positive,
     print_summary,
     world_from_args,
 )
@@ -160,7 +161,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="disturbance, sine, cpg, drag: a Tetraspine3 variant with the same node "
                         "and cable names instead of the preset (e.g. the fitted_structure.yaml "
                         "of `tensim sysid`)")
-    p.add_argument("--duration", type=float, default=None,
+    p.add_argument("--duration", type=positive, default=None,
                    help="simulated time [s] (default: the experiment's own)")
     p.add_argument("--target", default=None, metavar="X,Y",
                    help="goal: the target point in the world frame [m] (default 1.5,0, "

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from tensim.cli._common import load_model
+from tensim.cli._common import load_model, positive
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,11 +18,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("controller", help="controller file (.yaml/.json) or a shipped name")
     p.add_argument("--model", default="tetraspine3", help="preset or structure .yaml file")
     p.add_argument("--out", required=True, help="output text file")
-    p.add_argument("--period", type=float, default=0.01,
+    p.add_argument("--period", type=positive, default=0.01,
                    help="time between command packets [s] (the robot's PC: 0.01)")
-    p.add_argument("--duration", type=float, default=None,
+    p.add_argument("--duration", type=positive, default=None,
                    help="time covered [s] (default: the gait's duration)")
-    p.add_argument("--hardware-scale", type=float, default=1.0,
+    p.add_argument("--hardware-scale", type=positive, default=1.0,
                    help="multiply the written V* by this (the paper's robot ran 10x the "
                         "simulator's amplitudes); reading the file divides it out")
     p.set_defaults(run=run)

@@ -15,7 +15,12 @@ from tensim.cli._common import (
     Progress,
     add_controller_option,
     add_world_options,
+    count,
+    finite,
     load_model,
+    natural,
+    nonnegative,
+    positive,
     world_from_args,
 )
 
@@ -35,7 +40,7 @@ def _add_log_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--loadcell", default=None, metavar="JSON",
                    help="calibration for adc/ columns (from calibrate-loadcell; default: the "
                         "log header's, else the paper's eq. 7)")
-    p.add_argument("--skip", type=float, default=0.0,
+    p.add_argument("--skip", type=nonnegative, default=0.0,
                    help="leave the log's first seconds out of the error figures [s]")
     add_world_options(p)
 
@@ -50,7 +55,7 @@ def _register_calibrate(sub: argparse._SubParsersAction) -> None:
                        "converts raw logs' adc/ columns to tension_N/.")
     p.add_argument("pairs", help="CSV with the columns adc,force_N")
     p.add_argument("--out", default="runs/calibration", help="output folder")
-    p.add_argument("--max-force", type=float, default=111.21,
+    p.add_argument("--max-force", type=positive, default=111.21,
                    help="largest measurable tension [N] (Tetraspine3: 111.21)")
     p.add_argument("--convert", nargs="*", default=[], metavar="LOG",
                    help="hardware logs with adc/ columns to convert to newtons into --out")
@@ -96,10 +101,10 @@ def _register_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sensor", default=None, metavar="JSON",
                    help="measurement model from sysid (measurement.json): gain, offset, delay "
                         "and V* scale applied to the simulation")
-    p.add_argument("--offset", type=float, default=None,
+    p.add_argument("--offset", type=finite, default=None,
                    help="lag of the log behind the simulation [s] (default: the --sensor "
                         "delay, else estimated by cross-correlation)")
-    p.add_argument("--max-offset", type=float, default=0.5,
+    p.add_argument("--max-offset", type=positive, default=0.5,
                    help="largest lag the estimate tries [s]")
     p.add_argument("--out", default="runs/compare", help="output folder")
     p.set_defaults(run=_compare)
@@ -176,9 +181,9 @@ def _register_sysid(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--bounds", default=None, help="e.g. friction=0.02:0.3,stiffness=150:350")
     p.add_argument("--start", default=None, help="starting values, e.g. friction=0.1")
     _add_log_options(p)
-    p.add_argument("--max-sims", type=int, default=60,
+    p.add_argument("--max-sims", type=count, default=60,
                    help="budget of simulations per log (each one replays the whole log)")
-    p.add_argument("--diff-step", type=float, default=0.05,
+    p.add_argument("--diff-step", type=positive, default=0.05,
                    help="finite-difference step as a fraction of each bound range")
     p.add_argument("--out", default="runs/sysid", help="output folder")
     p.set_defaults(run=_sysid)
@@ -232,21 +237,21 @@ def _register_make_log(sub: argparse._SubParsersAction) -> None:
                        "--set gives the 'hardware' other physical parameters than the model.")
     p.add_argument("--model", default="tetraspine3", help="preset or structure .yaml file")
     add_controller_option(p, "tetraspine3_sine")
-    p.add_argument("--duration", type=float, default=10.0, help="logged time [s]")
+    p.add_argument("--duration", type=positive, default=10.0, help="logged time [s]")
     p.add_argument("--set", default=None,
                    help="physical parameters of the simulated hardware, e.g. "
                         "friction=0.1,stiffness=252")
-    p.add_argument("--offset", type=float, default=0.0, help="load-cell offset [N]")
-    p.add_argument("--gain", type=float, default=1.0, help="load-cell gain [-]")
-    p.add_argument("--noise", type=float, default=0.0, help="reading noise std [N]")
-    p.add_argument("--delay", type=float, default=0.0, help="readings lag the commands [s]")
+    p.add_argument("--offset", type=finite, default=0.0, help="load-cell offset [N]")
+    p.add_argument("--gain", type=positive, default=1.0, help="load-cell gain [-]")
+    p.add_argument("--noise", type=nonnegative, default=0.0, help="reading noise std [N]")
+    p.add_argument("--delay", type=nonnegative, default=0.0, help="readings lag the commands [s]")
     p.add_argument("--quantise", action="store_true",
                    help="quantise readings to the load cell's counts (eq. 7: 0.1567 N)")
     p.add_argument("--adc", action="store_true", help="log raw adc/ counts (implies --quantise)")
     p.add_argument("--mocap", default="", help="comma-separated nodes to log positions of")
-    p.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
-    p.add_argument("--command-period", type=float, default=0.01, help="V* period [s]")
-    p.add_argument("--feedback-period", type=float, default=0.2, help="feedback period [s]")
+    p.add_argument("--seed", type=natural, default=0, help="seed of the sensor noise")
+    p.add_argument("--command-period", type=positive, default=0.01, help="V* period [s]")
+    p.add_argument("--feedback-period", type=positive, default=0.2, help="feedback period [s]")
     add_world_options(p)
     p.add_argument("--out", required=True, help="output CSV")
     p.set_defaults(run=_make_log)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from tensim.cli._common import add_world_options, load_model, world_from_args
+from tensim.cli._common import add_world_options, load_model, nonnegative, world_from_args
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -20,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "98.1 dm, 981 cm)")
     p.add_argument("--up", default="y", choices=["y", "z"],
                    help="the file's up axis (default y, the toolkit's)")
-    p.add_argument("--clearance", type=float, default=0.01,
+    p.add_argument("--clearance", type=nonnegative, default=0.01,
                    help="place the lowest rod surface this far above the ground [m] "
                         "(default 0.01)")
     p.add_argument("--keep-position", action="store_true",

@@ -11,8 +11,13 @@ from typing import TYPE_CHECKING, Any
 from tensim.cli._common import (
     Progress,
     add_terrain_option,
+    count,
+    finite,
     load_model,
+    natural,
+    nonnegative,
     parse_point,
+    positive,
     world_from_args,
 )
 
@@ -52,7 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                          help="controller file whose impedance laws the gait drives (default: "
                          "the shipped tetraspine3_cpg / tetraspine3_sine for tetraspine3, "
                          "else the preset's own impedance controller)")
-    problem.add_argument("--trial-duration", type=float, metavar="S",
+    problem.add_argument("--trial-duration", type=positive, metavar="S",
                          help=f"simulated time of one trial [s] (default {d['trial_duration']})")
     problem.add_argument("--segment", help="rigid body whose centre of mass is scored, or com "
                          "for the whole robot (default com)")
@@ -63,37 +68,37 @@ def register(sub: argparse._SubParsersAction) -> None:
                          help="score the progress toward this point [m] instead of a "
                          "displacement (goal-directed locomotion; not with --direction; write "
                          "--target=-2,1 for a negative X)")
-    problem.add_argument("--energy-weight", type=float, metavar="M_PER_J",
+    problem.add_argument("--energy-weight", type=nonnegative, metavar="M_PER_J",
                          help="subtract this times the motor work [m/J] (default 0)")
-    problem.add_argument("--settle", type=float, metavar="S",
+    problem.add_argument("--settle", type=nonnegative, metavar="S",
                          help="seconds before the displacement counts (default 0)")
-    problem.add_argument("--max-tilt", type=float, metavar="DEG",
+    problem.add_argument("--max-tilt", type=positive, metavar="DEG",
                          help="a body tilted further from upright has flipped over; 180 turns "
                          "the check off (default 90)")
-    problem.add_argument("--penalty", type=float,
+    problem.add_argument("--penalty", type=finite,
                          help="score of a failed trial (flipped, unstable, gait error; "
                          "default -1)")
-    problem.add_argument("--dt", type=float, help="physics step [s] (default 0.001)")
-    problem.add_argument("--record-dt", type=float, help="trial recording period [s] "
+    problem.add_argument("--dt", type=positive, help="physics step [s] (default 0.001)")
+    problem.add_argument("--record-dt", type=positive, help="trial recording period [s] "
                          "(default 0.01)")
     add_terrain_option(problem)
     search = p.add_argument_group("search (taken from DIR when resuming)")
     search.add_argument("--optimizer", choices=("ntrt", "cma", "nelder-mead"),
                         help="ntrt: Monte Carlo then Gaussian hill climbing (the original "
                         "toolkit); cma: CMA-ES; nelder-mead (default ntrt)")
-    search.add_argument("--seed", type=int, help="random seed (default 0)")
-    search.add_argument("--step", type=float, help="unit-cube step: ntrt mutation deviation "
+    search.add_argument("--seed", type=natural, help="random seed (default 0)")
+    search.add_argument("--step", type=positive, help="unit-cube step: ntrt mutation deviation "
                         "(0.03), cma initial sigma (0.2), nelder-mead simplex edge (0.1)")
-    search.add_argument("--batch", type=int, help="points per generation for ntrt (8) and "
+    search.add_argument("--batch", type=count, help="points per generation for ntrt (8) and "
                         "cma (4 + 3 ln N); independent of --workers, so results are too")
-    search.add_argument("--monte-carlo", type=int, metavar="N",
+    search.add_argument("--monte-carlo", type=natural, metavar="N",
                         help=f"ntrt: random samples before hill climbing (default "
                         f"{d['monte_carlo']})")
     run = p.add_argument_group("running")
-    run.add_argument("--evaluations", type=int, metavar="N",
+    run.add_argument("--evaluations", type=count, metavar="N",
                      help=f"evaluation budget (default {d['evaluations']}); with --resume, "
                      "a new budget to continue or extend the run")
-    run.add_argument("--workers", type=int, default=None, metavar="W",
+    run.add_argument("--workers", type=natural, default=None, metavar="W",
                      help="worker processes (default: every core); 0 runs trials in this "
                      "process")
     run.add_argument("--ray", action="store_true",

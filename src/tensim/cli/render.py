@@ -12,7 +12,10 @@ from tensim.cli._common import (
     Progress,
     add_controller_option,
     add_world_options,
+    count,
+    finite,
     load_model,
+    positive,
     world_from_args,
 )
 
@@ -30,28 +33,28 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("source", metavar="MODEL|RUN_DIR",
                    help="preset name, structure .yaml file, or run folder")
     p.add_argument("--out", required=True, metavar="FILE.mp4", help="video file to write")
-    p.add_argument("--fps", type=int, default=60, help="frames per second (default 60)")
+    p.add_argument("--fps", type=count, default=60, help="frames per second (default 60)")
     p.add_argument("--camera", default="track", choices=("track", "top", "side", "fixed"),
                    help="track: follows the robot at 3/4 view (default); top: from above; "
                         "side: from the side; fixed: aimed at the start, never moves")
-    p.add_argument("--azimuth", type=float, default=None, help="camera azimuth [deg]")
-    p.add_argument("--elevation", type=float, default=None, help="camera elevation [deg]")
-    p.add_argument("--distance", type=float, default=None,
+    p.add_argument("--azimuth", type=finite, default=None, help="camera azimuth [deg]")
+    p.add_argument("--elevation", type=finite, default=None, help="camera elevation [deg]")
+    p.add_argument("--distance", type=positive, default=None,
                    help="camera distance [m] (default 1.3 x the model's size)")
     p.add_argument("--size", default="640x480", metavar="WxH",
                    help="frame size in pixels, even numbers (default 640x480)")
-    p.add_argument("--max-tension", type=float, default=None, metavar="N",
+    p.add_argument("--max-tension", type=positive, default=None, metavar="N",
                    help="tension drawn red [N] (default: the strongest motor's limit)")
     p.add_argument("--shadows", action="store_true",
                    help="draw shadows and reflections (slow without a GPU)")
     sim = p.add_argument_group("a fresh simulation (MODEL)")
-    sim.add_argument("--duration", type=float, default=10.0,
+    sim.add_argument("--duration", type=positive, default=10.0,
                      help="simulated time [s] (default 10)")
     add_world_options(sim)
     add_controller_option(sim)
     run = p.add_argument_group("a recorded run (RUN_DIR)")
-    run.add_argument("--start", type=float, default=None, help="first recorded time shown [s]")
-    run.add_argument("--stop", type=float, default=None, help="last recorded time shown [s]")
+    run.add_argument("--start", type=finite, default=None, help="first recorded time shown [s]")
+    run.add_argument("--stop", type=finite, default=None, help="last recorded time shown [s]")
     p.set_defaults(run=run_render)
 
 

@@ -10,6 +10,7 @@ from tensim.cli._common import (
     add_controller_option,
     add_world_options,
     load_model,
+    positive,
     print_summary,
     world_from_args,
 )
@@ -18,14 +19,14 @@ from tensim.cli._common import (
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("simulate", help="simulate a preset or structure file")
     p.add_argument("model", help="preset name or structure .yaml file")
-    p.add_argument("--duration", type=float, default=None,
+    p.add_argument("--duration", type=positive, default=None,
                    help="simulated time [s] (default: the controller's gait duration, or 10)")
     add_world_options(p)
     add_controller_option(p)
     p.add_argument("--velocity-input", default=None, metavar="FILE",
                    help="play back an exported V* table (from export-trajectory) instead of "
                         "the controller's gait")
-    p.add_argument("--record-dt", type=float, default=0.01, help="recording period [s]")
+    p.add_argument("--record-dt", type=positive, default=0.01, help="recording period [s]")
     p.add_argument("--out", default="runs/simulate", help="output folder")
     p.set_defaults(run=run)
 

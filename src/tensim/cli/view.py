@@ -5,7 +5,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tensim.cli._common import add_controller_option, add_world_options, load_model, world_from_args
+from tensim.cli._common import (
+    add_controller_option,
+    add_world_options,
+    load_model,
+    positive,
+    world_from_args,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,7 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(blue just taut, red at the motors' tension limit); slack ones are grey, dashed and "
         f"sagging. Keys: {KEY_HELP}. Needs a screen: elsewhere use `tensim render`.")
     p.add_argument("model", help="preset name or structure .yaml file")
-    p.add_argument("--max-tension", type=float, default=None, metavar="N",
+    p.add_argument("--max-tension", type=positive, default=None, metavar="N",
                    help="tension drawn red [N] (default: the strongest motor's limit)")
     add_world_options(p)
     add_controller_option(p)

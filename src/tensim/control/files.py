@@ -124,6 +124,12 @@ class ControllerConfig:
             if missing:
                 raise ValueError(f"gait cables {missing} have no impedance gains, so their V* "
                                  "would have no effect")
+            if isinstance(self.gait, VelocityTable):
+                absent = [c for c in self.impedance.gains if c not in self.gait.cables]
+                if absent:
+                    raise ValueError(f"the V* table has no column for {absent}, which have "
+                                     "impedance gains; give every driven cable a column "
+                                     "(0 for a constant target length)")
 
     def velocity_table(self, dt: float) -> VelocityTable | None:
         """The gait's V* commands for a physics step ``dt`` [s] (None without a gait).

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from tensim._files import write_text
-from tensim._input import InputError
+from tensim._input import InputError, read_text
 from tensim.control._common import check_driven, write_target_velocity
 from tensim.control.impedance import ImpedanceController
 from tensim.sim import Simulation
@@ -147,7 +147,11 @@ def load_velocity_table(path: str | os.PathLike[str]) -> VelocityTable:
     meta: dict[str, str] = {}
     names: list[str] | None = None
     rows: list[list[float]] = []
-    for number, line in enumerate(path.read_text().splitlines(), start=1):
+    try:
+        text = read_text(path)
+    except InputError as err:
+        raise VelocityFileError(str(err)) from None
+    for number, line in enumerate(text.splitlines(), start=1):
         text = line.strip()
         if not text:
             continue

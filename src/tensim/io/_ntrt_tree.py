@@ -20,11 +20,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from scipy.spatial.transform import Rotation
 
+from tensim._input import InputError, describe, is_real, load_yaml, read_text
 from tensim.structure import StructureError
 
+MAX_FILES = 10_000  # most substructure files a model may read (each use counted)
 _TOP_KEYS = ("nodes", "pair_groups", "builders", "substructures", "bond_groups")
 _CHILD_KEYS = ("path", "rotation", "translation", "scale", "offset")
 _ROTATION_KEYS = ("axis", "angle", "reference")
@@ -101,32 +102,20 @@ class Tree:
     files: list[Path]
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """A YAML loader that refuses duplicate keys (the toolkit does too)."""
-
-    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
-        seen = set()
-        for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=deep)  # type: ignore[no-untyped-call]
-            if key in seen:
-                raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}",
-                                                        key_node.start_mark)
-            seen.add(key)
-        return super().construct_mapping(node, deep)
-
-
 def _fail(source: Path, item: str, message: str) -> StructureError:
     return StructureError(message, item=item, source=str(source))
 
 
 def _vector(value: Any, source: Path, item: str) -> np.ndarray:
-    try:
-        out = np.array([float(v) for v in value])
-    except (TypeError, ValueError):
-        raise _fail(source, item, f"expected three numbers, got {value!r}") from None
-    if out.shape != (3,) or not np.all(np.isfinite(out)):
-        raise _fail(source, item, f"expected three finite numbers, got {value!r}")
-    return out
+    if not (isinstance(value, list) and len(value) == 3 and all(is_real(v) for v in value)):
+        raise _fail(source, item, f"expected three finite numbers, got {describe(value)}")
+    return np.array([float(v) for v in value])
+
+
+def _number(value: Any, source: Path, item: str) -> float:
+    if not is_real(value):
+        raise _fail(source, item, f"expected a finite number, got {describe(value)}")
+    return float(value)
 
 
 def _mapping(value: Any, source: Path, item: str, keys: tuple[str, ...] | None = None
@@ -143,15 +132,17 @@ def _mapping(value: Any, source: Path, item: str, keys: tuple[str, ...] | None =
 
 def _load(path: Path, parent: Path | None) -> dict[str, Any]:
     try:
-        text = path.read_text()
+        text = read_text(path)
     except OSError as err:
         where = str(parent) if parent else str(path)
-        raise StructureError(f"cannot read structure file {str(path)!r}: {err.strerror}",
+        raise StructureError(f"cannot read structure file {str(path)!r}: {err.strerror or err}",
                              source=where) from None
+    except InputError as err:  # names the file already
+        raise StructureError(str(err)) from None
     try:
-        data = yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass
-    except yaml.YAMLError as err:
-        raise StructureError(f"not valid YAML: {err}", source=str(path)) from None
+        data = load_yaml(text, str(path))  # refuses duplicate keys, as the toolkit does
+    except InputError as err:
+        raise StructureError(str(err)) from None
     return _mapping(data, path, "top level", _TOP_KEYS)
 
 
@@ -174,17 +165,26 @@ def _read_part(tree: Tree, part: Part, path: Path, chain: tuple[Path, ...]) -> N
     if resolved in chain:
         raise StructureError("substructure files include each other in a loop",
                              source=str(path))
+    if len(tree.files) >= MAX_FILES:
+        raise StructureError(f"more than {MAX_FILES} substructure files are read (counting "
+                             "each time a file is used); the tree is too large", source=str(path))
     data = _load(path, chain[-1] if chain else None)
     tree.files.append(path)
     # the toolkit's order: substructures (and their builders), own builders, nodes, pairs, bonds
     for key, attrs in _mapping(data.get("substructures"), path, "substructures").items():
+        if not isinstance(attrs, dict) or not isinstance(attrs.get("path"), str):
+            raise _fail(path, f"substructures {key!r}", "expected a mapping with the 'path' "
+                        f"of the substructure's file, got {describe(attrs)}")
         _add_children(tree, part, path, key, _mapping(attrs, path, f"substructures {key!r}",
                                                       _CHILD_KEYS), (*chain, resolved))
     for key, entry in _mapping(data.get("builders"), path, "builders").items():
         entry = _mapping(entry, path, f"builders {key!r}", ("class", "parameters"))
         if "class" not in entry:
             raise _fail(path, f"builders {key!r}", "no 'class' given (e.g. tgRodInfo)")
-        tree.builders.append(Builder(tuple(key.split()), str(entry["class"]),
+        if not isinstance(entry["class"], str):
+            raise _fail(path, f"builders {key!r}", f"'class' must be a builder class name, got "
+                        f"{describe(entry['class'])}")
+        tree.builders.append(Builder(tuple(str(key).split()), entry["class"],
                                      _mapping(entry.get("parameters"), path,
                                               f"builders {key!r} parameters"), str(path)))
     for name, xyz in _mapping(data.get("nodes"), path, "nodes").items():
@@ -231,13 +231,14 @@ def _transform(child: Part, attrs: dict[str, Any], index: int, path: Path, item:
         axis = _vector(rot.get("axis"), path, f"{item} rotation axis")
         if not np.linalg.norm(axis) > 0 or "angle" not in rot:
             raise _fail(path, f"{item} rotation", "needs a non-zero 'axis' and an 'angle' [deg]")
-        turn = Rotation.from_rotvec(axis / np.linalg.norm(axis) * math.radians(float(rot["angle"])))
+        angle = _number(rot["angle"], path, f"{item} rotation angle")
+        turn = Rotation.from_rotvec(axis / np.linalg.norm(axis) * math.radians(angle))
         ref = (_vector(rot["reference"], path, f"{item} rotation reference")
                if "reference" in rot else centroid())
         for p in nodes:
             p[:] = ref + turn.apply(p - ref)
     if attrs.get("scale") is not None:
-        factor = float(attrs["scale"])
+        factor = _number(attrs["scale"], path, f"{item} scale")
         if not factor > 0:
             raise _fail(path, f"{item} scale", f"expected a factor > 0, got {attrs['scale']!r}")
         centre = centroid()

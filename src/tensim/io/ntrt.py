@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from tensim._input import is_real
 from tensim.io._ntrt_tree import Builder, Pair, Part, read_tree
 from tensim.structure import Cable, Motor, Node, Rod, Structure, StructureError
 
@@ -83,6 +84,8 @@ def import_ntrt(path: str | os.PathLike[str], units: str, *, up: str = "y",
         raise ValueError(f"unknown units {units!r}; expected one of {list(UNITS)}")
     if up not in _FRAMES:
         raise ValueError(f"unknown up axis {up!r}; expected 'y' or 'z'")
+    if clearance is not None and not (is_real(clearance) and clearance >= 0):
+        raise ValueError(f"clearance must be a finite distance >= 0 m, got {clearance!r}")
     path = Path(path)
     tree = read_tree(path)
     converter = _Converter(UNITS[units], _FRAMES[up], str(path))
@@ -124,7 +127,7 @@ class _Converter:
             if key not in known:
                 raise StructureError(f"unsupported {builder.cls} parameter {key!r}; expected "
                                      f"one of {list(known)}", item=item, source=builder.source)
-            if not isinstance(value, int | float):
+            if not is_real(value):
                 raise StructureError(f"parameter {key!r} must be a number, got {value!r}",
                                      item=item, source=builder.source)
 

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
+from tensim.limits import MAX_GRID_CELLS
 from tensim.terrain._errors import TerrainError
 from tensim.terrain._geometry import Grid
 
@@ -64,13 +65,18 @@ def load_grid(file: str, height: float | None) -> np.ndarray:
         else:
             raise TerrainError(f"{where}: unknown type {suffix!r}; expected an image "
                                f"{IMAGE_SUFFIXES} or an array {ARRAY_SUFFIXES}")
-    except (OSError, ValueError) as err:
-        if isinstance(err, TerrainError):
+    except TerrainError:
+        raise
+    except Exception as err:  # image and array readers raise many types for a damaged file
+        if isinstance(err, MemoryError):
             raise
         raise TerrainError(f"{where} cannot be read: {err}") from err
     if heights.ndim != 2 or min(heights.shape) < 2:
         raise TerrainError(f"{where}: expected a 2-D grid of at least 2 x 2 heights, got shape "
                            f"{heights.shape}")
+    if heights.size > MAX_GRID_CELLS:
+        raise TerrainError(f"{where}: {heights.shape[0]} x {heights.shape[1]} heights is more "
+                           f"than the limit of {MAX_GRID_CELLS} samples; downsample the file")
     if not np.all(np.isfinite(heights)):
         raise TerrainError(f"{where}: heights must be finite numbers")
     return np.ascontiguousarray(heights, dtype=float)

@@ -19,6 +19,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from tensim._input import is_real
+from tensim.limits import MAX_GRID_CELLS, MAX_TERRAIN_BOXES
 from tensim.terrain._errors import TerrainError
 from tensim.terrain._fields import hills_grid, load_grid, rough_grid
 from tensim.terrain._geometry import Box, Geometry, Grid
@@ -45,6 +47,7 @@ class Surface:
     restitution: float | None = None
 
     def __post_init__(self) -> None:
+        self._reals()
         if self.friction is not None and not (math.isfinite(self.friction)
                                               and self.friction >= 0):
             self._fail("friction", "a coefficient >= 0", self.friction)
@@ -64,10 +67,19 @@ class Surface:
     def _fail(self, field: str, expected: str, got: object) -> None:
         raise TerrainError(f"terrain {self.kind!r}: {field} must be {expected}, got {got!r}")
 
-    def _whole(self, field: str, minimum: int) -> None:
+    def _whole(self, field: str, minimum: int, maximum: int | None = None) -> None:
         value = getattr(self, field)
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
             self._fail(field, f"an integer >= {minimum}", value)
+        if maximum is not None and value > maximum:
+            self._fail(field, f"at most {maximum} (the limit of boxes in one terrain)", value)
+
+    def _reals(self) -> None:
+        """Every float field holds a finite number (not a boolean, not a string)."""
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            if "float" in str(field.type) and value is not None and not is_real(value):
+                self._fail(field.name, "a finite number", value)
 
     def _positive(self, *fields: str) -> None:
         for field in fields:
@@ -209,7 +221,7 @@ class Stairs(Surface):
     def __post_init__(self) -> None:
         super().__post_init__()
         self._positive("rise", "run", "width", "landing")
-        self._whole("steps", 1)
+        self._whole("steps", 1, MAX_TERRAIN_BOXES)
 
     def geometry(self) -> Geometry:
         boxes = []
@@ -248,7 +260,7 @@ class Blocks(Surface):
     def __post_init__(self) -> None:
         super().__post_init__()
         self._positive("size", "height", "length", "width")
-        self._whole("count", 1)
+        self._whole("count", 1, MAX_TERRAIN_BOXES)
         self._whole("seed", 0)
         if self.size > min(self.length, self.width):
             self._fail("size", f"at most the field's length and width ({self.length}, "
@@ -337,7 +349,7 @@ class HeightField(Surface):
 Terrain = Flat | Slope | Hills | Rough | Stairs | Blocks | Wall | HeightField
 KINDS: dict[str, type[Surface]] = {k.kind: k for k in (Flat, Slope, Hills, Rough, Stairs,
                                                          Blocks, Wall, HeightField)}
-_MAX_SAMPLES = 4_000_000  # height-field samples; MuJoCo holds them as float32
+_MAX_SAMPLES = MAX_GRID_CELLS  # height-field samples; MuJoCo holds them as float32
 
 
 def _check_grid(terrain: Hills | Rough) -> None:
