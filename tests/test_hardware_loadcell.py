@@ -93,5 +93,5 @@ def test_raw_log_converts_to_newtons(tmp_path):
     np.testing.assert_array_equal(newtons.series["tension/c2"], [5, 6])
     assert "adc/c1" not in newtons.series.channels
     # a calibration in the header wins over eq. (7)
-    raw.write_text("# loadcell: 0.2 * ADC + -1\ntime_s,adc/c1\n0,100\n")
+    raw.write_text("# loadcell: 0.2 * ADC + -1\ntime_s,adc/c1\n0,100\n0.2,100\n")
     assert load_log(raw).series["tension/c1"][0] == pytest.approx(19.0)

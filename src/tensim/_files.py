@@ -10,6 +10,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from tensim._input import InputError
+
 
 def _current_umask() -> int:
     mask = os.umask(0)
@@ -20,9 +22,33 @@ def _current_umask() -> int:
 _UMASK = _current_umask()
 
 
+def check_writable(path: Path, kind: str) -> None:
+    """Refuses an output path that cannot become a ``kind`` ("file" or "folder").
+
+    Raises:
+        InputError: a folder where a file is expected (or a file where a folder is), or a path
+            under a file.
+    """
+    if kind == "file" and path.is_dir():
+        raise InputError(f"{path}: is a folder; expected the path of a file to write")
+    if kind == "folder" and path.exists() and not path.is_dir():
+        raise InputError(f"{path}: is a file; expected a folder to write into")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(f"{path}: {parent} is a file, so nothing can be written "
+                                 "under it")
+            break
+
+
 @contextlib.contextmanager
 def atomic_path(path: Path) -> Iterator[Path]:
-    """Yields a temporary path beside ``path``; on success it replaces ``path`` in one step."""
+    """Yields a temporary path beside ``path``; on success it replaces ``path`` in one step.
+
+    Raises:
+        InputError: ``path`` is a folder, or lies under a file.
+    """
+    check_writable(path, "file")
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     os.close(fd)

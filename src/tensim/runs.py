@@ -5,19 +5,32 @@ Every command that writes a run folder ends with :func:`write_run` (one simulati
 ``tensim.log`` (this process's tensim warnings and progress lines since the last run folder),
 ``report.html`` (:func:`tensim.viz.report.write_report`) and then ``summary.json``, last, so its
 presence means the folder is complete.
+
+Commands write their folder through :func:`replace_folder`: the files go into a hidden staging
+folder beside ``--out``, which replaces ``--out`` whole when the command succeeds. A folder
+therefore never mixes the files of two runs, and an interrupted or failed command leaves
+``--out`` as it was. tensim replaces only a folder that is empty or holds an earlier tensim run;
+any other folder is refused.
 """
 
 from __future__ import annotations
 
 import collections
+import contextlib
+import glob
 import logging
+import os
 import platform
+import shutil
 import sys
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 from tensim import __version__
-from tensim._files import write_json, write_text
+from tensim._files import check_writable, write_json, write_text
+from tensim._input import InputError
 from tensim.sim import SimulationResult, TimeSeries
 
 PROGRESS_LOGGER = "tensim.progress"  # progress lines: to the run log only, never the console
@@ -95,3 +108,84 @@ def write_run(out: Path, result: SimulationResult, summary: dict[str, Any]) -> P
     out.mkdir(parents=True, exist_ok=True)
     result.trajectory.to_parquet(out / "trajectory.parquet")
     return finish_run(out, summary, result.trajectory)
+
+
+MARKER = ".tensim-run"  # every folder written through replace_folder holds it
+_STAGE = ".partial-"  # staging folders are named .<out name>.partial-<pid>-<random>
+
+
+def _holds_run(folder: Path) -> bool:
+    """Whether ``folder`` is empty or holds a tensim run (a marker or a summary)."""
+    return not any(folder.iterdir()) or (folder / MARKER).is_file() \
+        or (folder / "summary.json").is_file()
+
+
+def check_run_folder(out: Path) -> None:
+    """Refuses an ``--out`` that :func:`replace_folder` may not replace.
+
+    Raises:
+        InputError: a file, a path under a file, or a folder that holds something other than a
+            tensim run.
+    """
+    check_writable(out, "folder")
+    if out.is_dir() and not _holds_run(out):
+        raise InputError(f"{out}: a folder that holds no tensim run (no summary.json); tensim "
+                         "replaces a run folder whole, so it writes only into an empty folder "
+                         "or an earlier run's; choose another --out")
+
+
+def _remove_stale_stages(out: Path) -> None:
+    """Deletes staging folders of ``out`` left by processes that no longer run."""
+    for stage in out.parent.glob(f".{glob.escape(out.name)}{_STAGE}*"):
+        pid = stage.name.rpartition(_STAGE)[2].partition("-")[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(stage, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+@contextlib.contextmanager
+def replace_folder(out: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yields an empty staging folder; when the block ends normally, it replaces ``out`` whole.
+
+    An earlier run in ``out`` is removed only then. If the block raises (or is interrupted),
+    the staging folder is deleted and ``out`` is left as it was. Stale staging folders of
+    ``out`` (from killed processes) are deleted first.
+
+    Raises:
+        InputError: ``out`` may not be replaced (see :func:`check_run_folder`).
+    """
+    out = Path(out)
+    check_run_folder(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    _remove_stale_stages(out)
+    stage = Path(tempfile.mkdtemp(prefix=f".{out.name}{_STAGE}{os.getpid()}-", dir=out.parent))
+    try:
+        (stage / MARKER).write_text("a tensim run folder; tensim may replace it whole\n")
+        yield stage
+        os.chmod(stage, 0o777 & ~_umask())  # mkdtemp makes 0700
+        if out.exists():
+            check_run_folder(out)  # it may have changed while the command ran
+            old = stage.with_name(stage.name + "-old")
+            os.replace(out, old)
+            os.replace(stage, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(stage, out)
+    finally:
+        if stage.exists():
+            shutil.rmtree(stage, ignore_errors=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

@@ -37,6 +37,9 @@ def build_parser() -> argparse.ArgumentParser:
                                      "learn gaits for tensegrity robots on MuJoCo.")
     parser.add_argument("--version", action="version", version=f"tensim {__version__}")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.add_argument("--force", action="store_true",
+                        help="run work past tensim's size limits (physics steps, recorded "
+                             "samples; see tensim.limits)")
     sub = parser.add_subparsers(dest="command", required=True)
     for name in COMMAND_MODULES:
         importlib.import_module(name).register(sub)
@@ -55,8 +58,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     run: Callable[[argparse.Namespace], int] = args.run
     try:
         return run(args)
+    except KeyboardInterrupt:  # every file tensim writes is complete or absent
+        print("tensim: interrupted; the files written so far are complete, the rest were not "
+              "written", file=sys.stderr)
+        return 130
     except (StructureError, ModelError, SimulationError, ControllerFileError, GaitError,
-            KeyError, ValueError, FileNotFoundError) as err:
+            KeyError, ValueError, OSError) as err:
         message = err.args[0] if isinstance(err, KeyError) and err.args else err
         print(f"tensim: error: {message}", file=sys.stderr)
         return 2

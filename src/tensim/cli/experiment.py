@@ -173,8 +173,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.target is not None and args.name != "goal":
         raise ValueError(f"--target is for the goal experiment, not {args.name!r}")
+    from tensim.limits import check_run
+    from tensim.runs import replace_folder
+
+    if args.duration is not None:
+        check_run(args.duration, args.dt, force=args.force)
     out = Path(args.out or f"runs/{args.name}")
-    summary = EXPERIMENTS[args.name][1](args, out)
+    with replace_folder(out) as stage:
+        summary = EXPERIMENTS[args.name][1](args, stage)
     if "duration_s" in summary:
         print_summary(summary, out)
     else:

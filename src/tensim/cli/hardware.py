@@ -66,16 +66,19 @@ def _calibrate(args: argparse.Namespace) -> int:
     from tensim.hardware import convert_log, fit_loadcell, read_log, read_pairs, write_log
     from tensim.hardware.loadcell import save_calibration
     from tensim.hardware.plots import plot_calibration
+    from tensim.runs import check_run_folder, replace_folder
 
     out = Path(args.out)
+    check_run_folder(out)
     fit = fit_loadcell(*read_pairs(args.pairs), max_force=args.max_force)
-    out.mkdir(parents=True, exist_ok=True)
-    plot_calibration(fit, out / "calibration.png")
-    for source in args.convert:
-        path = write_log(convert_log(read_log(source), fit.loadcell),
-                         out / f"{Path(source).stem}_newtons.csv")
-        print(f"converted {source} -> {path}")
-    save_calibration(fit, out / "calibration.json")
+    logs = [(source, convert_log(read_log(source), fit.loadcell)) for source in args.convert]
+    with replace_folder(out) as stage:
+        plot_calibration(fit, stage / "calibration.png")
+        for source, log in logs:
+            name = f"{Path(source).stem}_newtons.csv"
+            write_log(log, stage / name)
+            print(f"converted {source} -> {out / name}")
+        save_calibration(fit, stage / "calibration.json")
     s = fit.summary()
     print(f"{s['equation']}  (a ± {s['gain_stderr_N_per_count']:.2g}, b ± "
           f"{s['offset_stderr_N']:.2g} N, {s['pairs']} pairs, R² = {s['r_squared']:.6f})")
@@ -118,6 +121,7 @@ def _compare(args: argparse.Namespace) -> int:
     from tensim.hardware.report import write_comparison
     from tensim.hardware.sensor import load_measurement
     from tensim.model import compile_structure
+    from tensim.runs import replace_folder
     from tensim.sim import TimeSeries
 
     log = load_log(args.log, load_calibration(args.loadcell) if args.loadcell else None)
@@ -142,8 +146,9 @@ def _compare(args: argparse.Namespace) -> int:
     info = {"log": args.log, "model": args.model, "controller": args.controller,
             "simulation": args.sim or "replayed", "sensor": args.sensor, "dt_s": args.dt}
     out = Path(args.out)
-    summary = write_comparison(out, comparison, info, f"{Path(args.log).name}: hardware vs "
-                               "simulation", mocap)
+    with replace_folder(out) as stage:
+        summary = write_comparison(stage, comparison, info, f"{Path(args.log).name}: hardware "
+                                   "vs simulation", mocap)
     print(f"wrote {out}/ (summary.json, report.html, overlay.png)")
     _print_comparison(summary)
     for node, error in (mocap or {}).items():
@@ -194,6 +199,7 @@ def _sysid(args: argparse.Namespace) -> int:
     from tensim.hardware import SysidSettings, identify, load_calibration, load_log
     from tensim.hardware.parameters import parse_assignments, parse_bounds
     from tensim.hardware.report import write_sysid
+    from tensim.runs import replace_folder
 
     loadcell = load_calibration(args.loadcell) if args.loadcell else None
     logs = [load_log(path, loadcell) for path in args.logs]
@@ -211,7 +217,8 @@ def _sysid(args: argparse.Namespace) -> int:
     info = {"logs": list(args.logs), "model": args.model, "controller": args.controller,
             "dt_s": args.dt, "max_sims": args.max_sims, "diff_step": args.diff_step}
     out = Path(args.out)
-    summary = write_sysid(out, result, args.logs, info)
+    with replace_folder(out) as stage:
+        summary = write_sysid(stage, result, args.logs, info)
     print(f"wrote {out}/ (fitted_structure.yaml, measurement.json, report.html, summary.json)")
     print(f"{result.simulations} simulations; fitted vs nominal:")
     for name, p in summary["parameters"].items():

@@ -33,8 +33,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from tensim.control import load_velocity_table, resolve_controller
+    from tensim.control.velocity_table import VelocityFileError
+    from tensim.limits import check_run
     from tensim.model import compile_structure
-    from tensim.runs import write_run
+    from tensim.runs import check_run_folder, replace_folder, write_run
     from tensim.sim import simulate
     from tensim.viz import plot_cable_tensions, plot_path
 
@@ -43,11 +45,16 @@ def run(args: argparse.Namespace) -> int:
     if args.velocity_input and config is None:
         raise ValueError("--velocity-input needs impedance laws: give --controller")
     if args.velocity_input:
-        config = config.with_gait(load_velocity_table(args.velocity_input))
+        try:
+            config = config.with_gait(load_velocity_table(args.velocity_input))
+        except ValueError as err:
+            raise VelocityFileError(f"{args.velocity_input}: {err}") from None
     if config is not None and config.gait is not None and args.duration \
             and not args.velocity_input:
         config = config.with_duration(args.duration)  # the gait runs as long as asked
     duration = args.duration or (config.duration if config and config.gait else 10.0)
+    check_run(duration, args.dt, args.record_dt, force=args.force)
+    check_run_folder(Path(args.out))
     compiled = compile_structure(structure, world_from_args(args))
     controller = config.build(compiled.model.opt.timestep) if config else None
     result = simulate(compiled, duration, controller=controller, record_dt=args.record_dt,
@@ -55,11 +62,12 @@ def run(args: argparse.Namespace) -> int:
     summary = {"model": args.model, "controller": args.controller, **result.summary()}
     out = Path(args.out)
     figures = ["path.png"]
-    if compiled.n_cables:
-        plot_cable_tensions(result.trajectory, out / "tensions.png",
-                            title=f"{args.model}: cable tensions")
-        figures.insert(0, "tensions.png")
-    plot_path(result.trajectory, out / "path.png", compiled.index.bodies)
-    write_run(out, result, {**summary, "figures": figures})
+    with replace_folder(out) as stage:
+        if compiled.n_cables:
+            plot_cable_tensions(result.trajectory, stage / "tensions.png",
+                                title=f"{args.model}: cable tensions")
+            figures.insert(0, "tensions.png")
+        plot_path(result.trajectory, stage / "path.png", compiled.index.bodies)
+        write_run(stage, result, {**summary, "figures": figures})
     print_summary(summary, out)
     return 0

@@ -7,9 +7,7 @@ calibration file of pairs is a CSV with the columns ``adc,force_N`` (``#`` lines
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import json
 import math
 import os
 from pathlib import Path
@@ -19,7 +17,8 @@ import numpy as np
 from scipy import stats
 
 from tensim._files import write_json
-from tensim.hardware.logs import HardwareLog, LogError, read_log
+from tensim._input import InputError, is_real, load_json, read_text
+from tensim.hardware.logs import HardwareLog, LogError, csv_rows, read_log
 from tensim.sim import TimeSeries
 
 
@@ -40,10 +39,17 @@ class LoadCell:
     adc_max: int = 1023
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.gain) and self.gain > 0):
-            raise ValueError(f"load-cell gain must be > 0 N per count, got {self.gain}")
-        if not math.isfinite(self.offset):
-            raise ValueError(f"load-cell offset must be finite, got {self.offset}")
+        if not (is_real(self.gain) and self.gain > 0):
+            raise ValueError(f"load-cell gain must be > 0 N per count, got {self.gain!r}")
+        if not is_real(self.offset):
+            raise ValueError(f"load-cell offset must be a finite force [N], got {self.offset!r}")
+        if not (is_real(self.max_force) and self.max_force > 0):
+            raise ValueError(f"load-cell max_force must be a finite force > 0 N, got "
+                             f"{self.max_force!r}")
+        if isinstance(self.adc_max, bool) or not isinstance(self.adc_max, int) \
+                or self.adc_max < 1:
+            raise ValueError(f"load-cell adc_max must be a whole count >= 1, got "
+                             f"{self.adc_max!r}")
 
     def to_newtons(self, counts: np.ndarray) -> np.ndarray:
         """Force for ADC counts [N]."""
@@ -141,22 +147,21 @@ def read_pairs(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     path = Path(path)
     header: list[str] | None = None
     rows: list[tuple[float, float]] = []
-    with path.open(newline="") as f:
-        for line, fields in enumerate(csv.reader(f), start=1):
-            if not fields or not "".join(fields).strip() or fields[0].lstrip().startswith("#"):
-                continue
-            fields = [c.strip() for c in fields]
-            if header is None:
-                if sorted(fields) != ["adc", "force_N"]:
-                    raise LogError(f"{path}: line {line}: expected the header 'adc,force_N', "
-                                   f"got {','.join(fields)!r}")
-                header = fields
-                continue
-            if len(fields) != 2:
-                raise LogError(f"{path}: line {line}: expected 2 cells, got {len(fields)}")
-            cells = dict(zip(header, fields, strict=True))
-            rows.append((_number(path, line, "adc", cells["adc"]),
-                         _number(path, line, "force_N", cells["force_N"])))
+    for line, fields in csv_rows(path):
+        if not fields or not "".join(fields).strip() or fields[0].lstrip().startswith("#"):
+            continue
+        fields = [c.strip() for c in fields]
+        if header is None:
+            if sorted(fields) != ["adc", "force_N"]:
+                raise LogError(f"{path}: line {line}: expected the header 'adc,force_N', "
+                               f"got {','.join(fields)[:60]!r}")
+            header = fields
+            continue
+        if len(fields) != 2:
+            raise LogError(f"{path}: line {line}: expected 2 cells, got {len(fields)}")
+        cells = dict(zip(header, fields, strict=True))
+        rows.append((_number(path, line, "adc", cells["adc"]),
+                     _number(path, line, "force_N", cells["force_N"])))
     if not rows:
         raise LogError(f"{path}: expected an 'adc,force_N' header and data rows")
     data = np.array(rows)
@@ -199,7 +204,7 @@ def loadcell_for(log: HardwareLog, given: LoadCell | None = None) -> LoadCell:
     try:
         gain, _, offset = text.replace(" ", "").partition("*ADC+")
         return LoadCell(float(gain), float(offset))
-    except ValueError:
+    except ValueError:  # not two numbers, or not a valid calibration (nan, gain <= 0)
         raise LogError(f"{log.source}: header 'loadcell': expected '<gain> * ADC + <offset>', "
                        f"got {text!r}") from None
 
@@ -228,10 +233,17 @@ def load_calibration(path: str | os.PathLike[str]) -> LoadCell:
     Raises:
         LogError: a missing or non-numeric field, naming the file.
     """
-    data = json.loads(Path(path).read_text())
     try:
-        return LoadCell(float(data["gain_N_per_count"]), float(data["offset_N"]),
-                        float(data.get("max_force_N", 111.21)), int(data.get("adc_max", 1023)))
-    except (KeyError, TypeError, ValueError) as err:
+        data = load_json(read_text(path), str(path))
+    except InputError as err:
+        raise LogError(str(err)) from None
+    if not isinstance(data, dict):
+        raise LogError(f"{path}: expected a JSON object with 'gain_N_per_count' and 'offset_N'")
+    try:
+        return LoadCell(data["gain_N_per_count"], data["offset_N"],
+                        data.get("max_force_N", 111.21), data.get("adc_max", 1023))
+    except KeyError as err:
         raise LogError(f"{path}: expected a calibration with 'gain_N_per_count' and 'offset_N' "
-                       f"numbers ({err})") from None
+                       f"numbers; {err} is missing") from None
+    except ValueError as err:
+        raise LogError(f"{path}: {err}") from None

@@ -20,16 +20,18 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import io
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from tensim._files import write_text
-from tensim._input import InputError
+from tensim._input import InputError, read_text
 from tensim.control import VelocityTable
+from tensim.limits import MAX_SAMPLES, check_count
 from tensim.sim import TimeSeries
 from tensim.structure import Structure
 
@@ -132,7 +134,10 @@ class HardwareLog:
         times, values = self.samples("vstar", cables)
         if period is None:
             period = round(float(np.median(np.diff(times))), 9) if times.size > 1 else 0.01
-        grid = np.arange(math.floor(times[-1] / period + 1e-6) + 1) * period
+        rows = math.floor(times[-1] / period + 1e-6) + 1
+        check_count(f"{self.source}: V* table of {times[-1]:g} s every {period:g} s: rows",
+                    rows, MAX_SAMPLES)
+        grid = np.arange(rows) * period
         held = np.stack([_hold(times, values[:, k], grid) for k in range(len(cables))], axis=1)
         return VelocityTable(tuple(cables), period, held / self._hardware_scale())
 
@@ -196,6 +201,25 @@ def _cell(path: Path, line: int, column: str, text: str, required: bool) -> floa
     return value
 
 
+def csv_rows(path: Path) -> Iterator[tuple[int, list[str]]]:
+    """(line number, cells) of each row of a UTF-8 CSV file.
+
+    Raises:
+        FileNotFoundError: no such file.
+        LogError: not UTF-8 text, a folder, too large, or not CSV; naming the file.
+    """
+    try:
+        text = read_text(path)
+    except InputError as err:
+        raise LogError(str(err)) from None
+    reader = csv.reader(io.StringIO(text, newline=""))
+    try:
+        for fields in reader:
+            yield reader.line_num, fields
+    except csv.Error as err:
+        raise LogError(f"{path}: line {reader.line_num + 1}: not valid CSV: {err}") from None
+
+
 def read_log(path: str | os.PathLike[str]) -> HardwareLog:
     """Reads and validates a hardware log CSV.
 
@@ -207,22 +231,21 @@ def read_log(path: str | os.PathLike[str]) -> HardwareLog:
     meta: dict[str, str] = {}
     header: list[str] | None = None
     rows: list[list[float]] = []
-    with path.open(newline="") as f:
-        for line, fields in enumerate(csv.reader(f), start=1):
-            if not fields or not "".join(fields).strip():
-                continue
-            if fields[0].lstrip().startswith("#"):
-                key, sep, value = ",".join(fields).lstrip()[1:].partition(":")
-                if sep and header is None:
-                    meta[key.strip()] = value.strip()
-                continue
-            if header is None:
-                header = [TIME_COLUMN, *_header(path, line, fields)]
-                continue
-            rows.append(_row(path, line, fields, header, rows[-1][0] if rows else None))
-    if header is None or not rows:
+    for line, fields in csv_rows(path):
+        if not fields or not "".join(fields).strip():
+            continue
+        if fields[0].lstrip().startswith("#"):
+            key, sep, value = ",".join(fields).lstrip()[1:].partition(":")
+            if sep and header is None:
+                meta[key.strip()] = value.strip()
+            continue
+        if header is None:
+            header = [TIME_COLUMN, *_header(path, line, fields)]
+            continue
+        rows.append(_row(path, line, fields, header, rows[-1][0] if rows else None))
+    if header is None or len(rows) < 2:
         raise LogError(f"{path}: expected a '{TIME_COLUMN},<quantity>/<item>,...' header and at "
-                       "least one data row")
+                       f"least two data rows (a log spans time), got {len(rows)}")
     data = np.array(rows)
     channels = {name: data[:, k] for k, name in enumerate(header) if k > 0}
     return HardwareLog(TimeSeries(data[:, 0], channels), str(path), meta)
