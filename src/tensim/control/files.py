@@ -413,22 +413,22 @@ def _parse(path: Path) -> Any:
 
 
 def _check_model(data: Any, structure: Structure) -> None:
-    """Refuses a file made for another preset than ``structure``."""
+    """Refuses a file made for a preset whose cables are not ``structure``'s."""
     from tensim.models import PRESETS
 
     model = data.get("model") if isinstance(data, dict) else None
     if isinstance(model, str) and model in PRESETS \
-            and _preset_structure_name(model) != structure.name:
-        raise ControllerFileError(f"the file is made for {model!r}, not for the robot "
-                                  f"{structure.name!r}; pass that robot, or remove 'model'",
-                                  field="model")
+            and _preset_cables(model) != frozenset(c.name for c in structure.cables):
+        raise ControllerFileError(f"the file is made for {model!r}, whose cables are not those "
+                                  f"of the robot {structure.name!r}; pass a controller for that "
+                                  "robot", field="model")
 
 
 @functools.cache
-def _preset_structure_name(model: str) -> str:
+def _preset_cables(model: str) -> frozenset[str]:
     from tensim.models import PRESETS
 
-    return PRESETS[model].build().name
+    return frozenset(c.name for c in PRESETS[model].build().cables)
 
 
 def load_controller(source: str | os.PathLike[str], structure: Structure | None = None
@@ -443,7 +443,7 @@ def load_controller(source: str | os.PathLike[str], structure: Structure | None 
         FileNotFoundError: neither a file nor a shipped controller.
         ControllerFileError: naming the file, the field and what was expected (also a file
             that is not UTF-8 YAML/JSON, has duplicate keys, or names another preset in
-            ``model`` than ``structure``).
+            ``model`` whose cables are not ``structure``'s).
     """
     path = controller_path(source)
     data = _parse(path)

@@ -1,11 +1,15 @@
 """The learning driver: ask a batch, evaluate it in parallel, tell it in ask order, checkpoint.
 
-One loop serves a fresh run and a resumed one. The optimizer is checkpointed after every
-tell; evaluations are logged as they finish. Resuming loads the checkpoint, asks the same
-batch again (optimizers are deterministic given their pickled state) and reuses every
+One loop serves a fresh run and a resumed one. Evaluations are logged as they finish; after
+every tell the checkpoint records how many evaluations the optimizer has been told. The
+optimizer's state is never stored: optimizers are deterministic given their seed and the costs
+they are told, so a resume builds a fresh optimizer from the configuration and tells it the
+logged costs batch by batch, asking each batch again and checking it against the log (bit for
+bit). That rebuilds the state exactly, then the run asks the next batch and reuses every
 evaluation of it already in the log, so no finished trial is run twice and the run ends with
 exactly the evaluations an uninterrupted run would have made. A batch cut short by the
 evaluation budget is evaluated but not told; extending the budget later completes and tells it.
+A run holds its folder's lock (:meth:`RunStore.acquire`) while it writes.
 """
 
 from __future__ import annotations
@@ -13,7 +17,6 @@ from __future__ import annotations
 import dataclasses
 import datetime
 import logging
-import pickle
 import platform
 import time
 from collections import Counter
@@ -80,6 +83,12 @@ def create_run(out: str | Path, problem: Problem, settings: LearningSettings) ->
         RunFolderError: ``out`` already holds a run.
     """
     store = RunStore(out)
+    with store.locked():
+        _create(store, problem, settings)
+    return store
+
+
+def _create(store: RunStore, problem: Problem, settings: LearningSettings) -> None:
     config = {"format": "tensim-learning-run", "version": 1,
               "problem": problem.to_dict(),
               "optimizer": dataclasses.asdict(settings.optimizer),
@@ -87,11 +96,13 @@ def create_run(out: str | Path, problem: Problem, settings: LearningSettings) ->
               "versions": _versions(),
               "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")}
     store.create(config, problem)
-    # the run continues from the folder's own files, exactly as a resume would
-    problem = store.load_problem()
-    optimizer = settings.optimizer.build(problem.dimension, settings.seed, problem.start())
-    store.save_checkpoint({"optimizer": pickle.dumps(optimizer), "told": 0, "sessions": []})
-    return store
+    # a resume rebuilds the problem from the folder's files: check that it is the same problem
+    loaded = store.load_problem()
+    same = loaded == problem if isinstance(problem, TrialProblem) else True
+    if not same or not np.array_equal(loaded.start(), problem.start()):
+        raise RunFolderError(f"{store.folder}: the problem read back from the folder differs "
+                             "from the one given; it could not be resumed")
+    store.save_checkpoint({"told": 0, "sessions": []})
 
 
 def learn(problem: Problem, settings: LearningSettings, out: str | Path, *, workers: int = 1,
@@ -99,7 +110,8 @@ def learn(problem: Problem, settings: LearningSettings, out: str | Path, *, work
           ) -> OptimizeResult:
     """Learns from scratch into the new run folder ``out``; see :func:`resume`."""
     create_run(out, problem, settings)
-    return resume(out, workers=workers, executor=executor, progress=progress)
+    return _run(RunStore(out), None, problem, workers=workers, executor=executor,
+                progress=progress)
 
 
 def resume(out: str | Path, evaluations: int | None = None, *, workers: int = 1,
@@ -122,27 +134,36 @@ def resume(out: str | Path, evaluations: int | None = None, *, workers: int = 1,
     Raises:
         RunFolderError: a missing or inconsistent run folder.
     """
-    store = RunStore(out)
-    config = store.read_config()
-    if evaluations is not None and evaluations != config["evaluations"]:
-        if evaluations < 1:
-            raise ValueError(f"evaluations must be >= 1, got {evaluations}")
-        config["evaluations"] = evaluations
-        store.write_config(config)
-    problem = store.load_problem()
-    state = store.load_checkpoint()
-    session = _Session(store, problem, config, state, progress)
-    factory = executor or (lambda p: make_executor(p, workers))
-    runner = factory(problem)
-    session.record["workers"], session.record["backend"] = runner.workers, runner.backend
-    store.open_log()
-    try:
-        session.loop(runner)
-    finally:
-        runner.close()
-        store.close_log()
-        session.finish()
-    return session.result()
+    return _run(RunStore(out), evaluations, None, workers=workers, executor=executor,
+                progress=progress)
+
+
+def _run(store: RunStore, evaluations: int | None, problem: Problem | None, *, workers: int,
+         executor: ExecutorFactory | None, progress: ProgressFn | None) -> OptimizeResult:
+    """Holds the folder's lock while it runs the run (``problem``: None reads the folder's)."""
+    if not store.exists():
+        store.read_config()  # raises: not a run folder (before the lock creates the folder)
+    with store.locked():
+        config = store.read_config()
+        if evaluations is not None and evaluations != config["evaluations"]:
+            if evaluations < 1:
+                raise ValueError(f"evaluations must be >= 1, got {evaluations}")
+            config["evaluations"] = evaluations
+            store.write_config(config)
+        problem = store.load_problem() if problem is None else problem
+        state = store.load_checkpoint()
+        session = _Session(store, problem, config, state, progress)
+        factory = executor or (lambda p: make_executor(p, workers))
+        runner = factory(problem)
+        session.record["workers"], session.record["backend"] = runner.workers, runner.backend
+        store.open_log()
+        try:
+            session.loop(runner)
+        finally:
+            runner.close()
+            store.close_log()
+            session.finish()
+        return session.result()
 
 
 def _rank(evaluation: Evaluation) -> tuple[bool, float, int]:
@@ -156,10 +177,9 @@ class _Session:
     def __init__(self, store: RunStore, problem: Problem, config: dict[str, Any],
                  state: dict[str, Any], progress: ProgressFn | None):
         self.store, self.problem, self.config, self.state = store, problem, config, state
-        # the optimizer as pickled after its last tell: the only state a checkpoint may hold
-        self.optimizer: Optimizer = pickle.loads(state["optimizer"])
         self.progress = progress
         self.logged = store.evaluations()
+        self.optimizer: Optimizer = self._rebuild(int(state["told"]))
         self.budget = int(config["evaluations"])
         self.started = time.perf_counter()
         self.record: dict[str, Any] = {
@@ -171,6 +191,31 @@ class _Session:
             self._update_best(evaluation, write=False)
         self.stop_reason = ""
         self.total = max(0, self.budget - len(self.logged))
+
+    def _rebuild(self, told: int) -> Optimizer:
+        """A fresh optimizer told the first ``told`` logged costs, batch by batch as the run
+        told them: the state the run's optimizer had after its last tell, exactly."""
+        settings = OptimizerSettings(**self.config["optimizer"])
+        optimizer = settings.build(self.problem.dimension, int(self.config["seed"]),
+                                   self.problem.start())
+        done = 0
+        while done < told:
+            if optimizer.done:
+                break
+            points = optimizer.ask()
+            self._check_logged(done, points)
+            missing = [done + k for k in range(len(points)) if done + k not in self.logged]
+            if missing or done + len(points) > told:
+                break
+            optimizer.tell(points, np.asarray(
+                [-self.logged[done + k].score for k in range(len(points))]))
+            done += len(points)
+        if done != told:
+            raise RunFolderError(
+                f"{self.store.folder}: the checkpoint says {told} evaluations were told, but "
+                f"the log and the optimizer agree on only {done}; the files are from different "
+                "runs or damaged")
+        return optimizer
 
     def loop(self, executor: Executor) -> None:
         """Asks, evaluates and tells until the budget is spent or the optimizer stops."""
@@ -189,7 +234,6 @@ class _Session:
                 break
             costs = [-self.logged[first + k].score for k in range(len(points))]
             self.optimizer.tell(points, np.asarray(costs))
-            self.state["optimizer"] = pickle.dumps(self.optimizer)
             self.state["told"] = first + len(points)
             self._checkpoint()
         self.stop_reason = "evaluation budget spent"

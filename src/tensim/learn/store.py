@@ -1,47 +1,61 @@
 """The run folder: configuration, every evaluation as it finishes, optimizer checkpoints.
 
-Layout of a learning run folder::
+Layout of a learning run folder (data only: JSON, YAML, text; nothing that runs on load)::
 
-    config.json           resolved configuration, seed, budget, package versions
-    problem.pkl           the problem itself (robot, base controller, objective), which a
-                          resume reads, so it needs nothing outside the folder
-    structure.yaml        the robot, readable (trial problems)
-    base_controller.yaml  the impedance laws the gaits are put on, readable
+    config.json           resolved configuration, seed, budget, package versions; with
+                          structure.yaml and base_controller.yaml it rebuilds the problem, so
+                          a resume needs nothing outside the folder
+    structure.yaml        the robot (trial problems)
+    base_controller.yaml  the impedance laws the gaits are put on (trial problems)
     evaluations.jsonl     one line per finished evaluation (index, unit point, parameter
                           values, score, status, reason, wall time, metrics), appended and
                           flushed to disk as each trial finishes
-    checkpoint.pkl        optimizer state after its last tell, and the session log (atomic)
+    checkpoint.json       how many evaluations the optimizer has been told, and the session
+                          log (atomic); the optimizer's state is rebuilt from the seed and
+                          the told evaluations (see :mod:`tensim.learn.run`)
     best_controller.yaml  the best gait so far on the base controller (trial problems)
     learning_curve.png    score of every evaluation and the best so far
     summary.json          best_score, evaluations, wall_s, evaluations_per_s, ... (last)
+    .lock                 held (``flock``) by the one process writing the run; names its pid
 
 A crash can leave at most a torn last line in ``evaluations.jsonl``; it is dropped when the
-run is opened again. Every other file is replaced atomically.
+run is opened again. Every other file is replaced atomically; the temporary files of a killed
+writer are deleted by the next one.
 """
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import json
+import math
 import os
-import pickle
 from pathlib import Path
 from typing import Any
 
-from tensim._files import atomic_path, write_json
-from tensim._input import InputError
-from tensim.control import save_controller
-from tensim.learn.problem import Evaluation, Problem, TrialProblem
-from tensim.structure import save_structure
+from tensim._files import write_json
+from tensim._input import InputError, load_json, read_text
+from tensim.control import load_controller, save_controller
+from tensim.learn.objective import Objective
+from tensim.learn.problem import Evaluation, Problem, SphereProblem, TrialProblem
+from tensim.model import WorldOptions
+from tensim.structure import load_structure, save_structure
+from tensim.terrain import parse_terrain
+
+try:
+    import fcntl
+except ImportError:  # not POSIX: no lock
+    fcntl = None  # type: ignore[assignment]
 
 CONFIG = "config.json"
-PROBLEM = "problem.pkl"
 STRUCTURE = "structure.yaml"
 BASE_CONTROLLER = "base_controller.yaml"
 EVALUATIONS = "evaluations.jsonl"
-CHECKPOINT = "checkpoint.pkl"
+CHECKPOINT = "checkpoint.json"
 BEST_CONTROLLER = "best_controller.yaml"
 CURVE = "learning_curve.png"
 SUMMARY = "summary.json"
+LOCK = ".lock"
 
 
 class RunFolderError(InputError):
@@ -58,6 +72,7 @@ class RunStore:
     def __init__(self, folder: str | os.PathLike[str]):
         self.folder = Path(folder)
         self._log: Any = None
+        self._lock: int | None = None
 
     def path(self, name: str) -> Path:
         """A file of the run folder."""
@@ -67,22 +82,69 @@ class RunStore:
         """Whether the folder holds a run (its configuration)."""
         return self.path(CONFIG).is_file()
 
+    # -- the lock --------------------------------------------------------------------------
+
+    def acquire(self) -> None:
+        """Takes the folder's exclusive lock (creating the folder), then deletes temporary
+        files a killed writer left.
+
+        Raises:
+            RunFolderError: another process holds the lock, or the folder is a file.
+        """
+        if self.folder.exists() and not self.folder.is_dir():
+            raise RunFolderError(f"{self.folder}: is a file; expected a run folder")
+        self.folder.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path(LOCK), os.O_RDWR | os.O_CREAT, 0o644)
+        if fcntl is not None:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.read(fd, 32).decode(errors="replace").strip() or "?"
+                os.close(fd)
+                raise RunFolderError(f"{self.folder}: in use by another tensim process (pid "
+                                     f"{holder}); wait for it to finish, or stop it") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._lock = fd
+        for stale in self.folder.glob(".*.tmp"):  # atomic writes a killed writer left
+            stale.unlink(missing_ok=True)
+
+    def release(self) -> None:
+        """Releases the lock."""
+        if self._lock is not None:
+            os.close(self._lock)  # closing the descriptor releases the flock
+            self._lock = None
+
+    @contextlib.contextmanager
+    def locked(self) -> Any:
+        """The lock for the duration of a ``with`` block."""
+        self.acquire()
+        try:
+            yield self
+        finally:
+            self.release()
+
     # -- configuration and problem ---------------------------------------------------------
 
     def create(self, config: dict[str, Any], problem: Problem) -> None:
         """Writes the configuration and, for a trial problem, its robot and base controller.
 
         Raises:
-            RunFolderError: the folder already holds a run.
+            RunFolderError: the folder already holds a run, or other files.
         """
         if self.exists() or self.path(EVALUATIONS).exists():
             raise RunFolderError(f"{self.folder}: already holds a learning run; continue it "
                                  "with --resume, or choose another --out")
+        others = sorted(p.name for p in self.folder.iterdir() if p.name != LOCK) \
+            if self.folder.is_dir() else []
+        if others:
+            raise RunFolderError(f"{self.folder}: is not empty ({', '.join(others[:4])}"
+                                 f"{', ...' if len(others) > 4 else ''}); a learning run needs a "
+                                 "new or empty folder: choose another --out")
         self.folder.mkdir(parents=True, exist_ok=True)
         if isinstance(problem, TrialProblem):
             save_structure(problem.structure, self.path(STRUCTURE))
             save_controller(problem.base, self.path(BASE_CONTROLLER))
-        self._pickle(PROBLEM, problem)
         self.write_config(config)
 
     def write_config(self, config: dict[str, Any]) -> None:
@@ -98,18 +160,47 @@ class RunStore:
         path = self.path(CONFIG)
         if not path.is_file():
             raise RunFolderError(f"{self.folder}: not a learning run folder (no {CONFIG})")
-        try:
-            return json.loads(path.read_text())
-        except json.JSONDecodeError as err:
-            raise RunFolderError(f"{path}: not valid JSON: {err}") from None
+        config = self._json(CONFIG)
+        if not isinstance(config, dict) or not isinstance(config.get("problem"), dict):
+            raise RunFolderError(f"{path}: expected a JSON object with a 'problem' mapping")
+        return config
 
     def load_problem(self) -> Problem:
-        """The run's problem, as saved in the folder.
+        """The run's problem, rebuilt from ``config.json`` and the robot files.
 
         Raises:
-            RunFolderError: it is missing.
+            RunFolderError: a missing or inconsistent file, naming it.
         """
-        return self._unpickle(PROBLEM)
+        data = self.read_config()["problem"]
+        try:
+            if data.get("kind") == "sphere":
+                return SphereProblem(int(data["dimension"]), float(data["center"]),
+                                     float(data["penalty"]))
+            if data.get("kind") == "trial":
+                return self._trial(data)
+        except (KeyError, TypeError) as err:
+            raise RunFolderError(f"{self.path(CONFIG)}: problem: missing or malformed {err}"
+                                 ) from None
+        except (InputError, ValueError) as err:
+            raise RunFolderError(f"{self.folder}: the problem cannot be rebuilt: {err}"
+                                 ) from None
+        raise RunFolderError(f"{self.path(CONFIG)}: unknown problem kind {data.get('kind')!r}; "
+                             "expected 'trial' or 'sphere'")
+
+    def _trial(self, data: dict[str, Any]) -> TrialProblem:
+        structure = load_structure(self.path(STRUCTURE))
+        base = load_controller(self.path(BASE_CONTROLLER), structure)
+        world = dict(data["world"])
+        world["gravity"] = tuple(world["gravity"])
+        world["terrain"] = parse_terrain(data["terrain"])
+        objective = dict(data["objective"])
+        if objective.get("target_xy") is not None:
+            objective["target_xy"] = tuple(objective["target_xy"])
+        fields = {f.name for f in dataclasses.fields(Objective)}
+        return TrialProblem(structure, base, data["family"], data["duration_s"],
+                            Objective(**{k: v for k, v in objective.items() if k in fields}),
+                            WorldOptions(**world), data["record_dt_s"], data["penalty"],
+                            data["model"])
 
     # -- evaluations -----------------------------------------------------------------------
 
@@ -122,13 +213,19 @@ class RunStore:
         path = self.path(EVALUATIONS)
         if not path.exists():
             return {}
-        lines = path.read_text().split("\n")
+        try:
+            lines = read_text(path).split("\n")
+        except InputError as err:
+            raise RunFolderError(str(err)) from None
         found: dict[int, Evaluation] = {}
         for number, line in enumerate(lines[:-1], start=1):  # the last piece is unterminated
             try:
                 evaluation = Evaluation.from_json(json.loads(line))
             except (json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
                 raise RunFolderError(f"{path}: line {number} is damaged ({err})") from None
+            if not all(math.isfinite(u) for u in evaluation.unit):
+                raise RunFolderError(f"{path}: line {number} is damaged (a point that is not "
+                                     "finite)")
             found[evaluation.index] = evaluation
         return found
 
@@ -158,24 +255,27 @@ class RunStore:
     # -- checkpoints -----------------------------------------------------------------------
 
     def save_checkpoint(self, state: dict[str, Any]) -> None:
-        """Pickles the driver state (optimizer included) atomically."""
-        self._pickle(CHECKPOINT, state)
+        """Writes the driver state (evaluations told, sessions) as JSON, atomically."""
+        write_json(self.path(CHECKPOINT), state)
 
     def load_checkpoint(self) -> dict[str, Any]:
         """The last checkpoint.
 
         Raises:
-            RunFolderError: none was written.
+            RunFolderError: none was written, or it is damaged.
         """
-        return self._unpickle(CHECKPOINT)
+        if not self.path(CHECKPOINT).is_file():
+            raise RunFolderError(f"{self.path(CHECKPOINT)}: missing; the run cannot be resumed")
+        state = self._json(CHECKPOINT)
+        told = state.get("told") if isinstance(state, dict) else None
+        if isinstance(told, bool) or not isinstance(told, int) or told < 0 \
+                or not isinstance(state.get("sessions"), list):
+            raise RunFolderError(f"{self.path(CHECKPOINT)}: expected a JSON object with 'told' "
+                                 "(a count >= 0) and 'sessions' (a list)")
+        return state
 
-    def _pickle(self, name: str, obj: object) -> None:
-        with atomic_path(self.path(name)) as tmp, tmp.open("wb") as f:
-            pickle.dump(obj, f, protocol=pickle.HIGHEST_PROTOCOL)
-
-    def _unpickle(self, name: str) -> Any:
-        path = self.path(name)
-        if not path.is_file():
-            raise RunFolderError(f"{path}: missing; the run cannot be resumed")
-        with path.open("rb") as f:
-            return pickle.load(f)
+    def _json(self, name: str) -> Any:
+        try:
+            return load_json(read_text(self.path(name)), str(self.path(name)))
+        except InputError as err:
+            raise RunFolderError(str(err)) from None
