@@ -6,7 +6,8 @@ restores ask order). A trial that raises is already a failed evaluation
 (:func:`~tensim.learn.problem.evaluate_task`); an executor only has to survive workers that
 die. The process pool then restarts and tries the interrupted trials again one at a time, so
 the trial that kills its worker is found and given up on after ``max_attempts`` tries while the
-others finish normally; Ray retries a task whose worker died by itself.
+others finish normally; Ray retries a task whose worker died by itself. Pool workers exit when
+the process that started them dies, however it dies, so none is left behind.
 """
 
 from __future__ import annotations
@@ -16,6 +17,9 @@ import concurrent.futures as cf
 import logging
 import multiprocessing
 import os
+import select
+import threading
+import time
 from collections.abc import Iterator, Sequence
 from typing import Any, Protocol
 
@@ -67,8 +71,35 @@ class InlineExecutor:
         self.close()
 
 
-def _init_worker(problem: Problem) -> None:
+def _init_worker(problem: Problem, parent: int) -> None:
     _WORKER_PROBLEM[:] = [problem]
+    threading.Thread(target=_exit_with, args=(parent,), daemon=True,
+                     name="tensim-parent-watch").start()
+
+
+def _exit_with(parent: int) -> None:
+    """Ends this worker process as soon as process ``parent`` has ended (even by SIGKILL, which
+    gives the pool no chance to stop its workers)."""
+    try:
+        fd = os.pidfd_open(parent)  # Linux: readable once the process has ended
+    except (AttributeError, OSError):
+        fd = None
+    if fd is not None:
+        select.select([fd], [], [])
+    else:
+        while _alive(parent):
+            time.sleep(1.0)
+    os._exit(1)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _warm_worker(_: int) -> int:
@@ -114,7 +145,7 @@ class ProcessPoolExecutor:
 
     def _new_pool(self) -> cf.ProcessPoolExecutor:
         return cf.ProcessPoolExecutor(self.workers, _context(), initializer=_init_worker,
-                                      initargs=(self.problem,))
+                                      initargs=(self.problem, os.getpid()))
 
     def warm_up(self) -> None:
         """Starts every worker and compiles the robot in each (before timing anything)."""

@@ -10,8 +10,8 @@
 
 ``ask()`` returns a batch of points; ``tell(points, costs)`` takes their costs in ask order,
 so results never depend on which worker finished first. Every optimizer is reproducible from
-its seed and is checkpointed by pickling; an unpickled optimizer asks exactly what the
-original would have asked next.
+its seed and the costs it is told: a run is checkpointed as the count of told evaluations, and
+a fresh optimizer told the same costs asks exactly what the original would have asked next.
 """
 
 from __future__ import annotations
@@ -122,8 +122,8 @@ class CMAES:
     """CMA-ES (the ``cma`` package) on the unit cube.
 
     cma draws its samples through its ``randn`` option; this wrapper gives it a private
-    stream seeded from ``seed``, so runs are reproducible, the stream is pickled with the
-    optimizer, and numpy's global random state is left alone.
+    stream seeded from ``seed``, so runs are reproducible (and rebuilt by telling the same
+    costs again), and numpy's global random state is left alone.
 
     Args:
         dimension: number of parameters (>= 2).
