@@ -255,6 +255,27 @@ def test_blow_up_raises_a_helpful_simulation_error():
     assert 0.0 < float(found.group(1)) < 2.0  # it names when, within the run
 
 
+def test_a_mujoco_reset_is_reported_with_the_body_and_the_tension_before_it():
+    # bob hangs on a k = 100 N/m cable (5 N at build time) and is pulled down with 50 N, so the
+    # cable holds >= 50 N; then a 1e300 N push makes its acceleration non-finite and MuJoCo
+    # resets the state to the build pose (5 N again)
+    s = Structure(
+        "hanging",
+        (Node("top", (0.0, 0.0, 1.0), fixed=True), Node("bob", (0.0, 0.0, 0.5))),
+        cables=(Cable("spring", ("top", "bob"), 100.0, rest_length=0.45),),
+        point_masses=(PointMass("bob", 0.01),),
+    )
+    compiled = compile_structure(s, WorldOptions(timestep=1e-3, ground=False))
+    load = NodeLoad("bob", np.array([0.0, 0.2, 0.3, 0.301]),
+                    np.array([[0, 0, 0], [0, 0, -50.0], [0, 0, -50.0], [0, 0, 1e300]]))
+    with pytest.raises(SimulationError) as info:
+        simulate(compiled, 1.0, loads=[load])
+    message = str(info.value)
+    assert "reset" in message and "body 'bob'" in message
+    found = re.search(r"cable was 'spring' at ([0-9.e+]+) N", message)
+    assert found is not None and float(found.group(1)) >= 50.0  # not the reset pose's 5 N
+
+
 # -- external node loads --------------------------------------------------------------------------
 
 

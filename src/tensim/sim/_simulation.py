@@ -155,18 +155,33 @@ class Simulation:
         raise SimulationError(self._diagnose(bool(bad_acc)))
 
     def _diagnose(self, bad_acc: bool) -> str:
-        m, d = self.model, self.data
+        d = self.data
         qvel = np.nan_to_num(np.abs(d.qvel), nan=np.inf)
-        body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.dof_bodyid[np.argmax(qvel)])) \
-            if m.nv else "-"
         applied = np.nan_to_num(self.drive.applied, nan=np.inf)
+        when = ""
+        if bad_acc:  # the state is MuJoCo's reset one: name the dof it found, and the peak
+            dof = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].lastinfo)
+            body = self._body_of(dof)
+            # the running peak of each cable's tension holds the forces from before the reset
+            applied = np.nan_to_num(self.drive.peak, nan=np.inf)
+            what = f"MuJoCo found a non-finite acceleration of body {body!r} and reset the state"
+            when = "before the reset "
+        elif qvel.max(initial=0.0) >= self.limits.max_speed:
+            what = (f"body {self._body_of(int(np.argmax(qvel)))!r} reached speed "
+                    f"{qvel.max():.3g} (limit {self.limits.max_speed:g} m/s or rad/s)")
+        else:
+            what = f"a cable tension passed the limit of {self.limits.max_tension:g} N"
         cable = self.index.cables[int(np.argmax(applied))] if applied.size else "-"
-        what = ("MuJoCo found a non-finite acceleration and reset the state" if bad_acc
-                else f"body {body!r} reached speed {qvel.max():.3g} "
-                     f"(limit {self.limits.max_speed:g} m/s or rad/s)")
-        return (f"simulation unstable at t = {self.time:.3f} s: {what}; the most loaded cable is "
-                f"{cable!r} at {applied.max():.4g} N. Try a smaller timestep (--dt), lower cable "
-                "stiffness or pretension, or more cable damping.")
+        return (f"simulation unstable at t = {self.time:.3f} s: {what}; {when}the most loaded "
+                f"cable was {cable!r} at {applied.max(initial=0.0):.4g} N. Try a smaller timestep "
+                "(--dt), lower cable stiffness or pretension, or more cable damping.")
+
+    def _body_of(self, dof: int) -> str:
+        """The name of the body a degree of freedom moves ("-" for none)."""
+        if not 0 <= dof < self.model.nv:
+            return "-"
+        body = int(self.model.dof_bodyid[dof])
+        return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}"
 
 
 class _Recorder:
