@@ -270,7 +270,9 @@ def _make_log(args: argparse.Namespace) -> int:
     from tensim.control import load_controller
     from tensim.hardware import PAPER_LOADCELL, SensorModel, simulated_log, write_log
     from tensim.hardware.parameters import parse_assignments
+    from tensim.limits import check_run
 
+    check_run(args.duration, args.dt, args.command_period, force=args.force)
     structure = load_model(args.model)
     config = load_controller(args.controller, structure)
     quantise = args.quantise or args.adc

@@ -149,6 +149,7 @@ def run_learn(args: argparse.Namespace) -> int:
         make_executor,
         resume,
     )
+    from tensim.limits import check_run
 
     workers = (os.cpu_count() or 1) if args.workers is None else args.workers
     if workers < 0:
@@ -169,6 +170,7 @@ def run_learn(args: argparse.Namespace) -> int:
         settings = LearningSettings(
             OptimizerSettings(args.optimizer, args.step, args.batch, args.monte_carlo),
             args.evaluations, args.seed)
+        check_run(args.trial_duration, args.dt, args.record_dt, force=args.force)
         create_run(out, _problem(args), settings)
         if args.optimizer == "ntrt" and (args.batch or 8) < workers:
             print(f"note: ntrt asks {args.batch or 8} trials at a time, so at most that many "

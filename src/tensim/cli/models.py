@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-import yaml
+from tensim._input import load_yaml_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -24,7 +24,7 @@ def run(args: argparse.Namespace) -> int:
     shipped = shipped_controllers()
     width = max(map(len, shipped), default=0)
     for name, path in shipped.items():
-        data = yaml.safe_load(path.read_text())
+        data = load_yaml_file(path)
         about = str(data.get("description", "")).split(" (", 1)[0].split(", learned", 1)[0]
         print(f"  {name:<{width}}  {data.get('model', '?')}: {textwrap.shorten(about, 72)}")
     return 0

@@ -73,6 +73,7 @@ def _settings(args: argparse.Namespace) -> VideoSettings:
 
 
 def run_render(args: argparse.Namespace) -> int:
+    from tensim.limits import check_run
     from tensim.viz._gl import OffscreenUnavailable
 
     settings = _settings(args)
@@ -83,6 +84,7 @@ def run_render(args: argparse.Namespace) -> int:
         if source.is_dir():
             result = _render_run(args, source, out, settings, progress)
         else:
+            check_run(args.duration, args.dt, force=args.force)
             result = _render_model(args, out, settings, progress)
     except OffscreenUnavailable as err:
         print(f"tensim: error: {err}", file=sys.stderr)

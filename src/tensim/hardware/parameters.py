@@ -11,6 +11,7 @@ that differ keep their ratios.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
@@ -247,6 +248,9 @@ def _entries(text: str | None) -> list[str]:
 
 def _float(text: str, message: str) -> float:
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise ValueError(message) from None
+    if not math.isfinite(value):
+        raise ValueError(f"{message} (a finite number)")
+    return value

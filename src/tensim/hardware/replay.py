@@ -10,6 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from tensim.control import ControllerConfig, VelocityTable
 from tensim.hardware.logs import HardwareLog, check_items
+from tensim.limits import check_run
 from tensim.model import CompiledModel, WorldOptions, compile_structure
 from tensim.sim import SimulationResult, TimeSeries, simulate
 from tensim.structure import Structure
@@ -54,6 +55,7 @@ def replay(log: HardwareLog, structure: Structure, config: ControllerConfig, *,
     played = replay_config(log, config, vstar_scale=vstar_scale, margin=margin)
     compiled = compile_structure(structure, world)
     duration = log.duration + margin
+    check_run(duration, compiled.model.opt.timestep)
     reported = [0.0]
 
     def report(done: float, total: float) -> None:

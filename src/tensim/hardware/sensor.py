@@ -9,7 +9,6 @@ I2C round trip). These act on signals only, so fitting them needs no new simulat
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 from pathlib import Path
@@ -17,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from tensim._files import write_json
+from tensim._input import InputError, describe, is_real, load_json, read_text
 from tensim.hardware.loadcell import LoadCell
 
 
@@ -103,14 +103,22 @@ def load_measurement(path: str | os.PathLike[str]) -> tuple[SensorModel, float]:
     """Reads :func:`save_measurement`'s file: the sensor model and the V* scale.
 
     Raises:
-        ValueError: a field that is not a number, naming the file.
+        InputError: a field that is not a finite number (or out of range), naming the file.
     """
-    data = json.loads(Path(path).read_text())
+    data = load_json(read_text(path), str(path))
+    fields = {"offset_N": 0.0, "gain": 1.0, "delay_s": 0.0, "vstar_scale": 1.0}
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: expected a JSON object with {list(fields)}")
+    values = {k: data.get(k, default) for k, default in fields.items()}
+    bad = [k for k, v in values.items() if not is_real(v)]
+    if bad:
+        raise InputError(f"{path}: {bad[0]} must be a finite number, got "
+                         f"{describe(values[bad[0]])}")
+    if values["vstar_scale"] <= 0:
+        raise InputError(f"{path}: vstar_scale must be > 0, got {values['vstar_scale']!r}")
     try:
-        sensor = SensorModel(offset=float(data.get("offset_N", 0.0)),
-                             gain=float(data.get("gain", 1.0)),
-                             delay=float(data.get("delay_s", 0.0)))
-        return sensor, float(data.get("vstar_scale", 1.0))
-    except (TypeError, ValueError) as err:
-        raise ValueError(f"{path}: expected numbers offset_N, gain, delay_s, vstar_scale "
-                         f"({err})") from None
+        sensor = SensorModel(offset=float(values["offset_N"]), gain=float(values["gain"]),
+                             delay=float(values["delay_s"]))
+    except ValueError as err:
+        raise InputError(f"{path}: {err}") from None
+    return sensor, float(values["vstar_scale"])

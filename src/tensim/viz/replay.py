@@ -10,14 +10,13 @@ paths) places everything for drawing.
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from tensim._input import InputError
+from tensim._input import InputError, load_json, read_text
 from tensim.model import CompiledModel, WorldOptions, compile_structure
 from tensim.sim import TimeSeries
 from tensim.structure import Structure
@@ -61,9 +60,9 @@ def read_summary(folder: Path) -> dict[str, Any]:
     if not path.is_file():
         raise RunFolderError(f"{path}: no such file; is {folder} a tensim run folder?")
     try:
-        summary = json.loads(path.read_text())
-    except json.JSONDecodeError as err:
-        raise RunFolderError(f"{path}: not valid JSON ({err})") from err
+        summary = load_json(read_text(path), str(path))
+    except InputError as err:
+        raise RunFolderError(str(err)) from None
     if not isinstance(summary, dict):
         raise RunFolderError(f"{path}: expected a JSON object")
     return summary
