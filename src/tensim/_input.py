@@ -162,7 +162,10 @@ def load_yaml(text: str, source: str) -> Any:
         InputError: not valid YAML, a duplicate key, too deep or too large; naming ``source``
             and the line.
     """
-    loader = _Loader(text)
+    try:
+        loader = _Loader(text)
+    except yaml.YAMLError as err:  # a character YAML does not allow
+        raise InputError(f"{source}: not valid YAML: {err}") from None
     try:
         node = loader.get_single_node()
         if node is None:

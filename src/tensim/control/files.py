@@ -285,6 +285,8 @@ def _cpg(raw: dict[str, Any], structure: Structure, field: str) -> SpineCPG:
         layout = spine_parameters(structure, cables, **bounds, convergence=convergence)
     except KeyError as err:
         raise ControllerFileError(str(err.args[0]), field=f"{field}.cables") from None
+    except ValueError as err:  # a cable listed twice, or the bounds
+        raise ControllerFileError(str(err), field=field) from None
     named = _mapping(raw.get("parameters"), f"{field}.parameters",
                      f"the {layout.size} parameter names -> values")
     named = {k: _number(v, f"{field}.parameters.{k}") for k, v in named.items()}
@@ -385,7 +387,7 @@ def controller_from_dict(data: Any, structure: Structure, base: Path | None = No
         readers = {"cpg": lambda: _cpg(raw, structure, "gait"),
                    "sine": lambda: _sine(raw, structure, "gait"),
                    "table": lambda: _table(raw, base, "gait")}
-        if kind not in readers:
+        if not isinstance(kind, str) or kind not in readers:
             raise ControllerFileError(f"unknown gait type {kind!r}; expected one of "
                                       f"{list(readers)}", field="gait.type")
         gait = readers[kind]()
