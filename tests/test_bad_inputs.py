@@ -18,7 +18,7 @@ from tensim.hardware.loadcell import load_calibration
 from tensim.io import import_ntrt
 from tensim.limits import check_run
 from tensim.models import preset
-from tensim.structure import StructureError, load_structure
+from tensim.structure import StructureError, load_structure, structure_from_dict
 from tensim.terrain import TerrainError, parse_terrain
 
 _PRISM = """\
@@ -123,11 +123,10 @@ def test_a_folder_named_like_a_structure_file_is_refused(tmp_path):
         load_structure(tmp_path / "x.yaml")
 
 
-def test_a_structure_listing_too_many_items_is_refused_before_building(tmp_path):
-    nodes = "".join(f"  - {{name: n{i}, position: [0, 0, {i}], fixed: true}}\n"
-                    for i in range(10_001))
+def test_a_structure_listing_too_many_items_is_refused_before_building():
+    node = {"name": "n", "position": [0, 0, 0], "fixed": True}
     with pytest.raises(StructureError, match="10001 nodes is more than the limit of 10000"):
-        load_structure(_file(tmp_path, f"name: big\nnodes:\n{nodes}"))
+        structure_from_dict({"name": "big", "nodes": [node] * 10_001})
 
 
 # -- controller files ----------------------------------------------------------------------------

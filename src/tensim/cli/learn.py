@@ -181,8 +181,10 @@ def run_learn(args: argparse.Namespace) -> int:
                         executor=lambda p: make_executor(p, workers, ray=args.ray,
                                                          ray_address=args.ray_address))
     except KeyboardInterrupt:
-        print(f"\ninterrupted; every finished evaluation is in {out}/evaluations.jsonl. "
-              f"Continue with: tensim learn --resume {out}", file=sys.stderr)
+        end = "\n" if sys.stderr.isatty() and not args.quiet else ""  # the progress bar's
+        print(f"{end}tensim: interrupted; every finished evaluation is in "
+              f"{out}/evaluations.jsonl; continue with: tensim learn --resume {out}",
+              file=sys.stderr)
         return 130
     _report(out, result.summary)
     return 0
