@@ -4,6 +4,7 @@ option), the field and the expectation, never a silent wrong run, a hang or a tr
 from __future__ import annotations
 
 import json
+import os
 import textwrap
 
 import pytest
@@ -377,3 +378,13 @@ def test_a_controller_file_naming_no_preset_says_so(tmp_path):
     with pytest.raises(ControllerFileError, match="names no preset \\('yes'\\)"):
         load_controller(path)
 
+
+
+def test_a_write_deletes_the_temporary_files_of_killed_writers_only(tmp_path):
+    from tensim._files import write_text
+
+    dead = _file(tmp_path, "half", ".out.txt.999999999.k2j4.tmp")  # no such pid
+    live = _file(tmp_path, "busy", f".out.txt.{os.getpid()}.a1b2.tmp")  # a writer that runs
+    write_text(tmp_path / "out.txt", "done")
+    assert not dead.exists() and live.exists()
+    assert (tmp_path / "out.txt").read_text() == "done"

@@ -1,8 +1,14 @@
-"""Atomic file writing: results are either complete or absent, never half-written."""
+"""Atomic file writing: results are either complete or absent, never half-written.
+
+A file is written to a temporary file beside it, named ``.<name>.<pid>.<random>.tmp``, then
+renamed over it. A process killed mid-write leaves that temporary file; the next write of the
+same file deletes it (its pid no longer runs).
+"""
 
 from __future__ import annotations
 
 import contextlib
+import glob
 import json
 import os
 import tempfile
@@ -50,7 +56,9 @@ def atomic_path(path: Path) -> Iterator[Path]:
     """
     check_writable(path, "file")
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    _remove_stale(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{os.getpid()}.",
+                               suffix=".tmp")
     os.close(fd)
     os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; results get the usual permissions
     try:
@@ -59,6 +67,25 @@ def atomic_path(path: Path) -> Iterator[Path]:
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def _remove_stale(path: Path) -> None:
+    """Deletes temporary files of ``path`` left by processes that were killed mid-write."""
+    for stale in path.parent.glob(f".{glob.escape(path.name)}.*.tmp"):
+        pid = stale.name[len(path.name) + 2:].partition(".")[0]
+        if pid.isdigit() and not pid_alive(int(pid)):
+            stale.unlink(missing_ok=True)
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` runs (on this machine)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # it runs, as another user
+        return True
+    return True
 
 
 def write_text(path: Path, text: str) -> None:

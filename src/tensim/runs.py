@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from tensim import __version__
-from tensim._files import check_writable, write_json, write_text
+from tensim._files import check_writable, pid_alive, write_json, write_text
 from tensim._input import InputError
 from tensim.sim import SimulationResult, TimeSeries
 
@@ -138,18 +138,8 @@ def _remove_stale_stages(out: Path) -> None:
     """Deletes staging folders of ``out`` left by processes that no longer run."""
     for stage in out.parent.glob(f".{glob.escape(out.name)}{_STAGE}*"):
         pid = stage.name.rpartition(_STAGE)[2].partition("-")[0]
-        if pid.isdigit() and not _alive(int(pid)):
+        if pid.isdigit() and not pid_alive(int(pid)):
             shutil.rmtree(stage, ignore_errors=True)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
 
 
 @contextlib.contextmanager

@@ -16,8 +16,11 @@ import numpy as np
 from tensim.hardware.logs import HardwareLog
 from tensim.hardware.replay import node_positions
 from tensim.hardware.sensor import SensorModel, interpolate
+from tensim.limits import check_count
 from tensim.model import CompiledModel
 from tensim.sim import TimeSeries
+
+MAX_LAGS = 10_000  # most time lags one offset estimate tries
 
 
 @dataclasses.dataclass(frozen=True)
@@ -149,6 +152,8 @@ def estimate_offset(time: np.ndarray, hardware: np.ndarray, sim_time: np.ndarray
     Returns:
         The lag [s]: reading k matches the simulation at time[k] - lag.
     """
+    check_count(f"time lags tried up to +-{max_offset:g} s every {step:g} s",
+                2 * max_offset / step + 1, MAX_LAGS)
     lags = np.arange(-max_offset, max_offset + step / 2, step)
     scores = np.array([_score(hardware, interpolate(sim_time, simulated, time - lag))
                        for lag in lags])

@@ -25,6 +25,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from tensim._files import pid_alive
 from tensim.learn.problem import Evaluation, Problem, evaluate_task, lost_evaluation
 
 log = logging.getLogger(__name__)
@@ -87,19 +88,9 @@ def _exit_with(parent: int) -> None:
     if fd is not None:
         select.select([fd], [], [])
     else:
-        while _alive(parent):
+        while pid_alive(parent):
             time.sleep(1.0)
     os._exit(1)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
 
 
 def _warm_worker(_: int) -> int:
