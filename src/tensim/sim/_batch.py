@@ -109,7 +109,7 @@ class _TrialSetup:
     dt: float
 
     @property
-    def index(self):  # noqa: ANN201 - the ModelIndex
+    def index(self):
         return self.compiled.index
 
 
