@@ -96,9 +96,11 @@ def _modified(structure, stiffness=1.0, damping=1.0, friction=1.0, motor_speed=1
 def test_physics_scales_equal_recompiled_structures(robot, scale):
     _, structure, compiled = robot
     gait = _gait(structure, compiled, "tetraspine3_cpg")
-    [trial] = run_batch(compiled, [Trial(gait, physics=PhysicsScale(**scale))], DURATION)
     rebuilt = compile_structure(_modified(structure, **scale))
+    trial, own = run_batch(compiled, [Trial(gait, physics=PhysicsScale(**scale)),
+                                      Trial(gait, compiled=rebuilt)], DURATION, threads=2)
     _assert_identical(simulate(rebuilt, DURATION, controller=gait), trial)
+    _assert_identical(simulate(rebuilt, DURATION, controller=gait), own)  # a per-trial model
     nominal = simulate(compiled, DURATION, controller=gait)
     assert not np.array_equal(nominal.trajectory["tension/inner_top_1"],
                               trial.result.trajectory["tension/inner_top_1"])
