@@ -35,6 +35,7 @@ from tensim.sim._simulation import (
 
 MAX_SAMPLES = 50_000_000  # trials x samples x channels a batch may hold in memory
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+_BLOCK_STEPS = 2_000  # physics steps of inputs computed at once
 _RECORD = ("ten_length", "ten_velocity", "xpos", "xquat", "subtree_com", "act", "ctrl", "qvel",
            "actuator_force")
 
@@ -244,31 +245,24 @@ class _BatchRun:
             progress: Callable[[float, float], None] | None) -> None:
         self._start(n_samples)
         every = max(1, round(1.0 / (self.record_steps * self.dt)))
+        rs = self.record_steps
+        per_block = max(1, _BLOCK_STEPS // rs)
         for k in range(n_samples):
+            if k % per_block == 0:  # the inputs of the next records, every trial at once
+                block = _Block(self, min(per_block, n_samples - k) * rs)
             live = self._live()
             if not live.size:
                 break
-            ids, fields = self._rollout(live, self.record_steps)
+            ids, fields = block.advance(live, rs)
             self._take(ids, fields)
             if k % _CHECK_EVERY == 0 or k == n_samples - 1:
                 self._check(ids, fields)
             if progress is not None and (k + 1) % every == 0:
-                progress((k + 1) * self.record_steps * self.dt, duration)
+                progress((k + 1) * rs * self.dt, duration)
 
     def _rollout(self, live: np.ndarray, nstep: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """Steps trials ``live`` by nstep with their inputs; returns the trials that ran and
-        their derived fields of the last step. Trials MuJoCo raises on are marked failed
-        (MuJoCo leaves them as they were and runs the others to the end)."""
-        steps = np.rint(self.batch.state[live, 0] / self.dt).astype(np.int64)
-        control = np.stack([self._plan(int(i)).control(int(s), nstep)
-                            for i, s in zip(live, steps, strict=True)])
-        out = self._buffers(live.size, nstep)
-        try:
-            self.batch.rollout(nstep, control, record=_RECORD, ids=live, out=out)
-        except mjbatch.SimulationError as exc:
-            self._fail(exc.ids)
-        ran = np.array([self.error[int(i)] is None for i in live])
-        return live[ran], {name: v[ran, -1] for name, v in out.items()}
+        """Steps trials ``live`` by nstep with their inputs (see :class:`_Block`)."""
+        return _Block(self, nstep).advance(live, nstep)
 
     def _buffers(self, n: int, nstep: int) -> dict[str, np.ndarray]:
         key = (n, nstep)
@@ -330,6 +324,44 @@ class _BatchRun:
             out.append(TrialResult(SimulationResult(series, peak[i].copy(), wall, duration,
                                                     self.dt, index.cables)))
         return out
+
+
+class _Block:
+    """The inputs of a block of steps for the live trials, stepped a record at a time.
+
+    A record whose inputs stay constant for every trial is one ``Batch.step`` call (the
+    common case: commands change on their own period); otherwise ``Batch.rollout`` sets each
+    step's inputs. Trials MuJoCo raises on are marked failed (MuJoCo leaves them as they were
+    and runs the others to the end).
+    """
+
+    def __init__(self, run: _BatchRun, nstep: int):
+        self.run, self.ids, self.at = run, run._live(), 0
+        steps = np.rint(run.batch.state[self.ids, 0] / run.dt).astype(np.int64)
+        self.control = np.stack([run._plan(int(i)).control(int(s), nstep)
+                                 for i, s in zip(self.ids, steps, strict=True)])
+        self.change = (self.control[:, 1:] != self.control[:, :-1]).any(axis=(0, 2))
+
+    def advance(self, live: np.ndarray, nstep: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Steps trials ``live`` (a subset of the block's) by nstep; returns the trials that
+        ran and their fields after the last step."""
+        run, a = self.run, self.at
+        rows = self.control[np.searchsorted(self.ids, live), a:a + nstep]
+        self.at += nstep
+        try:
+            if self.change[a:a + nstep - 1].any():
+                out = run._buffers(live.size, nstep)
+                run.batch.rollout(nstep, rows, record=_RECORD, ids=live, out=out)
+                fields = {name: v[:, -1] for name, v in out.items()}
+            else:
+                run._bound["ctrl"][live] = rows[:, 0]  # a view of the state rows
+                run.batch.step(live, nstep)
+                fields = {name: field[live] for name, field in run._bound.items()}
+        except mjbatch.SimulationError as exc:
+            run._fail(exc.ids)
+            fields = {name: field[live] for name, field in run._bound.items()}
+        ran = np.array([run.error[int(i)] is None for i in live])
+        return live[ran], {name: v[ran] for name, v in fields.items()}
 
 
 def _trial_models(compiled: CompiledModel, trials: Sequence[Trial]) -> list[CompiledModel]:
