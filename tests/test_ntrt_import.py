@@ -228,8 +228,8 @@ def test_builder_choice_follows_the_toolkit(tmp_path):
     ("nodes:\n  a: [0, 0, 0]\n  a: [1, 0, 0]\n", r"bad\.yaml.*duplicate key 'a'"),
     ("nodes:\n  a: [0, 0, 0]\npair_groups:\n  rod:\n    - [a, z]\n",
      r"bad\.yaml: pair_groups 'rod' \[a, z\]: unknown node 'z'"),
-    ("builders:\n  rod:\n    class: tgSphereInfo\n",
-     r"bad\.yaml: builders 'rod': unsupported builder class 'tgSphereInfo'"),
+    ("builders:\n  rod:\n    class: tgCapsuleInfo\n",
+     r"bad\.yaml: builders 'rod': unsupported builder class 'tgCapsuleInfo'"),
     ("builders:\n  rod:\n    class: tgRodInfo\n    parameters: {mass: 1}\n",
      r"bad\.yaml: builders 'rod': unsupported tgRodInfo parameter 'mass'"),
     ("substructures:\n  s:\n    path: missing.yaml\n",
@@ -242,22 +242,6 @@ def test_builder_choice_follows_the_toolkit(tmp_path):
 def test_bad_files_name_the_file_and_entry(tmp_path, text, match):
     path = _write(tmp_path, "bad.yaml", text)
     with pytest.raises(StructureError, match=match):
-        import_ntrt(path, "cm")
-
-
-def test_node_edge_bonds_are_refused_clearly(tmp_path):
-    _write(tmp_path, "parts/unit.yaml", PART)
-    path = _write(tmp_path, "edge.yaml", """\
-        substructures:
-          a/b:
-            path: parts/unit.yaml
-        bond_groups:
-          string:
-            a/b/node_edge:
-              - [tip, hub/side]
-        """)
-    with pytest.raises(StructureError, match=r"edge\.yaml: bond_groups 'a/b/node_edge'.*not "
-                                             r"supported"):
         import_ntrt(path, "cm")
 
 

@@ -64,9 +64,9 @@ def add_node_edge(tree: Tree, owner: Part, children: tuple[Part, Part], tags: tu
     _pose(children[1], refs[0], refs[1], source, label)
     for node, (start, end) in zip(nodes, edges, strict=True):
         for child in children:
-            _remove(tree, child, (start, end), edge=True, label=label)
+            _remove(tree, child, (start, end), edge=True, where=(source, label))
             for other in nodes:
-                _remove(tree, child, (node, other), edge=False, label=label)
+                _remove(tree, child, (node, other), edge=False, where=(source, label))
         add_pair(tree, owner, (start, node), tags, f"{label} [{node[1]}, edge start]")
         add_pair(tree, owner, (node, end), tags, f"{label} [{node[1]}, edge end]")
 
@@ -112,7 +112,8 @@ def _pose(second: Part, refs1: list[np.ndarray], refs2: list[np.ndarray], source
     _turn(second, c1, _between(lead - c1, refs1[0] - c1, n1))
 
 
-def _remove(tree: Tree, child: Part, ends: tuple[End, End], edge: bool, label: str) -> None:
+def _remove(tree: Tree, child: Part, ends: tuple[End, End], edge: bool,
+            where: tuple[Path, str]) -> None:
     """``TensegrityModel::removePair``: the first pair of ``child`` (or below) between the two
     places, either way round, unless a rigid builder's tags match it."""
     mine = [p for part in child.walk() for p in tree.pairs if p.owner is part]
@@ -121,8 +122,8 @@ def _remove(tree: Tree, child: Part, ends: tuple[End, End], edge: bool, label: s
         return
     if any(b.cls in RIGID_CLASSES and set(b.tags) <= set(found.tags) for b in tree.builders):
         if edge:
-            raise fail(found.owner.source, label, f"the edge {found.label} is built as a rigid "
-                       "body; node_edge bonds need edges that are cables")
+            raise fail(*where, f"the edge {found.label} of {found.owner.source.name} is built "
+                       "as a rigid body; node_edge bonds need edges that are cables")
         return
     gone = {id(p) for p in mine if same_pair(p, found.ends)}
     tree.pairs[:] = [p for p in tree.pairs if id(p) not in gone]
