@@ -299,3 +299,24 @@ def test_cli_imports_a_spine_that_simulates(tmp_path, capsys):
     result = simulate(compile_structure(s), 1.0, record_dt=0.05)
     assert np.all(np.isfinite(result.trajectory.matrix("tension")))
     assert result.peak_tension.max() < 10.0  # 3 N pretension; the spine just settles
+
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ntrt" / "prism_tower.yaml"
+
+
+def test_the_shipped_example_imports_and_stands_5_s(tmp_path, capsys):
+    out = tmp_path / "tower.yaml"
+    assert main(["import-ntrt", str(EXAMPLE), "--units", "dm", "--out", str(out)]) == 0
+    # three prisms of 6 nodes, 3 bars and 9 strings; 6 saddle strings; the node_edge bond
+    # takes the top prism's 3 bottom edges and the middle's 3 top strings, adds 2 x 3
+    assert "18 nodes, 9 rods in 9 rigid bodies, 33 cables" in capsys.readouterr().out
+    s = load_structure(out)
+    bar = math.dist((0, 0, 3), (-1.5, 6, -2.598076))  # bottom1 -> top1 [dm]
+    area, density = math.pi * 0.01**2, 1.3 / 0.1**3  # 0.1 dm radius [m^2]; kg/dm^3 -> kg/m^3
+    # the file rounds its coordinates to 1e-6 dm: its three bars' lengths differ by ~1e-9
+    assert s.total_mass() == pytest.approx(density * area * 0.1 * bar * (6 + 3 * 0.7), rel=1e-8)
+    assert sum(c.name.startswith("cap_") for c in s.cables) == 6
+    assert sum(c.name.startswith("saddle_") for c in s.cables) == 6
+    result = simulate(compile_structure(s), 5.0, record_dt=0.1)
+    assert np.all(np.isfinite(result.trajectory.matrix("tension")))
+    assert result.peak_tension.max() < 100.0  # 40 N pretension; it settles, nothing flies off
