@@ -9,9 +9,11 @@ is Y-up; tensim's is Z-up, so (x, y, z) becomes (x, -z, y) (a quarter turn about
 
 Pairs are built as the toolkit builds them: the most recently declared builder whose tags the
 pair carries wins, rod builders before cable builders; a substructure's name counts as a tag
-of its own pairs. Rods that share a node form one rigid body, and nodes that coincide are
-merged (the toolkit compounds rods that touch). What tensim cannot represent is approximated
-and listed in :attr:`NtrtImport.notes`.
+of its own pairs. Nodes whose names carry a sphere builder's tags become spheres (point
+masses). Rods that share a node form one rigid body, and nodes that coincide are merged (the
+toolkit compounds bodies that touch). Each cable's anchors sit on its line, as far in as makes
+its length the toolkit's (whose anchors sit on the body surfaces beside the nodes). What tensim
+cannot represent is approximated and listed in :attr:`NtrtImport.notes`.
 """
 
 from __future__ import annotations
@@ -80,7 +82,7 @@ def import_ntrt(path: str | os.PathLike[str], units: str, *, up: str = "y",
         path: the top file.
         units: the file's length unit: ``"m"``, ``"dm"``, ``"cm"`` or ``"mm"``.
         up: the file's up axis, ``"y"`` (the toolkit's) or ``"z"``.
-        clearance: if given, lift or lower the model so its lowest rod surface is this far
+        clearance: if given, lift or lower the model so its lowest rod or sphere surface is this far
             above the ground [m]; None keeps the file's positions.
         name: the structure's name (default: the file's stem).
 
