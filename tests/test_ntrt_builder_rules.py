@@ -371,3 +371,36 @@ def test_the_reader_takes_tabs_and_percent_lines_as_the_toolkits_does(tmp_path):
         import_ntrt(_write(tmp_path, "indented.yaml", text.replace("  a:", "\ta:")), "cm")
     directive = "%YAML 1.1\n---\n" + text.split("%")[0]
     assert len(import_ntrt(_write(tmp_path, "directive.yaml", directive), "cm").notes) == 0
+
+
+def test_light_bodies_on_strong_dampers_get_a_step_note(tmp_path):
+    text = """\
+        nodes:
+          a: [0, 0, 0]
+          b: [0, 10, 0]
+          c: [10, 0, 0]
+          d: [10, 20, 0]
+        pair_groups:
+          rod:
+            - [a, b]
+            - [c, d]
+          string:
+            - [a, c]
+            - [b, d]
+            - [a, d]
+        builders:
+          rod:
+            class: tgRodInfo
+            parameters: {radius: 0.5, density: 0.005}
+          string:
+            class: tgBasicActuatorInfo
+            parameters: {damping: {b}}
+        """
+    # the lighter rod: 0.005 kg/cm^3 x pi 0.25 cm^2 x 10 cm; all three cables touch each rod
+    light = 0.005 * math.pi * 0.25 * 10
+    for damping, noted in ((50, True), (1, False)):
+        path = _write(tmp_path, f"damped_{damping}.yaml", text.replace("{b}", str(damping)))
+        result = import_ntrt(path, "cm")
+        assert result.max_step == pytest.approx(2 * light / (3 * damping), rel=1e-12)
+        # 2 m / b = 0.52 ms at 50 N s/m: below tensim's 1 ms step; 26 ms at 1 N s/m
+        assert any("--dt 0.0005 or less" in n for n in result.notes) == noted

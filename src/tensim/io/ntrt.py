@@ -29,12 +29,22 @@ import numpy as np
 from tensim.io._ntrt_anchor import Rigid, anchor
 from tensim.io._ntrt_parts import Builder, Pair, Part
 from tensim.io._ntrt_tree import read_tree
-from tensim.structure import Cable, Motor, Node, PointMass, Rod, Structure, StructureError
+from tensim.structure import (
+    Cable,
+    Motor,
+    Node,
+    PointMass,
+    Rod,
+    Structure,
+    StructureError,
+    mass_properties,
+)
 
 UNITS = {"m": 1.0, "dm": 0.1, "cm": 0.01, "mm": 0.001}  # metres per file unit
 _FRAMES = {"y": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]),
            "z": np.eye(3)}
 _MERGE_TOL = 1e-9  # m: nodes closer than this are one node
+_DEFAULT_STEP = 1e-3  # s: tensim's default physics step (WorldOptions.timestep)
 _STATIC_DENSITY = 1e-3  # kg/m^3: a nominal density for the toolkit's massless (static) rods
 _STATIC_TAG = "massless"  # tags the rods the file gave density 0
 
@@ -67,11 +77,14 @@ class NtrtImport:
         structure: the tensim structure (SI units, Z up).
         notes: what was approximated or left out, one line each.
         files: the files read (the top file, then its substructures').
+        max_step: the longest physics step at which its cable damping stays stable [s]
+            (:func:`damping_step`).
     """
 
     structure: Structure
     notes: tuple[str, ...]
     files: tuple[str, ...]
+    max_step: float = math.inf
 
 
 def import_ntrt(path: str | os.PathLike[str], units: str, *, up: str = "y",
@@ -100,8 +113,28 @@ def import_ntrt(path: str | os.PathLike[str], units: str, *, up: str = "y",
     for builder in tree.builders:
         converter.check(builder)
     structure = converter.build(tree.top, tree.pairs, tree.builders, name or path.stem, clearance)
-    return NtrtImport(structure, (*tree.notes, *converter.notes),
-                      tuple(str(f) for f in tree.files))
+    step = damping_step(structure)
+    if step < _DEFAULT_STEP:
+        converter.notes.append(f"explicit cable damping needs a physics step below {step:.2g} s "
+                               f"(2 m / sum of b of the lightest body): simulate with --dt "
+                               f"{step:.1g} or less")
+    notes = tuple(dict.fromkeys((*tree.notes, *converter.notes)))  # a part read twice notes once
+    return NtrtImport(structure, notes, tuple(str(f) for f in tree.files), step)
+
+
+def damping_step(structure: Structure) -> float:
+    """The longest physics step at which the cables' damping stays stable [s].
+
+    Cable forces are applied explicitly, and an explicit step of a mass m held by dampers of
+    total b (N s/m) diverges once it exceeds 2 m / b; this is that bound for the free rigid
+    body where it is smallest (inf if no cable damps a free body).
+    """
+    step = math.inf
+    for group in structure.rigid_groups():
+        damping = sum(c.damping for c in structure.cables if set(c.path) & set(group.nodes))
+        if not group.fixed and damping > 0:
+            step = min(step, 2 * mass_properties(structure, group).mass / damping)
+    return step
 
 
 def _matching(pair: Pair, builders: list[Builder]) -> Builder | None:
