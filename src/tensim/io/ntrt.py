@@ -337,13 +337,14 @@ class _Converter:
         # the toolkit moves each anchor onto the body's surface beside the node; tensim's sit
         # on the cable's line, as far in as gives the toolkit's length (so its rest length)
         a, b = (position[n] for n in ends)
-        moved = (p.get("moveCablePointAToEdge", True), p.get("moveCablePointBToEdge", True))
+        moved = (p["moveCablePointAToEdge"], p["moveCablePointBToEdge"]) \
+            if builder.cls == "tgBasicActuatorInfo" else (True, True)  # the others always move
         tips = [anchor(x, y, bodies.get(n, []) if move else [], p["rotation"])
                 for x, y, n, move in ((a, b, ends[0], moved[0]), (b, a, ends[1], moved[1]))]
         offset = (np.linalg.norm(a - b) - np.linalg.norm(tips[0] - tips[1])) / 2
         if offset < 0:
             self._note("cables whose toolkit anchors lie farther apart than their nodes are "
-                       "anchored at their nodes (a shorter cable, so less pretension)")
+                       "anchored at their nodes: at the same pretension, a shorter rest length")
         motor = Motor(max_speed=p["target_velocity"] * s, max_tension=p["max_tension"] * s,
                       min_rest_length=p["min_rest_length"] * s,
                       min_length=p["min_actual_length"] * s)
