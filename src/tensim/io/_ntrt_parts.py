@@ -65,7 +65,7 @@ class Pair:
 
 @dataclasses.dataclass(frozen=True)
 class Builder:
-    """A builder entry: pairs carrying all of ``tags`` are built as ``cls``.
+    """A builder entry: pairs (for spheres: nodes) carrying all of ``tags`` are built as ``cls``.
 
     Attributes:
         tags: the tag search (space-separated in the file).
@@ -82,7 +82,8 @@ class Builder:
 
 @dataclasses.dataclass
 class Tree:
-    """A whole model: the top part, every pair and the builders in the order they were added."""
+    """A whole model: the top part, every pair and the builders in the order they were added,
+    the files read and what the reader noted (lines the toolkit's reader ignores)."""
 
     top: Part
     pairs: list[Pair]
