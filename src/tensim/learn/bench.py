@@ -16,8 +16,8 @@ import mujoco
 import numpy as np
 
 from tensim.learn.executors import ProcessPoolExecutor, ThreadBatchExecutor
-from tensim.learn.optimizers import OptimizerSettings
 from tensim.learn.families import default_base
+from tensim.learn.optimizers import OptimizerSettings
 from tensim.learn.problem import TrialProblem
 from tensim.models import preset
 from tensim.sim import simulate
