@@ -61,12 +61,12 @@ def test_yaml_reads_the_1_2_core_schema(text, value):
 
 
 @pytest.mark.parametrize(("text", "words"), [
-    ("a: 1\nb: 2\na: 3\n", "line 3: .*duplicate key 'a' \\(first given on line 1\\)"),
+    ("a: 1\nb: 2\na: 3\n", "line 3: duplicate key 'a' \\(first given on line 1\\)"),
     ("a: &x [*x]\n", "refers to a value that contains it"),
     ("a: " + "[" * 200 + "]" * 200 + "\n", "nested"),
     ("".join(f"l{i}: &l{i} [" + ",".join([f"*l{i - 1}" if i else "x"] * 9) + "]\n"
              for i in range(10)), "expands to more than"),
-    ("a: [1, 2\n", "line 2: not valid YAML"),
+    ("a: [1, 2\n", "not valid YAML at line 2"),
 ])
 def test_yaml_refusals_name_the_file_and_line(text, words):
     with pytest.raises(InputError, match=words) as info:

@@ -175,8 +175,8 @@ def load_yaml(text: str, source: str) -> Any:
     except _Refused as err:
         raise InputError(f"{source}: line {err.line}: {err}") from None
     except yaml.MarkedYAMLError as err:
-        line = f"line {err.problem_mark.line + 1}: " if err.problem_mark else ""
-        raise InputError(f"{source}: {line}not valid YAML: {err.problem or err}") from None
+        line = f" at line {err.problem_mark.line + 1}" if err.problem_mark else ""
+        raise InputError(f"{source}: not valid YAML{line}: {err.problem or err}") from None
     except yaml.YAMLError as err:
         raise InputError(f"{source}: not valid YAML: {err}") from None
     except RecursionError:

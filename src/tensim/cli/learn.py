@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from pathlib import Path
@@ -28,7 +29,7 @@ if TYPE_CHECKING:
 _PROBLEM_OPTIONS = ("model", "controller", "base_controller", "optimizer", "trial_duration",
                     "seed", "segment", "direction", "energy_weight", "settle", "max_tilt",
                     "penalty", "dt", "record_dt", "terrain", "target", "step", "batch",
-                    "monte_carlo")
+                    "monte_carlo", "randomize", "robots", "robust")
 _DEFAULTS: dict[str, Any] = {
     "model": "tetraspine3", "controller": "cpg", "optimizer": "ntrt", "evaluations": 100,
     "trial_duration": 10.0, "seed": 0, "segment": "com",
@@ -94,13 +95,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     search.add_argument("--monte-carlo", type=natural, metavar="N",
                         help=f"ntrt: random samples before hill climbing (default "
                         f"{d['monte_carlo']})")
+    robust = p.add_argument_group("robust gaits (domain randomisation)")
+    robust.add_argument("--randomize", metavar="NAME=LO:HI,...",
+                        help="score each candidate on randomised robots: multipliers of "
+                        "friction, stiffness, damping, mass, motor_speed, e.g. "
+                        "friction=0.7:1.3,stiffness=0.9:1.1 (the draws follow --seed)")
+    robust.add_argument("--robots", type=count, metavar="K",
+                        help="robots per candidate (default 8 with --randomize, else 1)")
+    robust.add_argument("--robust", choices=("mean", "worst"),
+                        help="a candidate's score over its robots: the mean (default) or the "
+                        "worst")
     run = p.add_argument_group("running")
     run.add_argument("--evaluations", type=count, metavar="N",
                      help=f"evaluation budget (default {d['evaluations']}); with --resume, "
                      "a new budget to continue or extend the run")
     run.add_argument("--workers", type=natural, default=None, metavar="W",
-                     help="worker processes (default: every core); 0 runs trials in this "
-                     "process")
+                     help="threads of the batch engine, which simulates each generation's "
+                     "trials together in this process (default: every core); with "
+                     "--processes or --ray, worker processes; 0 runs trials one by one")
+    run.add_argument("--processes", action="store_true",
+                     help="one trial per task on a pool of worker processes instead")
     run.add_argument("--ray", action="store_true",
                      help="run trials on Ray (a local Ray is started unless --ray-address)")
     run.add_argument("--ray-address", metavar="ADDR",
@@ -123,8 +137,32 @@ def _problem(args: argparse.Namespace) -> TrialProblem:
     target = parse_point(args.target, "--target") if args.target is not None else None
     objective = Objective(args.segment, None if target else direction, either_way,
                           args.energy_weight, args.settle, args.max_tilt, target)
+    randomize = parse_randomize(args.randomize) if args.randomize else ()
+    robots = args.robots if args.robots is not None else (8 if randomize else 1)
     return TrialProblem(structure, base, args.controller, args.trial_duration, objective,
-                        world_from_args(args), args.record_dt, args.penalty, args.model)
+                        world_from_args(args), args.record_dt, args.penalty, args.model,
+                        randomize, robots, args.robust or "mean", args.seed)
+
+
+def parse_randomize(text: str) -> tuple[tuple[str, float, float], ...]:
+    """``friction=0.7:1.3,stiffness=0.9:1.1`` as ((name, low, high), ...).
+
+    Raises:
+        ValueError: a malformed entry, naming it.
+    """
+    out = []
+    for item in text.split(","):
+        name, _, bounds = item.partition("=")
+        low, _, high = bounds.partition(":")
+        try:
+            entry = (name.strip(), float(low), float(high))
+        except ValueError:
+            entry = (name, math.nan, math.nan)
+        if not (math.isfinite(entry[1]) and math.isfinite(entry[2])):
+            raise ValueError(f"--randomize entry {item!r}: expected NAME=LOW:HIGH with finite "
+                             "numbers, e.g. friction=0.7:1.3")
+        out.append(entry)
+    return tuple(out)
 
 
 class _LearningProgress:
@@ -160,7 +198,8 @@ def run_learn(args: argparse.Namespace) -> int:
         if given or args.out:
             raise ValueError(f"--resume takes the run's configuration from "
                              f"{args.resume}/config.json; drop {given or ['--out']} (only "
-                             "--evaluations, --workers, --ray and --ray-address may change)")
+                             "--evaluations, --workers, --processes, --ray and --ray-address "
+                             "may change)")
         out = Path(args.resume)
     else:
         for name, value in _DEFAULTS.items():
@@ -179,7 +218,8 @@ def run_learn(args: argparse.Namespace) -> int:
     try:
         result = resume(out, args.evaluations, progress=_LearningProgress(args.quiet, already),
                         executor=lambda p: make_executor(p, workers, ray=args.ray,
-                                                         ray_address=args.ray_address))
+                                                         ray_address=args.ray_address,
+                                                         processes=args.processes))
     except KeyboardInterrupt:
         end = "\n" if sys.stderr.isatty() and not args.quiet else ""  # the progress bar's
         print(f"{end}tensim: interrupted; every finished evaluation is in "

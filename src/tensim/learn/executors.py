@@ -1,4 +1,5 @@
-"""Where trials run: in this process, in a local process pool, or on a Ray cluster.
+"""Where trials run: as batches on threads in this process (the default), one by one in this
+process, in a local process pool, or on a Ray cluster.
 
 An executor is bound to one problem and turns tasks ``(index, unit point)`` into
 :class:`~tensim.learn.problem.Evaluation` s, yielded as they finish (in any order; the driver
@@ -26,7 +27,13 @@ from typing import Any, Protocol
 import numpy as np
 
 from tensim._files import pid_alive
-from tensim.learn.problem import Evaluation, Problem, evaluate_task, lost_evaluation
+from tensim.learn.problem import (
+    Evaluation,
+    Problem,
+    evaluate_task,
+    evaluation_of,
+    lost_evaluation,
+)
 
 log = logging.getLogger(__name__)
 Task = tuple[int, np.ndarray]
@@ -66,6 +73,51 @@ class InlineExecutor:
         """Nothing to release."""
 
     def __enter__(self) -> InlineExecutor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class ThreadBatchExecutor:
+    """Runs trials as batches in this process, on threads (the default).
+
+    A problem with ``evaluate_batch`` (a simulated gait) runs up to ``batch_size`` trials per
+    call of the batch engine, its trials spread over ``workers`` threads; others run inline.
+    """
+
+    backend = "threads"
+
+    def __init__(self, problem: Problem, workers: int, batch_size: int = 32):
+        self.problem, self.workers, self.batch_size = problem, max(1, workers), batch_size
+
+    def run(self, tasks: Sequence[Task]) -> Iterator[Evaluation]:
+        """Evaluates the tasks, a batch at a time."""
+        evaluate = getattr(self.problem, "evaluate_batch", None)
+        if evaluate is None:
+            for index, unit in tasks:
+                yield evaluate_task(self.problem, index, unit)
+            return
+        for first in range(0, len(tasks), self.batch_size):
+            chunk = tasks[first:first + self.batch_size]
+            start = time.perf_counter()
+            try:
+                outcomes = evaluate([np.asarray(u, dtype=float) for _, u in chunk],
+                                    self.workers)
+            except Exception as err:  # the whole batch failed: try its trials one by one
+                log.warning("batch of %d trials failed (%s); running them one at a time",
+                            len(chunk), err)
+                for index, unit in chunk:
+                    yield evaluate_task(self.problem, index, unit)
+                continue
+            wall = (time.perf_counter() - start) / len(chunk)
+            for (index, unit), outcome in zip(chunk, outcomes, strict=True):
+                yield evaluation_of(self.problem, index, unit, outcome, wall)
+
+    def close(self) -> None:
+        """Nothing to release (the batch's threads end with each call)."""
+
+    def __enter__(self) -> ThreadBatchExecutor:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -193,16 +245,19 @@ class ProcessPoolExecutor:
         self.close()
 
 
-def _ray_task(problem: Problem, index: int, unit: np.ndarray) -> Evaluation:
-    return evaluate_task(problem, index, unit)
+def _ray_task(problem: Problem, tasks: list[Task]) -> list[Evaluation]:
+    """A Ray task: a share of the generation as one batch on the worker's own thread."""
+    return list(ThreadBatchExecutor(problem, 1).run(tasks))
 
 
 class RayExecutor:
     """Trials as Ray tasks, on a running cluster (``address``) or a local Ray started here.
 
-    The problem goes into Ray's object store once; Ray reuses worker processes, so each
-    compiles the robot once. A task whose worker dies is retried by Ray up to
-    ``max_attempts`` − 1 times, then recorded as lost.
+    Each generation is split into one share per CPU of the cluster, and each task evaluates its
+    share as a batch (:class:`ThreadBatchExecutor`). The problem goes into Ray's object store
+    once; Ray reuses worker processes, so each compiles the robot once. A task whose worker
+    dies is retried by Ray up to ``max_attempts`` − 1 times, then its trials are recorded as
+    lost.
 
     Args:
         problem: the problem every task belongs to.
@@ -235,18 +290,21 @@ class RayExecutor:
         """Submits every task; yields each evaluation as its task finishes."""
         import ray
 
-        pending: dict[Any, Task] = {self._remote.remote(self._problem_ref, i, u): (i, u)
-                                    for i, u in tasks}
+        share = max(1, -(-len(tasks) // self.workers))
+        chunks = [list(tasks[k:k + share]) for k in range(0, len(tasks), share)]
+        pending: dict[Any, list[Task]] = {self._remote.remote(self._problem_ref, chunk): chunk
+                                          for chunk in chunks}
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
-                index, unit = pending.pop(ref)
+                chunk = pending.pop(ref)
                 try:
-                    yield ray.get(ref)
+                    yield from ray.get(ref)
                 except ray.exceptions.RayError as err:
                     reason = f"lost: {type(err).__name__} after {self.max_attempts} tries"
-                    log.warning("evaluation %d %s", index, reason)
-                    yield lost_evaluation(self.problem, index, unit, reason)
+                    for index, unit in chunk:
+                        log.warning("evaluation %d %s", index, reason)
+                        yield lost_evaluation(self.problem, index, unit, reason)
 
     def close(self) -> None:
         """Shuts down a local Ray this executor started."""
@@ -263,17 +321,21 @@ class RayExecutor:
 
 
 def make_executor(problem: Problem, workers: int, *, ray: bool = False,
-                  ray_address: str | None = None) -> Executor:
+                  ray_address: str | None = None, processes: bool = False) -> Executor:
     """The executor for the command line's choice.
 
     Args:
         problem: the problem.
-        workers: worker processes (0: run trials in this process).
+        workers: threads of the batch engine, or worker processes with ``processes`` or Ray
+            (0: run trials one by one in this process).
         ray: run on Ray (a local one unless ``ray_address`` is given).
         ray_address: address of a running Ray cluster (implies ``ray``).
+        processes: one trial per task on a local process pool instead of batches on threads.
     """
     if ray or ray_address:
         return RayExecutor(problem, ray_address, max(1, workers))
     if workers == 0:
         return InlineExecutor(problem)
-    return ProcessPoolExecutor(problem, workers)
+    if processes:
+        return ProcessPoolExecutor(problem, workers)
+    return ThreadBatchExecutor(problem, workers)

@@ -197,10 +197,14 @@ class RunStore:
         if objective.get("target_xy") is not None:
             objective["target_xy"] = tuple(objective["target_xy"])
         fields = {f.name for f in dataclasses.fields(Objective)}
+        randomize = tuple((str(name), float(low), float(high))
+                          for name, (low, high) in data.get("randomize", {}).items())
         return TrialProblem(structure, base, data["family"], data["duration_s"],
                             Objective(**{k: v for k, v in objective.items() if k in fields}),
                             WorldOptions(**world), data["record_dt_s"], data["penalty"],
-                            data["model"])
+                            data["model"], randomize, int(data.get("robots", 1)),
+                            str(data.get("robust", "mean")),
+                            int(data.get("randomize_seed", 0)))
 
     # -- evaluations -----------------------------------------------------------------------
 
