@@ -25,6 +25,8 @@ from tensim.viz.replay import PoseReplay, RecordedRun
 
 Progress = Callable[[float, float], None]
 
+MAX_SIDE = 8192  # largest frame side [px] (MuJoCo's offscreen buffer is allocated whole)
+
 
 @dataclasses.dataclass(frozen=True)
 class VideoSettings:
@@ -50,9 +52,10 @@ class VideoSettings:
     def __post_init__(self) -> None:
         if not 1 <= self.fps <= 240:
             raise ValueError(f"fps must be a whole number in [1, 240], got {self.fps}")
-        if self.width % 2 or self.height % 2 or min(self.width, self.height) < 16:
-            raise ValueError(f"frame size must be even and at least 16 px, got "
-                             f"{self.width} x {self.height}")
+        if self.width % 2 or self.height % 2 or min(self.width, self.height) < 16 \
+                or max(self.width, self.height) > MAX_SIDE:
+            raise ValueError(f"frame size must be even, at least 16 px and at most {MAX_SIDE} "
+                             f"px a side, got {self.width} x {self.height}")
         if not 0 <= self.crf <= 51:
             raise ValueError(f"crf must be in [0, 51], got {self.crf}")
 
