@@ -388,3 +388,17 @@ def test_a_write_deletes_the_temporary_files_of_killed_writers_only(tmp_path):
     write_text(tmp_path / "out.txt", "done")
     assert not dead.exists() and live.exists()
     assert (tmp_path / "out.txt").read_text() == "done"
+
+
+@pytest.mark.parametrize(("argv", "words"), [
+    (["export-trajectory", "tetraspine3_cpg", "--period", "1e-12"], "rows: 6e+13 is more than"),
+    (["simulate", "prism3", "--duration", "1e-12"], "shorter than one physics step"),
+    (["simulate", "no_such_robot"], "unknown model 'no_such_robot'"),
+    (["bench", "--duration", "1e9"], "physics steps: 1e+12 is more than"),
+])
+def test_more_commands_refuse_in_one_line(argv, words, capsys, tmp_path):
+    assert main(["--quiet", *argv, "--out" if argv[0] != "bench" else "--json",
+                 str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert words in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "out").exists()

@@ -18,15 +18,17 @@ MAX_TERRAIN_BOXES = 10_000  # boxes of one terrain (steps, blocks)
 MAX_GRID_CELLS = 4_000_000  # cells of one height field
 
 
-def check_count(what: str, count: float, limit: int, *, force: bool = False) -> None:
+def check_count(what: str, count: float, limit: int, *, force: bool = False,
+                forceable: bool = True) -> None:
     """Refuses ``count`` items of ``what`` past ``limit`` unless forced.
 
     Raises:
-        InputError: naming the figure, the limit and how to force it.
+        InputError: naming the figure, the limit and (if ``forceable``) how to force it.
     """
     if not math.isfinite(count) or (count > limit and not force):
+        hint = ", or run `tensim --force ...` to go past the limit" if forceable else ""
         raise InputError(f"{what}: {count:.4g} is more than the limit of {limit:.4g}; "
-                         "ask for less, or run `tensim --force ...` to go past the limit")
+                         f"ask for less{hint}")
 
 
 def check_run(duration: float, dt: float, record_dt: float | None = None, *,
@@ -40,6 +42,8 @@ def check_run(duration: float, dt: float, record_dt: float | None = None, *,
     for name, value in (("duration", duration), ("dt", dt), ("record_dt", record_dt)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise InputError(f"{name} must be a finite time > 0 s, got {value!r}")
+    if duration < dt:
+        raise InputError(f"duration {duration:g} s is shorter than one physics step ({dt:g} s)")
     check_count(f"{duration:g} s at a physics step of {dt:g} s: physics steps",
                 duration / dt, MAX_STEPS, force=force)
     if record_dt is not None:

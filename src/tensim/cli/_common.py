@@ -88,8 +88,9 @@ def load_model(name: str) -> Structure:
     """A preset's structure, or a structure YAML file.
 
     Raises:
-        SystemExit: neither a preset nor an existing .yaml file.
+        InputError: neither a preset nor an existing .yaml file.
     """
+    from tensim._input import InputError
     from tensim.models import PRESETS, preset
     from tensim.structure import load_structure
 
@@ -98,8 +99,8 @@ def load_model(name: str) -> Structure:
     path = Path(name)
     if path.suffix in (".yaml", ".yml") and path.exists():
         return load_structure(path)
-    raise SystemExit(f"tensim: unknown model {name!r}: not a preset ({', '.join(PRESETS)}) "
-                     "nor an existing .yaml structure file")
+    raise InputError(f"unknown model {name!r}: not a preset ({', '.join(PRESETS)}) nor an "
+                     "existing .yaml structure file")
 
 
 def print_summary(summary: dict[str, Any], out: Path) -> None:

@@ -25,7 +25,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from tensim._files import write_json
     from tensim.bench import run_benchmarks
+    from tensim.limits import check_run
 
+    check_run(args.duration, 1e-3, 0.01, force=args.force)  # the cases' step and recording
     report = run_benchmarks(args.duration, args.repeats)
     print(f"{'case':<34} {'tensim x real time':>19} {'MuJoCo alone':>13} {'ratio':>7} "
           f"{'us/step':>8} {'engine us/step':>15}")

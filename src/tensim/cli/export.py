@@ -30,6 +30,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from tensim.control import load_controller, save_velocity_table
+    from tensim.control.files import sampled_table
 
     structure = load_model(args.model)
     config = load_controller(args.controller, structure)
@@ -37,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.controller}: has no gait, so there is no V* to export")
     if args.duration is not None:
         config = config.with_duration(args.duration)
-    table = config.gait.velocity_table(config.duration, args.period)
+    table = sampled_table(config.gait, config.duration, args.period)
     out = Path(args.out)
     save_velocity_table(table, out, hardware_scale=args.hardware_scale, comments=(
         f"model: {args.model}", f"controller: {args.controller}",

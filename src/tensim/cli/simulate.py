@@ -45,9 +45,10 @@ def run(args: argparse.Namespace) -> int:
     if args.velocity_input and config is None:
         raise ValueError("--velocity-input needs impedance laws: give --controller")
     if args.velocity_input:
+        table = load_velocity_table(args.velocity_input)
         try:
-            config = config.with_gait(load_velocity_table(args.velocity_input))
-        except ValueError as err:
+            config = config.with_gait(table)
+        except ValueError as err:  # the table does not fit the controller
             raise VelocityFileError(f"{args.velocity_input}: {err}") from None
     if config is not None and config.gait is not None and args.duration \
             and not args.velocity_input:

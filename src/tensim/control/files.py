@@ -65,6 +65,7 @@ from tensim.control.velocity_table import (
     load_velocity_table,
     save_velocity_table,
 )
+from tensim.limits import MAX_SAMPLES, check_count
 from tensim.sim import Controller
 from tensim.structure import Structure
 
@@ -139,7 +140,7 @@ class ControllerConfig:
         """
         if self.gait is None:
             return None
-        return self.gait.velocity_table(self.duration, self.command_period or dt)
+        return sampled_table(self.gait, self.duration, self.command_period or dt)
 
     def build(self, dt: float) -> Controller:
         """The controller to pass to :class:`~tensim.sim.Simulation` at physics step ``dt``."""
@@ -155,6 +156,18 @@ class ControllerConfig:
     def with_duration(self, duration: float) -> ControllerConfig:
         """A copy whose gait covers ``duration`` seconds."""
         return dataclasses.replace(self, duration=duration)
+
+
+def sampled_table(gait: Gait, duration: float, period: float) -> VelocityTable:
+    """``gait``'s V* table over ``duration`` [s] every ``period`` [s].
+
+    Raises:
+        InputError: more than :data:`tensim.limits.MAX_SAMPLES` rows.
+        GaitError: a CPG integration failed or ran away.
+    """
+    check_count(f"a V* table of {duration:g} s every {period:g} s: rows",
+                duration / period + 1, MAX_SAMPLES, forceable=False)
+    return gait.velocity_table(duration, period)
 
 
 # -- reading ------------------------------------------------------------------------------------

@@ -153,7 +153,7 @@ def estimate_offset(time: np.ndarray, hardware: np.ndarray, sim_time: np.ndarray
         The lag [s]: reading k matches the simulation at time[k] - lag.
     """
     check_count(f"time lags tried up to +-{max_offset:g} s every {step:g} s",
-                2 * max_offset / step + 1, MAX_LAGS)
+                2 * max_offset / step + 1, MAX_LAGS, forceable=False)
     lags = np.arange(-max_offset, max_offset + step / 2, step)
     scores = np.array([_score(hardware, interpolate(sim_time, simulated, time - lag))
                        for lag in lags])

@@ -136,7 +136,7 @@ class HardwareLog:
             period = round(float(np.median(np.diff(times))), 9) if times.size > 1 else 0.01
         rows = math.floor(times[-1] / period + 1e-6) + 1
         check_count(f"{self.source}: V* table of {times[-1]:g} s every {period:g} s: rows",
-                    rows, MAX_SAMPLES)
+                    rows, MAX_SAMPLES, forceable=False)
         grid = np.arange(rows) * period
         held = np.stack([_hold(times, values[:, k], grid) for k in range(len(cables))], axis=1)
         return VelocityTable(tuple(cables), period, held / self._hardware_scale())
