@@ -402,3 +402,17 @@ def test_more_commands_refuse_in_one_line(argv, words, capsys, tmp_path):
     err = capsys.readouterr().err.strip()
     assert words in err and len(err.splitlines()) == 1
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/zero"), reason="needs /dev/zero")
+def test_a_device_named_as_an_input_file_is_refused_not_read_forever(tmp_path):
+    robot = preset("tetraspine3").build()
+    path = _file(tmp_path, yaml.safe_dump({
+        "format": "tensim-controller", "impedance": {"groups": [
+            {"tag": "joint_1", "offset_tension": 1, "stiffness_gain": 1, "damping_gain": 1,
+             "target_length": 0.2},
+            {"tag": "joint_2", "offset_tension": 1, "stiffness_gain": 1, "damping_gain": 1,
+             "target_length": 0.2}]},
+        "gait": {"type": "table", "file": "/dev/zero"}}))
+    with pytest.raises(ControllerFileError, match="/dev/zero: not a regular file"):
+        load_controller(path, robot)

@@ -54,8 +54,8 @@ def read_text(path: str | os.PathLike[str], limit: int = MAX_FILE_BYTES) -> str:
 
     Raises:
         FileNotFoundError: no such file.
-        InputError: a folder, a file larger than ``limit`` bytes, or bytes that are not UTF-8;
-            naming the file.
+        InputError: a folder, a device or pipe, a file larger than ``limit`` bytes, or bytes
+            that are not UTF-8; naming the file.
     """
     path = Path(path)
     if path.is_dir():
@@ -64,6 +64,8 @@ def read_text(path: str | os.PathLike[str], limit: int = MAX_FILE_BYTES) -> str:
         size = path.stat().st_size
     except FileNotFoundError:
         raise FileNotFoundError(f"{path}: no such file") from None
+    if not path.is_file():  # a device or a pipe could be read forever
+        raise InputError(f"{path}: not a regular file; expected a file")
     if size > limit:
         raise InputError(f"{path}: {size} bytes is larger than the limit of {limit} bytes")
     data = path.read_bytes()
