@@ -374,3 +374,49 @@ def test_output_folders_are_accepted_only_when_they_can_be_replaced(tree, target
         assert existing.is_dir()
         if out.exists():
             assert not any(out.iterdir()) or (out / "summary.json").is_file()
+
+
+# -- learning run folders -------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def run_folder() -> Iterator[Path]:
+    from tensim.learn import (
+        InlineExecutor,
+        LearningSettings,
+        OptimizerSettings,
+        SphereProblem,
+        learn,
+    )
+
+    with tempfile.TemporaryDirectory() as name:
+        settings = LearningSettings(OptimizerSettings("cma", batch=4), 12, seed=1)
+        learn(SphereProblem(3), settings, Path(name) / "run", executor=InlineExecutor)
+        yield Path(name) / "run"
+
+
+@fuzz(100)
+@given(st.data())
+def test_mutated_run_folders_reopen_or_raise_run_folder_errors(run_folder, data):
+    from tensim.learn import RunStore
+    from tensim.learn.run import _Session
+
+    with tempfile.TemporaryDirectory() as name:
+        folder = Path(name)
+        for path in run_folder.iterdir():
+            (folder / path.name).write_bytes(path.read_bytes())
+        target = data.draw(st.sampled_from(["config.json", "checkpoint.json",
+                                            "evaluations.jsonl"]))
+        text = (folder / target).read_text()
+        if target == "evaluations.jsonl":
+            content = data.draw(mutated_text(text))
+        else:
+            content = json.dumps(data.draw(mutated_data(json.loads(text)))).encode()
+        (folder / target).write_bytes(content)
+        store = RunStore(folder)
+
+        def reopen() -> None:  # what a resume reads before its first trial
+            _Session(store, store.load_problem(), store.read_config(), store.load_checkpoint(),
+                     None)
+
+        loads_or_refuses(reopen)

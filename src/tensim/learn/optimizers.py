@@ -21,9 +21,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from tensim._input import is_real
 from tensim.learn.nelder_mead import NelderMead
 
 OPTIMIZERS = ("ntrt", "cma", "nelder-mead")
+MAX_BATCH = 10_000  # most points one ask may return
 # default step in unit-cube units: NTRT's mutation deviation, CMA-ES's initial sigma and the
 # Nelder-Mead initial simplex edge
 DEFAULT_STEP = {"ntrt": 0.03, "cma": 0.2, "nelder-mead": 0.1}
@@ -189,13 +191,19 @@ class OptimizerSettings:
     monte_carlo: int = 48
 
     def __post_init__(self) -> None:
-        if self.name not in OPTIMIZERS:
+        for field in ("batch", "monte_carlo"):
+            value = getattr(self, field)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
+                raise ValueError(f"{field} must be a whole number, got {value!r}")
+        if self.step is not None and not is_real(self.step):
+            raise ValueError(f"step must be a number, got {self.step!r}")
+        if not isinstance(self.name, str) or self.name not in OPTIMIZERS:
             raise ValueError(f"unknown optimizer {self.name!r}; expected one of "
                              f"{list(OPTIMIZERS)}")
         if self.step is not None and not 0 < self.step <= 1:
             raise ValueError(f"step must be in (0, 1] of the unit cube, got {self.step}")
-        if self.batch is not None and self.batch < 1:
-            raise ValueError(f"batch must be >= 1, got {self.batch}")
+        if self.batch is not None and not 1 <= self.batch <= MAX_BATCH:
+            raise ValueError(f"batch must be in [1, {MAX_BATCH}], got {self.batch}")
         if self.monte_carlo < 0:
             raise ValueError(f"monte_carlo must be >= 0, got {self.monte_carlo}")
 

@@ -196,8 +196,11 @@ class _Session:
         """A fresh optimizer told the first ``told`` logged costs, batch by batch as the run
         told them: the state the run's optimizer had after its last tell, exactly."""
         settings = OptimizerSettings(**self.config["optimizer"])
-        optimizer = settings.build(self.problem.dimension, int(self.config["seed"]),
-                                   self.problem.start())
+        try:
+            optimizer = settings.build(self.problem.dimension, int(self.config["seed"]),
+                                       self.problem.start())
+        except ValueError as err:  # settings that do not fit the problem
+            raise RunFolderError(f"{self.store.path('config.json')}: {err}") from None
         done = 0
         while done < told:
             if optimizer.done:

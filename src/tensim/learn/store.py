@@ -34,9 +34,10 @@ from pathlib import Path
 from typing import Any
 
 from tensim._files import write_json
-from tensim._input import InputError, load_json, read_text
+from tensim._input import InputError, describe, load_json, read_text
 from tensim.control import load_controller, save_controller
 from tensim.learn.objective import Objective
+from tensim.learn.optimizers import OptimizerSettings
 from tensim.learn.problem import Evaluation, Problem, SphereProblem, TrialProblem
 from tensim.model import WorldOptions
 from tensim.structure import load_structure, save_structure
@@ -56,6 +57,7 @@ BEST_CONTROLLER = "best_controller.yaml"
 CURVE = "learning_curve.png"
 SUMMARY = "summary.json"
 LOCK = ".lock"
+MAX_DIMENSION = 1_000  # most parameters of a sphere problem read back from a folder
 
 
 class RunFolderError(InputError):
@@ -163,6 +165,18 @@ class RunStore:
         config = self._json(CONFIG)
         if not isinstance(config, dict) or not isinstance(config.get("problem"), dict):
             raise RunFolderError(f"{path}: expected a JSON object with a 'problem' mapping")
+        for key, top in (("evaluations", None), ("seed", 2**32)):
+            value = config.get(key)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0 \
+                    or (top is not None and value >= top):
+                raise RunFolderError(f"{path}: {key!r} must be a whole number >= 0"
+                                     + (f" and < {top}" if top else "")
+                                     + f", got {describe(value)}")
+        try:
+            OptimizerSettings(**config["optimizer"])
+        except (KeyError, TypeError, ValueError) as err:
+            raise RunFolderError(f"{path}: 'optimizer' must be a mapping of optimizer settings "
+                                 f"({err})") from None
         return config
 
     def load_problem(self) -> Problem:
@@ -174,8 +188,12 @@ class RunStore:
         data = self.read_config()["problem"]
         try:
             if data.get("kind") == "sphere":
-                return SphereProblem(int(data["dimension"]), float(data["center"]),
-                                     float(data["penalty"]))
+                dimension = data["dimension"]
+                if isinstance(dimension, bool) or not isinstance(dimension, int) \
+                        or not 1 <= dimension <= MAX_DIMENSION:
+                    raise ValueError(f"dimension must be a whole number in [1, "
+                                     f"{MAX_DIMENSION}], got {describe(dimension)}")
+                return SphereProblem(dimension, float(data["center"]), float(data["penalty"]))
             if data.get("kind") == "trial":
                 return self._trial(data)
         except (KeyError, TypeError) as err:
