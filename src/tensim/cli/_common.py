@@ -8,10 +8,11 @@ import math
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from tensim.model import WorldOptions
-from tensim.structure import Structure
+if TYPE_CHECKING:  # the CLI imports the library only when a command runs
+    from tensim.model import WorldOptions
+    from tensim.structure import Structure
 
 
 class Progress:
@@ -136,6 +137,7 @@ def world_from_args(args: argparse.Namespace) -> WorldOptions:
     Raises:
         TerrainError: ``--terrain`` is not a valid terrain string.
     """
+    from tensim.model import WorldOptions
     from tensim.terrain import Flat, parse_terrain
 
     text = getattr(args, "terrain", None)

@@ -162,10 +162,14 @@ def _print_comparison(s: dict) -> None:
 # -- sysid --------------------------------------------------------------------------------------
 
 
-def _register_sysid(sub: argparse._SubParsersAction) -> None:
-    from tensim.hardware.parameters import DEFINITIONS
+# the names and units of tensim.hardware.parameters.DEFINITIONS, spelt out so that building the
+# parser imports no simulation code (tests check the two agree)
+SYSID_PARAMETERS = ("friction [-], stiffness [N/m], damping [N s/m], max_speed [m/s], "
+                    "mass_scale [-], vstar_scale [-], offset [N], gain [-], delay [s]")
 
-    names = ", ".join(f"{d.name} [{d.unit}]" for d in DEFINITIONS.values())
+
+def _register_sysid(sub: argparse._SubParsersAction) -> None:
+    names = SYSID_PARAMETERS
     p = sub.add_parser("sysid", help="fit model parameters to hardware logs",
                        description=f"Fits named parameters ({names}) to minimise the tension "
                        "error across the logs; writes the fitted structure, measurement.json, "
