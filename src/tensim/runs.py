@@ -80,12 +80,13 @@ def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = N
     Call it last, after the folder's figures and data files are written; ``series`` is the
     run's trajectory if it has one (else the report reads trajectory.parquet, if any).
     """
-    from tensim.viz.report import write_report
+    from tensim.viz.report import figure_names, write_report
 
     out.mkdir(parents=True, exist_ok=True)
     summary = {**summary, "tensim_version": __version__}
     RUN_LOG.write(out / "tensim.log")
     write_report(out, summary, series=series)
+    summary["figures"] = figure_names(out, summary)  # with those the report added
     write_json(out / "summary.json", summary)
     return out
 

@@ -23,6 +23,7 @@ from tensim.runs import write_run
 from tensim.sim import NodeLoad, SimulationResult, ramp_hold_release, simulate
 from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions, plot_lengths
+from tensim.viz.plots import Span
 
 PEAK_FORCE = 22.56  # N
 START, RISE, HOLD, FALL = 30.0, 5.0, 5.0, 5.0  # s
@@ -87,10 +88,15 @@ def write_disturbance(out: Path, result: SimulationResult, summary: dict[str, An
     """Writes the run folder: trajectory, tension and length figures, summary."""
     order = [f"{kind}_{j}" for j in (1, 2) for kind in
              ("outer_top", "outer_left", "outer_right", "inner_top", "inner_left", "inner_right")]
+    spans = (Span(START, START + RISE + HOLD + FALL, "force ramps / holds", 0.10),
+             Span(*DURING, "hold (averaged)", 0.25),
+             Span(*BEFORE, "before (averaged)", 0.12, "tab:green"))
     plot_cable_tensions(result.trajectory, out / "tensions.png", cables=order, columns=3,
-                        shade=(START, START + RISE + HOLD + FALL),
-                        title="Tetraspine3 disturbance test: measured (black), commanded "
-                              "(dashed);\nshaded: external force on")
-    plot_lengths(result.trajectory, out / "lengths.png", cables=order, columns=3)
+                        spans=spans,
+                        title="Tetraspine3 disturbance test: measured tension (black), commanded "
+                              "(blue dashed);\norange: external force on, darker while held "
+                              f"({DURING[0]:g}-{DURING[1]:g} s); green: the window before")
+    plot_lengths(result.trajectory, out / "lengths.png", cables=order, columns=3,
+                 title="Tetraspine3 disturbance test: cable length and motor rest length")
     summary = {**summary, "figures": ["tensions.png", "lengths.png"]}
     return write_run(out, result, summary)

@@ -98,6 +98,12 @@ def _figures(out: Path, summary: dict[str, Any], series: TimeSeries | None) -> l
             plot_lengths(series, out / "lengths.png")
         if series.items("pos_x") and not (out / "path.png").exists():
             plot_path(series, out / "path.png", series.items("pos_x"))
+    return figure_names(out, summary)
+
+
+def figure_names(out: Path, summary: dict[str, Any]) -> list[str]:
+    """The folder's figures in page order: the summary's ``figures`` first, then the standard
+    ones, then any others (the rendered frame.png is not among them)."""
     listed = [str(f) for f in summary.get("figures", []) if isinstance(f, str)]
     standard = ["tensions.png", "lengths.png", "path.png"]
     others = sorted(p.name for p in out.glob("*.png") if p.name != "frame.png")
