@@ -68,7 +68,8 @@ def test_drag_force_is_coulomb_friction_of_the_whole_weight() -> None:
 
 
 def test_drag_rejects_a_window_past_the_end() -> None:
-    with pytest.raises(ValueError, match="averaging window"):
+    # the message says which durations work: more than settle + steady_from
+    with pytest.raises(ValueError, match="must be more than 4 s"):
         DragSettings(duration=3.0, settle=2.0, steady_from=2.0)
 
 

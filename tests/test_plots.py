@@ -32,3 +32,18 @@ def test_a_cable_without_an_impedance_law_has_no_commanded_tension():
                             "tension/b": np.ones(5), "setpoint/b": np.full(5, 3.0)})
     assert _commanded(series, "a") is None
     assert np.all(_commanded(series, "b") == 3.0)
+
+
+def test_the_tension_colour_scale_follows_the_run():
+    from tensim.model import compile_structure
+    from tensim.models import preset
+    from tensim.viz.cables import TensionColors, nice_ceiling
+
+    assert [nice_ceiling(v) for v in (0.3, 1.0, 1.2, 2.2, 3.0, 32.5, 499.0)] == \
+        [0.5, 1.0, 2.0, 2.5, 5.0, 50.0, 500.0]
+    assert TensionColors.for_run(np.array([[3.0, 12.0], [32.4991, np.nan]])).max_tension == 50.0
+    # prism3's verticals start at sqrt(3) x 40 N/m x 0.3174 m = 21.99 N (force density x length):
+    # twice that, 44 N, rounds up to 50 N, far below the 500 N motor limit that left every
+    # cable the same blue
+    compiled = compile_structure(preset("prism3").build())
+    assert TensionColors.for_model(compiled).max_tension == 50.0

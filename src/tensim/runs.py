@@ -14,11 +14,19 @@ import logging
 import platform
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tensim import __version__
 from tensim._files import write_json, write_text
 from tensim.sim import SimulationResult, TimeSeries
+
+if TYPE_CHECKING:
+    from tensim.control import ControllerConfig
+    from tensim.model import WorldOptions
+    from tensim.structure import Structure
+
+STRUCTURE_FILE = "structure.yaml"  # the robot as it ran, in every simulation's folder
+CONTROLLER_FILE = "controller.yaml"  # its controller, where it had one
 
 PROGRESS_LOGGER = "tensim.progress"  # progress lines: to the run log only, never the console
 _MAX_LINES = 20_000
@@ -91,8 +99,48 @@ def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = N
     return out
 
 
-def write_run(out: Path, result: SimulationResult, summary: dict[str, Any]) -> Path:
-    """Writes ``trajectory.parquet``, then finishes the folder (:func:`finish_run`)."""
+def world_record(world: WorldOptions) -> dict[str, Any]:
+    """The world options as summary fields, enough to rebuild the run's world: ``dt_s``,
+    ``terrain`` (a ``--terrain`` string), ``contact_timeconst_s`` and the engine options."""
+    from tensim.terrain import format_terrain
+
+    return {"dt_s": world.timestep, "terrain": format_terrain(world.terrain),
+            "contact_timeconst_s": world.contact_timeconst, "midphase": world.midphase,
+            "self_collision": world.self_collision}
+
+
+def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
+              structure: Structure | None = None,
+              controller: ControllerConfig | None = None) -> Path:
+    """Writes ``trajectory.parquet``, the run's robot and controller, then finishes the folder
+    (:func:`finish_run`).
+
+    With the world fields of :func:`world_record` in the summary, the folder holds what it takes
+    to replay (``tensim render``) or rerun the run on the same robot and ground.
+
+    Args:
+        out: the run folder.
+        result: the finished simulation.
+        summary: its summary.
+        structure: the robot as it ran, written as ``structure.yaml`` (None: the preset the
+            summary's ``model`` names, if it names one).
+        controller: the controller it ran under, written as ``controller.yaml``.
+    """
+    from tensim.control import save_controller
+    from tensim.models import PRESETS
+    from tensim.structure import save_structure
+
     out.mkdir(parents=True, exist_ok=True)
+    files = [str(f) for f in summary.get("files", [])]
+    if structure is None and summary.get("model") in PRESETS:
+        structure = PRESETS[summary["model"]].build()
+    if structure is not None:
+        save_structure(structure, out / STRUCTURE_FILE)
+        files.append(STRUCTURE_FILE)
+    if controller is not None:
+        save_controller(controller, out / CONTROLLER_FILE)
+        files.append(CONTROLLER_FILE)
+    if files:
+        summary = {**summary, "files": list(dict.fromkeys(files))}
     result.trajectory.to_parquet(out / "trajectory.parquet")
     return finish_run(out, summary, result.trajectory)

@@ -19,7 +19,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         f"sagging. Keys: {KEY_HELP}. Needs a screen: elsewhere use `tensim render`.")
     p.add_argument("model", help="preset name or structure .yaml file")
     p.add_argument("--max-tension", type=float, default=None, metavar="N",
-                   help="tension drawn red [N] (default: the strongest motor's limit)")
+                   help="tension drawn red [N] (default: twice the highest tension at the "
+                        "start, rounded up to 1, 2 or 5 x 10^k N)")
     add_world_options(p)
     add_controller_option(p)
     p.set_defaults(run=run)

@@ -17,7 +17,7 @@ import numpy as np
 from tensim.control import ControllerConfig, VelocityTable, load_controller
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
-from tensim.runs import write_run
+from tensim.runs import world_record, write_run
 from tensim.sim import COM, SimulationResult, TimeSeries, simulate
 from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions, plot_path, plot_velocity_input
@@ -126,13 +126,14 @@ def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tet
         "controller": controller if isinstance(controller, str) else "(in memory)",
         "gait": type(config.gait).__name__,
         "command_period_s": config.command_period,
-        **result.summary(), **locomotion(result.trajectory)}
+        **result.summary(), **world_record(compiled.world), **locomotion(result.trajectory)}
     return result, summary, config
 
 
 def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
-               config: ControllerConfig) -> Path:
-    """Writes tensions (Fig. 4/5 style), V* inputs, path, trajectory and summary."""
+               config: ControllerConfig, structure: Structure | None = None) -> Path:
+    """Writes tensions (Fig. 4/5 style), V* inputs, path, trajectory, the robot (``structure``,
+    None: the preset) and controller, and the summary."""
     cables = [c for c in CABLE_ORDER if c in result.cables] or list(result.cables)
     name = summary.get("experiment", "gait")
     plot_cable_tensions(result.trajectory, out / "tensions.png", cables=cables, columns=3,
@@ -147,4 +148,5 @@ def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
               [*(b for b in result.trajectory.items("pos_x") if b != COM), COM],
               title=f"moved {summary['planar_displacement_m']:.3f} m, "
                     f"{summary['direction']}")
-    return write_run(out, result, {**summary, "figures": figures})
+    return write_run(out, result, {**summary, "figures": figures}, structure=structure,
+                     controller=config)

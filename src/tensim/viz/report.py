@@ -117,6 +117,7 @@ def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
     import matplotlib.pyplot as plt
 
     from tensim.viz._gl import OffscreenUnavailable
+    from tensim.viz.cables import TensionColors
     from tensim.viz.render import OffscreenRenderer
     from tensim.viz.replay import PoseReplay, RunFolderError, recorded_run
 
@@ -124,7 +125,8 @@ def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
         backend.result()
         replay = PoseReplay(recorded_run(out, summary, series))
         k = replay.time.size - 1
-        with OffscreenRenderer(replay.compiled) as renderer:
+        colors = TensionColors.for_run(replay.tension)
+        with OffscreenRenderer(replay.compiled, colors=colors) as renderer:
             image = renderer.render(replay.place(k), replay.tension[k], replay.rest_length[k],
                                     f"t = {replay.time[k]:.2f} s")
     except (OffscreenUnavailable, RunFolderError) as err:
