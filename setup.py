@@ -13,7 +13,7 @@ setup(
             "tensim.sim._cable",
             sources=["src/tensim/sim/_cable.c"],
             include_dirs=[_INCLUDE],
-            extra_compile_args=["-O2", "-std=c99"],
+            extra_compile_args=["-O2", "-std=c99", "-ffp-contract=off"],
             # Without a C compiler tensim still works, through the (slower) Python callback.
             optional=True,
         )

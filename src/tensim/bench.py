@@ -1,11 +1,12 @@
 """Speed benchmark: simulated seconds per wall second, controlled loop vs MuJoCo alone.
 
-For each case the full tensim loop (cable callback, motors, controller, recording at 100 Hz,
-stability checks) runs from a settled state, and MuJoCo alone replays exactly the same
-actuator inputs with ``mujoco.rollout`` (no callback, no Python per step), which is the
-engine's limit for that trajectory. Both run single-threaded and take turns (tensim, engine,
-tensim, ...), so a load on a shared machine slows both alike; each run's CPU time is measured
-beside its wall time, and the ratio comes from the best CPU times.
+For each case the full tensim loop (cable law, motors, controller, recording at 100 Hz,
+stability checks) runs from a settled state, and MuJoCo alone replays exactly the same cable
+forces with ``mujoco.rollout`` on the robot with the law taken out (each cable a plain force
+input, no callback, no Python per step), which is the engine's limit for that trajectory.
+Both run single-threaded and take turns (tensim, engine, tensim, ...), so a load on a shared
+machine slows both alike; each run's CPU time is measured beside its wall time, and the ratio
+comes from the best CPU times.
 """
 
 from __future__ import annotations
@@ -20,7 +21,13 @@ import numpy as np
 from mujoco import rollout
 
 from tensim.control import load_controller
-from tensim.model import WorldOptions, compile_structure
+from tensim.model import (
+    CompiledModel,
+    WorldOptions,
+    compile_spec,
+    compile_structure,
+    without_cable_law,
+)
 from tensim.models import preset
 from tensim.sim import Simulation, compiled_available
 from tensim.terrain import Flat, Terrain
@@ -122,39 +129,48 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
         controller = config.with_duration(SETTLE_S + duration).build(m.opt.timestep)
     with Simulation(compiled, controller=controller) as sim:
         sim.step(int(SETTLE_S / sim.dt))
-        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-        start = np.empty(mujoco.mj_stateSize(m, spec))
-        mujoco.mj_getState(m, sim.data, start, spec)
-        warmstart = sim.data.qacc_warmstart[None].copy()
-        drive, steps = sim.drive, sim._steps
-        motors = (drive.rest.copy(), drive.peak.copy(), drive.last_time.copy())
+        state = sim.get_state()
         n_steps = round(duration / sim.dt)
 
-        def restart() -> None:
-            mujoco.mj_setState(m, sim.data, start, spec)
-            drive.rest[:], drive.peak[:], drive.last_time[:] = motors
-            sim._steps = steps
-
-        # the actuator inputs of this run, for the engine-alone replay
-        restart()
-        ctrl = np.empty((1, n_steps, m.nu))
-        for k in range(n_steps):
-            mujoco.mj_step(m, sim.data)
-            ctrl[0, k] = sim.data.ctrl
-
         def loop() -> None:
-            restart()
+            sim.set_state(state)
             sim.run(duration)
 
-        data = mujoco.MjData(m)
+        # the cable forces of this run, for the engine-alone replay
+        sim.set_state(state)
+        forces = np.empty((1, n_steps, compiled.n_cables))
+        for k in range(n_steps):
+            sim.step(1)
+            forces[0, k] = sim.data.actuator_force[:compiled.n_cables]
+        engine, start, warmstart = engine_alone(compiled, state)
+        data = mujoco.MjData(engine)
 
-        def engine() -> None:
-            rollout.rollout(m, data, start, ctrl, initial_warmstart=warmstart)
+        def engine_run() -> None:
+            rollout.rollout(engine, data, start, forces, initial_warmstart=warmstart)
 
-        timings = _interleaved({"tensim": loop, "engine": engine}, repeats, n_steps)
+        timings = _interleaved({"tensim": loop, "engine": engine_run}, repeats, n_steps)
     label = f" ({controller_file})" if controller_file else "" if controlled else " (passive)"
     label += f" on {type(terrain).__name__.lower()}" if terrain else ""
     return BenchCase(f"{name}{label}", m.opt.timestep, timings["tensim"], timings["engine"])
+
+
+def engine_alone(compiled: CompiledModel, state: np.ndarray
+                 ) -> tuple[mujoco.MjModel, np.ndarray, np.ndarray]:
+    """The same robot with the cable law taken out: each cable a plain force input (ctrl =
+    actuator force [N]), and a tensim state (``mjSTATE_INTEGRATION``) moved onto it.
+
+    Returns:
+        (model, full-physics initial state, (1, nv) warm start).
+    """
+    engine = compile_spec(without_cable_law(compiled))
+    data = mujoco.MjData(compiled.model)
+    mujoco.mj_setState(compiled.model, data, state, mujoco.mjtState.mjSTATE_INTEGRATION)
+    full = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    bare = mujoco.MjData(engine)
+    bare.time, bare.qpos[:], bare.qvel[:] = data.time, data.qpos, data.qvel
+    start = np.empty(mujoco.mj_stateSize(engine, full))
+    mujoco.mj_getState(engine, bare, start, full)
+    return engine, start, data.qacc_warmstart[None].copy()
 
 
 def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, object]:

@@ -2,9 +2,9 @@
 importers) can open it.
 
 The XML holds everything MuJoCo itself knows: bodies, inertias, rod and mass geoms, contact
-settings, the cables' spatial tendons (with their via sites) and the tendon actuators through
-which tensim applies each cable's tension. It cannot hold the cable law and the motors, which
-tensim runs in its own callback. With ``springs=True`` (the default) each tendon gets MuJoCo's
+settings, the cables' spatial tendons (with their via sites) and one plain tendon actuator per
+cable (ctrl = the signed tendon force, -tension [N]). It cannot hold the cable law and the
+motors, which tensim runs in its own compiled actuator callbacks. With ``springs=True`` (the default) each tendon gets MuJoCo's
 own spring as a stand-in: stiffness k, damping b and a dead band [0, rest length], so that,
 like the cable, it pulls only while stretched past its rest length, with k (x - l) + b dx/dt.
 Two differences remain: MuJoCo damps a slack tendon too (the cable law does not), and the rest
@@ -19,7 +19,7 @@ from pathlib import Path
 import mujoco
 
 from tensim._files import write_text
-from tensim.model import CompiledModel, compile_structure
+from tensim.model import CompiledModel, compile_spec, without_cable_law
 
 _COMMENT = ("Written by tensim from structure {name!r}. Each cable is a spatial tendon plus a "
             "tendon actuator (ctrl = -tension [N]); tensim computes the tension in a callback. "
@@ -36,9 +36,7 @@ def mjcf_spec(compiled: CompiledModel, *, springs: bool = True) -> mujoco.MjSpec
         compiled: the compiled model.
         springs: give each cable's tendon MuJoCo's spring-damper (see the module docstring).
     """
-    source = compiled.spec or compile_structure(compiled.structure, compiled.world).spec
-    assert source is not None
-    spec = source.copy()
+    spec = without_cable_law(compiled)
     spec.comment = _COMMENT.format(name=compiled.structure.name,
                                    springs=_SPRINGS if springs else _NO_SPRINGS)
     if springs:
@@ -54,7 +52,7 @@ def mjcf_spec(compiled: CompiledModel, *, springs: bool = True) -> mujoco.MjSpec
 def to_mjcf(compiled: CompiledModel, *, springs: bool = True) -> str:
     """The model as an MJCF document (see :func:`mjcf_spec`)."""
     spec = mjcf_spec(compiled, springs=springs)
-    spec.compile()  # the XML writer needs a compiled spec
+    compile_spec(spec)  # the XML writer needs a compiled spec
     return spec.to_xml()
 
 

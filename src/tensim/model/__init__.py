@@ -1,11 +1,17 @@
 """Compilation of structure descriptions into MuJoCo models, with names and id lookups."""
 
 from tensim.model._compile import (
+    BUILD_KEY,
+    CABLE_MARKER,
+    WORLD_FRAME_SITE,
     CompiledModel,
     ModelError,
     ModelIndex,
     WorldOptions,
+    compile_spec,
     compile_structure,
+    without_cable_law,
 )
 
-__all__ = ["CompiledModel", "ModelError", "ModelIndex", "WorldOptions", "compile_structure"]
+__all__ = ["BUILD_KEY", "CABLE_MARKER", "WORLD_FRAME_SITE", "CompiledModel", "ModelError", "ModelIndex", "WorldOptions", "compile_spec",
+           "compile_structure", "without_cable_law"]

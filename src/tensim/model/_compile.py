@@ -17,7 +17,7 @@ import math
 import mujoco
 import numpy as np
 
-from tensim.structure import Structure, mass_properties
+from tensim.structure import Cable, Structure, mass_properties
 from tensim.structure._mass import MassProperties
 from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain
 
@@ -25,6 +25,9 @@ log = logging.getLogger(__name__)
 
 # Robot geoms outrank the ground, so robot-ground contacts use the rod's own friction.
 _ROBOT_PRIORITY = 1
+CABLE_MARKER = 7317.0  # dynprm[0] of a cable actuator: the compiled law acts on these only
+BUILD_KEY = "build"  # the keyframe of the build pose: rest lengths in act, commands in ctrl
+WORLD_FRAME_SITE = "world_frame"  # reference frame of the node-load inputs
 
 
 class ModelError(ValueError):
@@ -91,6 +94,7 @@ class ModelIndex:
         body: (n_bodies,) MuJoCo body id of each rigid body.
         node_body: node name -> MuJoCo body id (0 for world-fixed nodes).
         node_local: node name -> (3,) node position in its body's frame [m].
+        load_nodes: nodes with external force inputs, in input order.
     """
 
     cables: tuple[str, ...]
@@ -100,6 +104,7 @@ class ModelIndex:
     body: np.ndarray
     node_body: dict[str, int]
     node_local: dict[str, np.ndarray]
+    load_nodes: tuple[str, ...] = ()
 
     def cable_id(self, name: str) -> int:
         """Position of cable ``name`` in the per-cable arrays."""
@@ -148,6 +153,13 @@ class CompiledModel:
         """Number of cables."""
         return len(self.index.cables)
 
+    def with_load_nodes(self, nodes: tuple[str, ...]) -> CompiledModel:
+        """This model with force inputs at ``nodes`` (itself if it already has them)."""
+        wanted = tuple(dict.fromkeys((*self.index.load_nodes, *nodes)))
+        if wanted == self.index.load_nodes:
+            return self
+        return compile_structure(self.structure, self.world, load_nodes=wanted)
+
 
 def _restitution_dampratio(restitution: float) -> float:
     """Damping ratio of MuJoCo's contact spring that gives this coefficient of restitution."""
@@ -175,11 +187,18 @@ def _regularize(name: str, props: MassProperties, world: WorldOptions) -> tuple[
     return axes @ np.diag(raised) @ axes.T, True
 
 
-def compile_structure(structure: Structure, world: WorldOptions | None = None) -> CompiledModel:
+def compile_structure(structure: Structure, world: WorldOptions | None = None,
+                      load_nodes: tuple[str, ...] = ()) -> CompiledModel:
     """Builds the MuJoCo model of ``structure`` in ``world``.
 
+    Every cable is a tendon with one actuator that carries the cable law (rest length and peak
+    tension in its activations, its command in ``ctrl``); ``load_nodes`` each get three
+    world-frame force inputs in ``ctrl`` after the cables'. The keyframe ``build`` holds the
+    build pose with the build rest lengths.
+
     Raises:
-        ModelError: a rigid body would be unsound (see ``WorldOptions.thin_body``).
+        ModelError: a rigid body would be unsound (see ``WorldOptions.thin_body``), or a load
+            node is unknown or fixed to the world.
     """
     world = world or WorldOptions()
     if world.ground:
@@ -257,17 +276,103 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None) -
             local = point - (structure.position(node) - node_local[node])
             body.add_site(name=site, pos=local.tolist(), size=[0.002, 0, 0])
             tendon.wrap_site(site)
-        actuator = spec.add_actuator(name=cable.name, target=cable.name,
-                                     trntype=mujoco.mjtTrn.mjTRN_TENDON)
-        actuator.gainprm[0] = 1.0  # ctrl is the signed tendon force: -tension [N]
-    model = spec.compile()
+    for cable in structure.cables:  # cable actuators first: ids 0..n_cables-1
+        _add_cable_actuator(spec, cable, structure.rest_length(cable))
+    _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
+    rest = [structure.rest_length(c) for c in structure.cables]
+    spec.add_key(name=BUILD_KEY, act=[v for r in rest for v in (r, 0.0)],
+                 ctrl=rest + [0.0] * (3 * len(load_nodes)))
+    model = _compile_spec(spec)
     return dataclasses.replace(
-        _assemble(structure, world, model, node_body, node_local, tuple(adjusted)), spec=spec)
+        _assemble(structure, world, model, node_body, node_local, tuple(adjusted), load_nodes),
+        spec=spec)
+
+
+def _compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """``spec.compile()``, with Python actuator callbacks set aside: MuJoCo's compiler runs
+    them on a model Python cannot see, which fails (compiled ones are fine)."""
+    saved = mujoco.get_mjcb_act_dyn(), mujoco.get_mjcb_act_bias()
+    python = [callable(c) and not hasattr(c, "argtypes") for c in saved]
+    if any(python):
+        mujoco.set_mjcb_act_dyn(None)
+        mujoco.set_mjcb_act_bias(None)
+    try:
+        return spec.compile()
+    finally:
+        if any(python):
+            mujoco.set_mjcb_act_dyn(saved[0])
+            mujoco.set_mjcb_act_bias(saved[1])
+
+
+def without_cable_law(compiled: CompiledModel) -> mujoco.MjSpec:
+    """A copy of the model's spec with each cable actuator a plain force input (ctrl = the
+    actuator force [N], no dynamics, no activations) and no keyframe: the robot as MuJoCo
+    alone sees it, for other tools and for engine-alone comparisons."""
+    source = compiled.spec or compile_structure(compiled.structure, compiled.world,
+                                                compiled.index.load_nodes).spec
+    assert source is not None
+    spec = source.copy()
+    for actuator in spec.actuators[:compiled.n_cables]:
+        actuator.dyntype = mujoco.mjtDyn.mjDYN_NONE
+        actuator.actdim = -1
+        actuator.gainprm[0] = 1.0
+        actuator.biastype = mujoco.mjtBias.mjBIAS_NONE
+        actuator.dynprm[:] = [1.0] + [0.0] * 9
+        actuator.biasprm[:] = [0.0] * 10
+    for key in list(spec.keys):
+        spec.delete(key)
+    return spec
+
+
+def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """Compiles a spec (see :func:`_compile_spec`)."""
+    return _compile_spec(spec)
+
+
+def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -> None:
+    """The cable's actuator: user dynamics (motor, peak), zero gain, user bias (tension).
+
+    Parameters as in ``tensim.sim._laws`` (the compiled callback reads them from here):
+    dynprm = [marker, mode, max_speed, max_tension, min_rest_length, min_length, T0, K, B, L*],
+    biasprm = [stiffness, damping]; act = [rest length, peak tension]; ctrl = the command.
+    """
+    actuator = spec.add_actuator(name=cable.name, target=cable.name,
+                                 trntype=mujoco.mjtTrn.mjTRN_TENDON)
+    actuator.dyntype = mujoco.mjtDyn.mjDYN_USER
+    actuator.actdim = 2
+    actuator.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    actuator.gainprm[0] = 0.0
+    actuator.biastype = mujoco.mjtBias.mjBIAS_USER
+    motor = cable.motor
+    actuator.dynprm[:] = [CABLE_MARKER, 0.0, motor.max_speed, motor.max_tension,
+                          motor.min_rest_length, motor.min_length, 0.0, 0.0, 0.0, rest_length]
+    actuator.biasprm[0] = cable.stiffness
+    actuator.biasprm[1] = cable.damping
+
+
+def _add_load_actuators(spec: mujoco.MjSpec, bodies: dict[str, mujoco.MjsBody],
+                        node_body: dict[str, str], node_local: dict[str, np.ndarray],
+                        load_nodes: tuple[str, ...]) -> None:
+    """Three world-frame force inputs (x, y, z) [N] at each node that takes external loads."""
+    if not load_nodes:
+        return
+    spec.worldbody.add_site(name=WORLD_FRAME_SITE, size=[0.001, 0, 0])
+    for node in load_nodes:
+        if node not in node_body:
+            raise ModelError(f"load at unknown node {node!r}")
+        if node_body[node] == "world":
+            raise ModelError(f"load at {node!r}: the node is fixed to the world")
+        bodies[node_body[node]].add_site(name=f"load_{node}", pos=node_local[node].tolist(),
+                                         size=[0.002, 0, 0])
+        for axis, gear in zip("xyz", np.eye(3), strict=True):
+            spec.add_actuator(name=f"load_{node}_{axis}", target=f"load_{node}",
+                              trntype=mujoco.mjtTrn.mjTRN_SITE, refsite=WORLD_FRAME_SITE,
+                              gear=[*gear, 0.0, 0.0, 0.0])
 
 
 def _assemble(structure: Structure, world: WorldOptions, model: mujoco.MjModel,
               node_body: dict[str, str], node_local: dict[str, np.ndarray],
-              adjusted: tuple[str, ...]) -> CompiledModel:
+              adjusted: tuple[str, ...], load_nodes: tuple[str, ...]) -> CompiledModel:
     cables = structure.cables
     names = tuple(c.name for c in cables)
     groups = tuple(g.name for g in structure.rigid_groups())
@@ -284,6 +389,7 @@ def _assemble(structure: Structure, world: WorldOptions, model: mujoco.MjModel,
         node_body={n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b)
                    for n, b in node_body.items()},
         node_local={n: np.asarray(p, dtype=float) for n, p in node_local.items()},
+        load_nodes=load_nodes,
     )
 
     def column(get: object) -> np.ndarray:

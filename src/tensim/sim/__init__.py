@@ -1,6 +1,8 @@
 """Simulation: the fixed-step loop, cables and motors, external forces and recording."""
 
-from tensim.sim._drive import MODE_IMPEDANCE, MODE_REST, CableDrive, compiled_available
+from tensim.sim._drive import MODE_IMPEDANCE, MODE_REST, CableDrive, InputPlan
+from tensim.sim._law import cable_law, compiled_available, installed_backend
+from tensim.sim._law import install as install_law
 from tensim.sim._laws import cable_tension, impedance_rest_target, impedance_setpoint, motor_step
 from tensim.sim._loads import NodeLoad, ramp_hold_release
 from tensim.sim._simulation import (
@@ -20,6 +22,7 @@ __all__ = [
     "MODE_REST",
     "UNITS",
     "CableDrive",
+    "InputPlan",
     "Controller",
     "NodeLoad",
     "Simulation",
@@ -27,10 +30,13 @@ __all__ = [
     "SimulationResult",
     "StabilityLimits",
     "TimeSeries",
+    "cable_law",
     "cable_tension",
     "compiled_available",
     "impedance_rest_target",
     "impedance_setpoint",
+    "install_law",
+    "installed_backend",
     "motor_step",
     "ramp_hold_release",
     "simulate",

@@ -43,6 +43,20 @@ class NodeLoad:
         s = (t - times[k]) / (times[k + 1] - times[k])
         return forces[k] + s * (forces[k + 1] - forces[k])
 
+    def forces_at(self, t: np.ndarray) -> np.ndarray:
+        """(len(t), 3) the force at each time [N], each row exactly as :meth:`force_at`."""
+        t = np.asarray(t, dtype=float)
+        times, forces = self.times, self.forces
+        k = np.clip(np.searchsorted(times, t, side="right") - 1, 0, max(times.size - 2, 0))
+        if times.size == 1:
+            return np.broadcast_to(forces[0], (t.size, 3)).copy()
+        with np.errstate(invalid="ignore"):
+            s = (t - times[k]) / (times[k + 1] - times[k])
+            out = forces[k] + s[:, None] * (forces[k + 1] - forces[k])
+        out[t <= times[0]] = forces[0]
+        out[t >= times[-1]] = forces[-1]
+        return out
+
     def scaled(self, factor: float) -> NodeLoad:
         """The same schedule with every force multiplied by ``factor``."""
         return dataclasses.replace(self, forces=self.forces * factor)

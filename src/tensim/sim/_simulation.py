@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import time as _time
@@ -11,15 +12,15 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
-from tensim.model import CompiledModel
-from tensim.sim._drive import CableDrive
+from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
+from tensim.sim._drive import CableDrive, InputPlan, changes
+from tensim.sim._law import install, installed_backend
 from tensim.sim._loads import NodeLoad
+from tensim.sim._samples import COM, SampleBuffers, sample_channels
 from tensim.sim._timeseries import TimeSeries
 
-_CABLE_QUANTITIES = ("tension", "setpoint", "applied", "length", "velocity", "rest_length")
-_POSE_QUANTITIES = ("pos_x", "pos_y", "pos_z", "quat_w", "quat_x", "quat_y", "quat_z")
 _CHECK_EVERY = 5  # records between stability checks in run()
-COM = "com"  # the item name of the whole robot's centre of mass in recorded pose channels
+_BLOCK_STEPS = 20_000  # physics steps of inputs computed at once
 
 
 class SimulationError(RuntimeError):
@@ -47,44 +48,57 @@ class StabilityLimits:
 
 
 class Simulation:
-    """One robot simulated at a fixed step, with its cables, motors and controller state.
+    """One robot simulated at a fixed step, with its cables, motors and controller.
 
-    The drive's arrays are the controller's explicit state; MuJoCo's ``MjData`` holds the rest.
-    Use as a context manager (or call :meth:`close`) to detach the cable callback.
+    All dynamic state is MuJoCo's: rest lengths and peak tensions are actuator activations, the
+    cable commands and node loads are ``ctrl`` inputs, and the law's parameters live in this
+    simulation's own copy of the model (``sim.model``), so ``mj_getState`` with
+    ``mjSTATE_INTEGRATION`` (see :meth:`get_state`) captures a run completely.
+
+    Time: a sample at ``sim.time`` = t holds the kinematics at t and the rest lengths the motors
+    set at t; ``sim.data`` is one physics step ahead (its time is t + dt). Construction takes
+    that first step, the motor update at t = 0.
 
     Args:
-        compiled: the compiled model.
+        compiled: the compiled model (recompiled with force inputs if ``loads`` need them).
         loads: external node forces.
-        controller: sets up the cable drive before the first cable update; None keeps every
-            rest length where it is.
+        controller: sets up the cable drive before the first step; None keeps every rest
+            length where it is.
         record_dt: recording period [s]; a whole number of physics steps.
-        backend: ``"auto"``, ``"compiled"`` or ``"python"`` (the reference implementation).
+        backend: the cable law, ``"auto"``, ``"compiled"`` or ``"python"`` (the reference;
+            process-wide, see :func:`tensim.sim.install_law`).
         limits: the stability bounds.
     """
 
     def __init__(self, compiled: CompiledModel, *, controller: Controller | None = None,
                  loads: Sequence[NodeLoad] = (), record_dt: float = 0.01, backend: str = "auto",
                  limits: StabilityLimits | None = None):
+        self._previous_law = installed_backend()
+        self.backend = install(backend)
+        compiled = compiled.with_load_nodes(tuple(ld.node for ld in loads))
         self.compiled = compiled
-        self.model = compiled.model
+        self.model = copy.copy(compiled.model)  # the controller writes its gains here
         self.data = mujoco.MjData(self.model)
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key(BUILD_KEY).id)
         self.index = compiled.index
         self.dt = float(self.model.opt.timestep)
         self.record_steps = _whole_steps(record_dt, self.dt, "record_dt")
         self.limits = limits or StabilityLimits()
-        self.drive = CableDrive(compiled, self.data, loads, backend)
-        self._steps = 0
+        self.drive = CableDrive(compiled, self.model, data=self.data)
+        self._loads = tuple(loads)
         self._qvel = self.data.qvel
         self._bad_acc = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
         if controller is not None:
             controller.configure(self)
-        mujoco.mj_forward(self.model, self.data)  # the cable update at t = 0
+        self._advance(1)  # the motor update at t = 0
 
     # -- lifecycle ---------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Detaches the cable callback from this simulation's data."""
-        self.drive.unregister()
+        """Puts back the law that was installed before, if this simulation changed it."""
+        if self._previous_law is not None and self._previous_law != self.backend:
+            install(self._previous_law)
+            self._previous_law = None
 
     def __enter__(self) -> Simulation:
         return self
@@ -94,8 +108,33 @@ class Simulation:
 
     @property
     def time(self) -> float:
-        """Time of the latest cable update (the state the outputs describe) [s]."""
-        return self._steps * self.dt
+        """Time of the latest motor update (the state the outputs describe) [s]."""
+        return (self._next_step() - 1) * self.dt
+
+    def _next_step(self) -> int:
+        return round(self.data.time / self.dt)
+
+    def get_state(self) -> np.ndarray:
+        """The complete simulation state (``mjSTATE_INTEGRATION``): restore with set_state."""
+        spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        state = np.empty(mujoco.mj_stateSize(self.model, spec))
+        mujoco.mj_getState(self.model, self.data, state, spec)
+        return state
+
+    def set_state(self, state: np.ndarray) -> None:
+        """Restores a state from :meth:`get_state`; continuing is bit-identical to never
+        having stopped."""
+        spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        state = np.asarray(state, dtype=float)
+        if state.shape != (mujoco.mj_stateSize(self.model, spec),):
+            raise ValueError(f"state must have {mujoco.mj_stateSize(self.model, spec)} values "
+                             f"(mjSTATE_INTEGRATION of this model), got {state.shape}")
+        mujoco.mj_setState(self.model, self.data, state, spec)
+        mujoco.mj_forward(self.model, self.data)  # derived fields; the state is unchanged
+
+    def inputs(self) -> InputPlan:
+        """The ``ctrl`` rows of this simulation's commands and loads (read when called)."""
+        return InputPlan(self.drive, self._loads, self.compiled)
 
     # -- stepping ----------------------------------------------------------------------------
 
@@ -110,20 +149,22 @@ class Simulation:
             self.check()
 
     def _advance(self, nstep: int) -> None:
-        # the first step repeats the t = 0 cable update of mj_forward, so it does not count
-        extra = 1 if self._steps == 0 and self.data.time == 0.0 else 0
-        mujoco.mj_step(self.model, self.data, nstep=nstep + extra)
-        self._steps += nstep
+        plan = self.inputs()
+        for first in range(0, nstep, _BLOCK_STEPS):
+            count = min(_BLOCK_STEPS, nstep - first)
+            _Segments(plan.control(self._next_step(), count)).run(self, 0, count)
 
     def run(self, duration: float, progress: Callable[[float, float], None] | None = None,
             on_record: Callable[[Simulation], None] | None = None) -> TimeSeries:
         """Simulates ``duration`` seconds more, recording every ``record_dt``.
 
+        The cable commands and loads are read when the run starts.
+
         Args:
             duration: simulated time [s].
             progress: called as progress(done_s, total_s) about every simulated second.
             on_record: called with this simulation after each sample (every ``record_dt``),
-                e.g. to log extra signals or to update an external force in between.
+                e.g. to log extra signals or to set ``data.xfrc_applied`` in between.
 
         Returns:
             The recorded samples, the current state included as the first one.
@@ -132,8 +173,14 @@ class Simulation:
         recorder = _Recorder(self, n_samples + 1)
         recorder.take(self)
         every = max(1, round(1.0 / (self.record_steps * self.dt)))
+        plan, per_block = self.inputs(), max(1, _BLOCK_STEPS // self.record_steps)
         for k in range(n_samples):
-            self._advance(self.record_steps)
+            if k % per_block == 0:
+                count = min(per_block, n_samples - k) * self.record_steps
+                segments = _Segments(plan.control(self._next_step(), count))
+                done = 0
+            segments.run(self, done, done + self.record_steps)
+            done += self.record_steps
             if k % _CHECK_EVERY == 0 or k == n_samples - 1:
                 self.check()
             recorder.take(self)
@@ -148,74 +195,81 @@ class Simulation:
     def check(self) -> None:
         """Raises :class:`SimulationError` naming the body or cable if the state ran away."""
         speed = np.abs(self._qvel).max(initial=0.0)
-        force = self.drive.applied.max(initial=0.0)  # tension-only: never negative
+        force = -self.data.actuator_force[:self.compiled.n_cables].min(initial=0.0)
         bad_acc = self._bad_acc.number
         if speed < self.limits.max_speed and force < self.limits.max_tension and not bad_acc:
             return  # also False for NaN, which lands below
-        raise SimulationError(self._diagnose(bool(bad_acc)))
+        raise SimulationError(diagnose(self.model, self.data, self.index, self.limits,
+                                       self.time, bool(bad_acc)))
 
-    def _diagnose(self, bad_acc: bool) -> str:
-        m, d = self.model, self.data
-        qvel = np.nan_to_num(np.abs(d.qvel), nan=np.inf)
-        body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.dof_bodyid[np.argmax(qvel)])) \
-            if m.nv else "-"
-        applied = np.nan_to_num(self.drive.applied, nan=np.inf)
-        cable = self.index.cables[int(np.argmax(applied))] if applied.size else "-"
-        what = ("MuJoCo found a non-finite acceleration and reset the state" if bad_acc
-                else f"body {body!r} reached speed {qvel.max():.3g} "
-                     f"(limit {self.limits.max_speed:g} m/s or rad/s)")
-        return (f"simulation unstable at t = {self.time:.3f} s: {what}; the most loaded cable is "
-                f"{cable!r} at {applied.max():.4g} N. Try a smaller timestep (--dt), lower cable "
-                "stiffness or pretension, or more cable damping.")
+
+def diagnose(m: mujoco.MjModel, d: mujoco.MjData, index: ModelIndex, limits: StabilityLimits,
+             time: float, bad_acc: bool) -> str:
+    """The message for an unstable state: the fastest body, the most loaded cable, what to try."""
+    qvel = np.nan_to_num(np.abs(d.qvel), nan=np.inf)
+    body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.dof_bodyid[np.argmax(qvel)])) \
+        if m.nv else "-"
+    applied = np.nan_to_num(-d.actuator_force[:len(index.cables)], nan=np.inf)
+    cable = index.cables[int(np.argmax(applied))] if applied.size else "-"
+    what = ("MuJoCo found a non-finite acceleration and reset the state" if bad_acc
+            else f"body {body!r} reached speed {qvel.max():.3g} "
+                 f"(limit {limits.max_speed:g} m/s or rad/s)")
+    return (f"simulation unstable at t = {time:.3f} s: {what}; the most loaded cable is "
+            f"{cable!r} at {applied.max(initial=0.0):.4g} N. Try a smaller timestep (--dt), "
+            "lower cable stiffness or pretension, or more cable damping.")
+
+
+class _Segments:
+    """Steps through a block of ``ctrl`` rows, one ``mj_step`` call per run of equal rows."""
+
+    def __init__(self, control: np.ndarray):
+        self.control = control
+        self.cuts = [*changes(control).tolist(), control.shape[0]]
+        self._i = 0
+
+    def run(self, sim: Simulation, start: int, stop: int) -> None:
+        """Takes steps start .. stop - 1 of the block (in order, without gaps)."""
+        m, d, cuts = sim.model, sim.data, self.cuts
+        while start < stop:
+            while cuts[self._i] <= start:
+                self._i += 1
+            end = min(cuts[self._i], stop)
+            d.ctrl[:] = self.control[start]
+            mujoco.mj_step(m, d, nstep=end - start)
+            start = end
 
 
 class _Recorder:
-    """Preallocated sample buffers for one :meth:`Simulation.run`.
-
-    The MjData and drive arrays are bound once; a sample is a handful of in-place copies.
-    """
+    """Preallocated sample buffers for one :meth:`Simulation.run`; channels are derived from
+    the recorded state at the end (:func:`sample_channels`)."""
 
     def __init__(self, sim: Simulation, n: int):
         self.k, self._sim = 0, sim
-        n_cables, n_bodies = sim.compiled.n_cables, len(sim.index.bodies)
-        self.time = np.zeros(n)
-        self.cables = {q: np.zeros((n, n_cables)) for q in _CABLE_QUANTITIES}
-        self.pos = np.zeros((n, n_bodies + 1, 3))
-        self.quat = np.zeros((n, n_bodies, 4))
-        d, drive = sim.data, sim.drive
-        self._copies = [(self.cables["tension"], drive.tension),
-                        (self.cables["setpoint"], drive.setpoint),
-                        (self.cables["applied"], drive.applied),
-                        (self.cables["rest_length"], drive.rest)]
-        self._takes = [(self.cables["length"], d.ten_length, drive.tendon),
-                       (self.cables["velocity"], d.ten_velocity, drive.tendon),
-                       (self.quat, d.xquat, sim.index.body)]
+        self.buffers = SampleBuffers.empty(sim.compiled, n)
+        d, n_cables = sim.data, sim.compiled.n_cables
+        b = self.buffers
+        self._copies = [(b.rest, d.act[0:2 * n_cables:2]), (b.command, d.ctrl[:n_cables])]
+        self._takes = [(b.length, d.ten_length, sim.index.tendon),
+                       (b.velocity, d.ten_velocity, sim.index.tendon),
+                       (b.quat, d.xquat, sim.index.body)]
         self._xpos, self._com, self._body = d.xpos, d.subtree_com, sim.index.body
 
     def take(self, sim: Simulation) -> None:
-        k = self.k
-        self.time[k] = sim.time
+        k, b = self.k, self.buffers
+        b.time[k] = sim.time
         for buffer, source in self._copies:
             buffer[k] = source
         for buffer, source, ids in self._takes:
             np.take(source, ids, axis=0, out=buffer[k])
-        np.take(self._xpos, self._body, axis=0, out=self.pos[k, :-1])
-        self.pos[k, -1] = self._com[0]
+        np.take(self._xpos, self._body, axis=0, out=b.pos[k, :-1])
+        b.pos[k, -1] = self._com[0]
         self.k += 1
 
     def series(self) -> TimeSeries:
-        k, index = self.k, self._sim.index
-        channels: dict[str, np.ndarray] = {}
-        for q, values in self.cables.items():
-            for i, name in enumerate(index.cables):
-                channels[f"{q}/{name}"] = values[:k, i].copy()
-        for i, name in enumerate((*index.bodies, COM)):
-            for a, axis in enumerate("xyz"):
-                channels[f"pos_{axis}/{name}"] = self.pos[:k, i, a].copy()
-        for i, name in enumerate(index.bodies):
-            for a, axis in enumerate("wxyz"):
-                channels[f"quat_{axis}/{name}"] = self.quat[:k, i, a].copy()
-        return TimeSeries(self.time[:k].copy(), channels)
+        n = self._sim.compiled.n_cables
+        return sample_channels(self.buffers.head(self.k), self._sim.index,
+                               self._sim.model.actuator_dynprm[:n],
+                               self._sim.model.actuator_biasprm[:n])
 
 
 def _whole_steps(period: float, dt: float, what: str) -> int:
@@ -294,3 +348,7 @@ def simulate(compiled: CompiledModel, duration: float, *, controller: Controller
         wall = _time.perf_counter() - start
         return SimulationResult(trajectory, sim.drive.peak.copy(), wall, duration, sim.dt,
                                 sim.index.cables)
+
+
+__all__ = ["COM", "Controller", "Simulation", "SimulationError", "SimulationResult",
+           "StabilityLimits", "diagnose", "simulate"]

@@ -1,0 +1,208 @@
+"""The cable law as MuJoCo actuator callbacks: the compiled one, and the Python reference.
+
+Each cable is an actuator with user dynamics and user bias (see ``tensim.model``): its
+parameters are in the model (``actuator_dynprm``, ``actuator_biasprm``), its rest length and
+peak tension in ``act``, its command in ``ctrl``. The law is therefore a pure function of
+(model, data): :func:`cable_law` is the reference in Python, built on :mod:`tensim.sim._laws`,
+and ``_cable.c`` the same operations compiled, installed as ``mjcb_act_dyn``/``mjcb_act_bias``.
+Being stateless, the compiled law runs on any number of threads (``mujoco.rollout``,
+``mujoco.batch``). The callbacks are process-wide: :func:`install` sets them once, under a lock,
+and hands actuators that are not tensim cables to a compiled callback installed before it.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+import logging
+import threading
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from tensim.model import CABLE_MARKER
+from tensim.sim import _laws
+
+log = logging.getLogger(__name__)
+
+MODE_REST = 0  # the motor follows a commanded rest length
+MODE_IMPEDANCE = 1  # the motor realises the impedance law's tension setpoint
+
+# columns of actuator_dynprm and actuator_biasprm
+P_MODE, P_MAX_SPEED, P_MAX_TENSION, P_MIN_REST, P_MIN_LENGTH = 1, 2, 3, 4, 5
+P_OFFSET, P_GAIN_K, P_GAIN_B, P_TARGET_LENGTH = 6, 7, 8, 9
+B_STIFFNESS, B_DAMPING = 0, 1
+
+_ACT = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)
+
+
+def _load_library() -> ctypes.CDLL | None:
+    spec = importlib.util.find_spec("tensim.sim._cable")
+    if spec is None or spec.origin is None:
+        return None
+    lib = ctypes.CDLL(spec.origin)
+    header = lib.tensim_header_version()
+    if header != mujoco.mj_version():
+        log.warning("compiled cable law was built for MuJoCo %s but %s is installed; using the "
+                    "slower Python law (reinstall tensim to rebuild)", header, mujoco.mj_version())
+        return None
+    lib.tensim_marker.restype = ctypes.c_double
+    if lib.tensim_marker() != CABLE_MARKER:
+        raise ImportError("tensim's compiled cable law does not match its model layout; "
+                          "reinstall tensim")
+    lib.tensim_set_previous.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+    return lib
+
+
+_LIB = _load_library()
+_C_DYN = ctypes.cast(_LIB.tensim_act_dyn, _ACT) if _LIB is not None else None
+_C_BIAS = ctypes.cast(_LIB.tensim_act_bias, _ACT) if _LIB is not None else None
+_lock = threading.Lock()
+_installed: str | None = None
+
+
+def compiled_available() -> bool:
+    """Whether the compiled cable law is built and matches the installed MuJoCo."""
+    return _LIB is not None
+
+
+def installed_backend() -> str | None:
+    """``"compiled"``, ``"python"`` or None: the law MuJoCo's callbacks run now."""
+    return _installed
+
+
+# -- the reference law -----------------------------------------------------------------------
+
+def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The law for cable actuators ``ids`` (all cables by default), from model and data.
+
+    Needs the position and velocity stages of ``d`` (ten_length, ten_velocity).
+
+    Returns:
+        (rest_rate, peak_rate, force): (n,) d(rest length)/dt [m/s], d(peak)/dt [N/s] and the
+        actuator force -f [N], as the compiled law writes them into act_dot and
+        actuator_force.
+    """
+    if ids is None:
+        ids = cable_actuators(m)
+    p, b = m.actuator_dynprm[ids], m.actuator_biasprm[ids]
+    adr, tendon = m.actuator_actadr[ids], m.actuator_trnid[ids, 0]
+    x, v = d.ten_length[tendon], d.ten_velocity[tendon]
+    k, damping, rest, peak = b[:, B_STIFFNESS], b[:, B_DAMPING], d.act[adr], d.act[adr + 1]
+    command = d.ctrl[m.actuator_ctrladr[ids]]
+    dt = m.opt.timestep
+    measured, _ = _laws.cable_tension(x, v, rest, k, damping)
+    setpoint = _laws.impedance_setpoint(x, v, p[:, P_OFFSET], p[:, P_GAIN_K], p[:, P_GAIN_B],
+                                        p[:, P_TARGET_LENGTH], command)
+    impedance = p[:, P_MODE] == MODE_IMPEDANCE
+    target = np.where(impedance, _laws.impedance_rest_target(rest, setpoint, measured, k),
+                      command)
+    new = _laws.motor_step(rest, target, x, k, p[:, P_MAX_SPEED], p[:, P_MAX_TENSION],
+                           p[:, P_MIN_REST], p[:, P_MIN_LENGTH], dt)
+    rest_rate = (new - rest) / dt
+    spring, applied = _laws.cable_tension(x, v, rest + rest_rate * dt, k, damping)
+    peak_rate = (np.maximum(peak, spring) - peak) / dt
+    return rest_rate, peak_rate, -applied
+
+
+def cable_actuators(m: mujoco.MjModel) -> np.ndarray:
+    """Ids of the actuators that are tensim cables."""
+    return np.flatnonzero((m.actuator_dynprm[:, 0] == CABLE_MARKER)
+                          & (m.actuator_actnum == 2)).astype(np.int32)
+
+
+def _python_dyn(m: Any, d: Any, i: int) -> float:
+    if m.actuator_dynprm[i, 0] != CABLE_MARKER:
+        return 0.0
+    ids = np.array([i])
+    rest_rate, peak_rate, _ = cable_law(m, d, ids)
+    adr = m.actuator_actadr[i]
+    d.act_dot[adr], d.act_dot[adr + 1] = rest_rate[0], peak_rate[0]
+    return float(peak_rate[0])
+
+
+def _python_bias(m: Any, d: Any, i: int) -> float:
+    if m.actuator_dynprm[i, 0] != CABLE_MARKER:
+        return 0.0
+    adr, tendon = m.actuator_actadr[i], m.actuator_trnid[i, 0]
+    rest = d.act[adr] + d.act_dot[adr] * m.opt.timestep
+    b = m.actuator_biasprm[i]
+    _, applied = _laws.cable_tension(d.ten_length[tendon:tendon + 1],
+                                     d.ten_velocity[tendon:tendon + 1], np.array([rest]),
+                                     b[B_STIFFNESS:B_STIFFNESS + 1], b[B_DAMPING:B_DAMPING + 1])
+    return -float(applied[0])
+
+
+# -- installation ----------------------------------------------------------------------------
+
+def install(backend: str = "auto") -> str:
+    """Makes MuJoCo's user-actuator callbacks run the cable law; returns the backend in use.
+
+    ``"auto"`` installs the compiled law (or the Python one, with a warning, when the
+    extension is missing). ``"python"`` installs the reference
+    law (slow; one thread only). The choice is process-wide. A compiled callback of the user's
+    that was installed first keeps serving the user's own actuators; a Python one cannot be
+    called from the compiled law, so it is replaced, with a warning.
+
+    Raises:
+        RuntimeError: ``"compiled"`` asked for but not built.
+        ValueError: an unknown backend.
+    """
+    global _installed
+    if backend not in ("auto", "compiled", "python"):
+        raise ValueError(f"backend must be 'auto', 'compiled' or 'python', got {backend!r}")
+    with _lock:
+        if backend == "auto":
+            backend = "compiled" if _LIB is not None else "python"
+            if backend == "python":
+                log.warning("compiled cable law not built (no C compiler at install time?): "
+                            "using the much slower Python law")
+        if backend == "compiled" and _LIB is None:
+            raise RuntimeError("the compiled cable law is not available; reinstall tensim with "
+                               "a C compiler, or use backend='python'")
+        if backend == _installed and _still_installed():
+            return backend
+        _chain_previous()
+        if backend == "compiled":
+            mujoco.set_mjcb_act_dyn(_C_DYN)
+            mujoco.set_mjcb_act_bias(_C_BIAS)
+        else:
+            mujoco.set_mjcb_act_dyn(_python_dyn)
+            mujoco.set_mjcb_act_bias(_python_bias)
+        _installed = backend
+        return backend
+
+
+def _ours(callback: object) -> bool:
+    return callback is None or callback in (_C_DYN, _C_BIAS, _python_dyn, _python_bias) or (
+        isinstance(callback, ctypes._CFuncPtr)  # type: ignore[attr-defined]
+        and _LIB is not None
+        and ctypes.cast(callback, ctypes.c_void_p).value in (
+            ctypes.cast(_LIB.tensim_act_dyn, ctypes.c_void_p).value,
+            ctypes.cast(_LIB.tensim_act_bias, ctypes.c_void_p).value))
+
+
+def _still_installed() -> bool:
+    return _ours(mujoco.get_mjcb_act_dyn()) and _ours(mujoco.get_mjcb_act_bias()) \
+        and mujoco.get_mjcb_act_dyn() is not None
+
+
+def _chain_previous() -> None:
+    """Hands the user's own compiled callbacks to the compiled law; warns about Python ones."""
+    previous = {"dyn": mujoco.get_mjcb_act_dyn(), "bias": mujoco.get_mjcb_act_bias()}
+    pointers: dict[str, int | None] = {}
+    for kind, callback in previous.items():
+        if _ours(callback):
+            pointers[kind] = None
+        elif isinstance(callback, ctypes._CFuncPtr):  # type: ignore[attr-defined]
+            pointers[kind] = ctypes.cast(callback, ctypes.c_void_p).value
+            log.warning("tensim installs its cable law as mjcb_act_%s; your compiled callback "
+                        "still serves your own user actuators", kind)
+        else:
+            pointers[kind] = None
+            log.warning("tensim replaces your Python mjcb_act_%s callback with its cable law: "
+                        "the compiled law cannot call Python", kind)
+    if _LIB is not None:
+        _LIB.tensim_set_previous(pointers["dyn"], pointers["bias"])
