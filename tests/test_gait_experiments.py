@@ -31,7 +31,7 @@ def test_locomotion_reports_distance_and_direction(dx, dy, label, angle) -> None
     assert report["direction"] == label
     assert report["direction_deg"] == pytest.approx(angle, abs=0.01)
     assert report["planar_displacement_m"] == pytest.approx(np.hypot(dx, dy), abs=1e-6)
-    assert report["sideways_displacement_m"] == pytest.approx(dy, abs=1e-6)
+    assert report["world_dy_m"] == pytest.approx(dy, abs=1e-6)
     assert report["average_speed_m_per_s"] == pytest.approx(np.hypot(dx, dy) / 4.0, abs=1e-6)
 
 

@@ -179,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--target is for the goal experiment, not {args.name!r}")
     out = Path(args.out or f"runs/{args.name}")
     summary = EXPERIMENTS[args.name][1](args, out)
-    if "duration_s" in summary:
+    if "duration_s" in summary and args.name != "timestep":
         print_summary(summary, out)
     else:
         print(f"wrote {out}/")

@@ -217,8 +217,9 @@ def _sysid(args: argparse.Namespace) -> int:
         error = "" if p["stderr"] is None else f" ± {p['stderr']:.3g}"
         print(f"  {name:<12} {p['fitted']:10.5g}{error} {p['unit']:<6} (nominal "
               f"{p['nominal']:.5g})")
-    print(f"RMSE {summary['rmse_before_N']:.3f} N -> {summary['rmse_after_N']:.3f} N; error on "
-          f"the max system tension {summary['max_system_tension_error_before_percent']:.2f} % "
+    print(f"RMSE {summary['rmse_before_N']:.3f} N -> {summary['rmse_after_N']:.3f} N; |error| on "
+          f"the max system tension (mean over the logs; compare prints it signed) "
+          f"{summary['max_system_tension_error_before_percent']:.2f} % "
           f"-> {summary['max_system_tension_error_after_percent']:.2f} %")
     print(f"use it: tensim simulate {out}/fitted_structure.yaml --controller {args.controller}; "
           f"tensim compare LOG --model {out}/fitted_structure.yaml --sensor "

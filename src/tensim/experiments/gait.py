@@ -38,8 +38,8 @@ def locomotion(series: TimeSeries, start: float = SETTLE_S, item: str = COM) -> 
         item: a recorded body name, or ``com``.
 
     Returns:
-        ``planar_displacement_m`` (x-y distance), ``forward_displacement_m`` (x),
-        ``sideways_displacement_m`` (y, + = the robot's left at the start), ``direction_deg``
+        ``planar_displacement_m`` (x-y distance), ``world_dx_m`` and ``world_dy_m`` (along the
+        world's x and y; +y is the robot's left at the start), ``direction_deg``
         (of the x-y displacement from +x, counter-clockwise), ``direction`` (the nearest of
         forward, left, backward, right) and ``average_speed_m_per_s``, all in the world
         frame; and ``body_forward_m``, ``body_sideways_m`` (+ = the robot's left) and
@@ -55,8 +55,8 @@ def locomotion(series: TimeSeries, start: float = SETTLE_S, item: str = COM) -> 
     distance = math.hypot(dx, dy)
     return {**_body_frame(series, k0, item),
             "planar_displacement_m": round(distance, 6),
-            "forward_displacement_m": round(dx, 6),
-            "sideways_displacement_m": round(dy, 6),
+            "world_dx_m": round(dx, 6),
+            "world_dy_m": round(dy, 6),
             "direction_deg": round(angle, 2),
             "direction": label,
             "average_speed_m_per_s": round(distance / span, 6) if span > 0 else 0.0,
