@@ -1,13 +1,15 @@
-"""The compiled cable callback against the Python reference, determinism, and isolation."""
+"""The compiled cable law against the Python reference, determinism, isolation, snapshots."""
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 import pytest
 
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
-from tensim.sim import Simulation, compiled_available, ramp_hold_release, simulate
+from tensim.control import load_controller
+from tensim.sim import Simulation, cable_law, compiled_available, ramp_hold_release, simulate
 
 needs_compiled = pytest.mark.skipif(
     not compiled_available(), reason="compiled cable callback not built for this MuJoCo")
@@ -78,19 +80,66 @@ def test_identical_runs_are_bitwise_identical(backend):
 
 @needs_compiled
 def test_simultaneous_simulations_do_not_interfere():
-    """Stepping two compiled and one Python simulation in turn changes none of their results."""
+    """Stepping two simulations in turn changes neither one's results."""
     solo = _run("compiled", loads=[_load()], duration=1.0)
     p = preset("tetraspine3")
     compiled = compile_structure(p.build())
     other = compile_structure(preset("prism3").build())
-    sims = [Simulation(compiled, controller=p.controller(), loads=[_load()], backend="compiled"),
-            Simulation(other, backend="compiled"), Simulation(other, backend="python")]
-    try:
-        for _ in range(100):
-            for sim in sims:
-                sim.step(10)
-        final = sims[0].drive.tension.copy()
-    finally:
+    sims = [Simulation(compiled, controller=p.controller(), loads=[_load()]),
+            Simulation(other)]
+    for _ in range(100):
         for sim in sims:
-            sim.close()
-    np.testing.assert_array_equal(final, solo.trajectory.matrix("tension")[-1])
+            sim.step(10)
+    np.testing.assert_array_equal(sims[0].drive.tension, solo.trajectory.matrix("tension")[-1])
+
+
+@needs_compiled
+def test_compiled_law_equals_the_reference_on_random_states():
+    """For random rest lengths, commands, modes and motions, the compiled callbacks write the
+    act_dot and actuator force that tensim.sim.cable_law computes from the same data."""
+    p = preset("tetraspine3")
+    compiled = compile_structure(p.build())
+    rng = np.random.default_rng(7)
+    with Simulation(compiled, controller=p.controller()) as sim:
+        m, d, n = sim.model, sim.data, compiled.n_cables
+        for trial in range(20):
+            sim.drive.mode[:] = rng.integers(0, 2, n)
+            sim.drive.offset_tension[:] = rng.uniform(0, 20, n)
+            d.qvel[:] = rng.normal(0, 0.5, m.nv)
+            d.act[0:2 * n:2] = compiled.rest_length * rng.uniform(0.8, 1.2, n)
+            d.act[1:2 * n:2] = rng.uniform(0, 30, n)
+            d.ctrl[:n] = np.where(sim.drive.mode == 1, rng.normal(0, 0.05, n),
+                                  compiled.rest_length * rng.uniform(0.8, 1.2, n))
+            mujoco.mj_forward(m, d)
+            rest_rate, peak_rate, force = cable_law(m, d)
+            assert np.abs(rest_rate).max() > 0, trial  # the motors do move
+            np.testing.assert_array_equal(d.act_dot[0:2 * n:2], rest_rate)
+            np.testing.assert_array_equal(d.act_dot[1:2 * n:2], peak_rate)
+            np.testing.assert_array_equal(d.actuator_force[:n], force)
+
+
+def test_snapshot_continuation_is_bit_identical_mid_gait():
+    """Restoring get_state() (mjSTATE_INTEGRATION) mid-gait continues exactly as never
+    stopping; plain mj_getState on sim.model/sim.data gives the same state."""
+    p = preset("tetraspine3")
+    structure = p.build()
+    compiled = compile_structure(structure)
+    controller = load_controller("tetraspine3_cpg", structure).with_duration(4.0).build(
+        compiled.model.opt.timestep)
+    with Simulation(compiled, controller=controller) as sim:
+        sim.run(2.0)
+        state = sim.get_state()
+        spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        plain = np.empty(mujoco.mj_stateSize(sim.model, spec))
+        mujoco.mj_getState(sim.model, sim.data, plain, spec)
+        np.testing.assert_array_equal(plain, state)
+        straight = sim.run(1.0)
+        end = sim.get_state()
+    with Simulation(compiled, controller=controller) as other:
+        other.run(0.5)  # somewhere else entirely
+        other.set_state(state)
+        resumed = other.run(1.0)
+        np.testing.assert_array_equal(other.get_state(), end)
+    assert np.abs(straight["pos_y/com"][-1] - straight["pos_y/com"][0]) > 1e-3  # it walked
+    for name in straight.channels:  # the first sample shows the restored derived fields
+        np.testing.assert_array_equal(resumed[name][1:], straight[name][1:], err_msg=name)

@@ -98,3 +98,23 @@ def test_ray_gives_the_process_pool_evaluations(tmp_path):
     finally:
         ray.shutdown()
     assert _records(tmp_path / "ray") == _records(tmp_path / "pool")
+
+
+def test_thread_batches_give_the_inline_evaluations():
+    from tensim.learn.executors import ThreadBatchExecutor
+    from tensim.learn.families import default_base
+    from tensim.learn.problem import TrialProblem
+    from tensim.models import preset
+
+    structure = preset("tetraspine3").build()
+    problem = TrialProblem(structure, default_base("tetraspine3", "cpg", structure), "cpg", 1.5,
+                           model="tetraspine3")
+    points = np.random.default_rng(3).random((5, problem.dimension))
+    tasks = list(enumerate(points))
+    inline = sorted(InlineExecutor(problem).run(tasks), key=lambda e: e.index)
+    batched = sorted(ThreadBatchExecutor(problem, 2, batch_size=3).run(tasks),
+                     key=lambda e: e.index)
+    assert len({e.score for e in inline}) > 1  # the gaits differ
+    for a, b in zip(inline, batched, strict=True):
+        assert (a.index, a.unit, a.score, a.status, a.metrics) == \
+            (b.index, b.unit, b.score, b.status, b.metrics)

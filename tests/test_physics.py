@@ -322,3 +322,45 @@ def test_node_load_off_centre_spins_a_dumbbell(backend):
     np.testing.assert_allclose(angle, spin, rtol=1e-5, atol=1e-12)
     np.testing.assert_allclose(ts["quat_x/bar"], 0.0, atol=1e-15)  # no torque about x
     np.testing.assert_allclose(ts["quat_z/bar"], 0.0, atol=1e-15)  # nor about z
+
+
+# -- inputs: the V* table ---------------------------------------------------------------------
+
+
+class _TableController:
+    """Impedance gains on every cable plus a V* table (the test's own, not a gait's)."""
+
+    def __init__(self, gains: ImpedanceGains, table: np.ndarray, table_dt: float):
+        self.gains, self.table, self.table_dt = gains, table, table_dt
+
+    def configure(self, sim: Simulation) -> None:
+        ImpedanceController({c: self.gains for c in sim.index.cables}).configure(sim)
+        sim.drive.set_target_velocity(self.table, self.table_dt)
+
+
+def test_a_vstar_step_takes_effect_exactly_at_its_row_time():
+    # held cable at its pretension (5 N = T0): the motor rests until V* steps to 0.01 m/s at
+    # row 37 (t = 0.37 s); then T_set = 5 - 10 * 0.01 < 5 and the motor lets out at 0.07 m/s
+    compiled = _held(100.0, 5.0, Motor(max_speed=0.07))
+    table = np.zeros((100, 1))
+    table[37:] = 0.01
+    controller = _TableController(ImpedanceGains(5.0, 0.0, 10.0, 0.5), table, 0.01)
+    ts = simulate(compiled, 0.5, controller=controller, record_dt=1e-3).trajectory
+    rest = ts["rest_length/c"]
+    step = int(np.argmax(np.abs(np.diff(rest)) > 1e-9)) + 1  # first sample that moved
+    assert ts.time[step] == pytest.approx(0.37, abs=1e-12)
+    assert rest[step] - rest[step - 1] == pytest.approx(0.07e-3, rel=1e-9)  # max speed
+
+
+@pytest.mark.parametrize("vstar", [0.02, -0.02])
+def test_impedance_damping_tracks_the_target_velocity(vstar):
+    # a hanging mass under T_set = m g + B (V - V*): the force balance holds only at V = V*, so
+    # the cable must lengthen (the mass descend) at V* itself; a sign error in B (V - V*)
+    # would move it the other way
+    compiled = _hanging(damping=0.0)
+    gains = ImpedanceGains(MASS * G, 0.0, 20.0, 0.5)
+    ts = simulate(compiled, 3.0, controller=_TableController(gains, np.array([[vstar]]), 1.0),
+                  record_dt=1e-3).trajectory
+    late = ts.time > 2.0
+    rate = np.polyfit(ts.time[late], ts["length/c"][late], 1)[0]
+    assert rate == pytest.approx(vstar, rel=0.05)

@@ -94,8 +94,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help=f"evaluation budget (default {d['evaluations']}); with --resume, "
                      "a new budget to continue or extend the run")
     run.add_argument("--workers", type=int, default=None, metavar="W",
-                     help="worker processes (default: every core); 0 runs trials in this "
-                     "process")
+                     help="threads of the batch engine, which simulates each generation's "
+                     "trials together in this process (default: every core); with "
+                     "--processes or --ray, worker processes; 0 runs trials one by one")
+    run.add_argument("--processes", action="store_true",
+                     help="one trial per task on a pool of worker processes instead")
     run.add_argument("--ray", action="store_true",
                      help="run trials on Ray (a local Ray is started unless --ray-address)")
     run.add_argument("--ray-address", metavar="ADDR",
@@ -154,7 +157,8 @@ def run_learn(args: argparse.Namespace) -> int:
         if given or args.out:
             raise ValueError(f"--resume takes the run's configuration from "
                              f"{args.resume}/config.json; drop {given or ['--out']} (only "
-                             "--evaluations, --workers, --ray and --ray-address may change)")
+                             "--evaluations, --workers, --processes, --ray and --ray-address "
+                             "may change)")
         out = Path(args.resume)
     else:
         for name, value in _DEFAULTS.items():
@@ -172,7 +176,8 @@ def run_learn(args: argparse.Namespace) -> int:
     try:
         result = resume(out, args.evaluations, progress=_LearningProgress(args.quiet, already),
                         executor=lambda p: make_executor(p, workers, ray=args.ray,
-                                                         ray_address=args.ray_address))
+                                                         ray_address=args.ray_address,
+                                                         processes=args.processes))
     except KeyboardInterrupt:
         print(f"\ninterrupted; every finished evaluation is in {out}/evaluations.jsonl. "
               f"Continue with: tensim learn --resume {out}", file=sys.stderr)

@@ -1,4 +1,5 @@
-"""Where trials run: in this process, in a local process pool, or on a Ray cluster.
+"""Where trials run: as batches on threads in this process (the default), one by one in this
+process, in a local process pool, or on a Ray cluster.
 
 An executor is bound to one problem and turns tasks ``(index, unit point)`` into
 :class:`~tensim.learn.problem.Evaluation` s, yielded as they finish (in any order; the driver
@@ -16,12 +17,19 @@ import concurrent.futures as cf
 import logging
 import multiprocessing
 import os
+import time
 from collections.abc import Iterator, Sequence
 from typing import Any, Protocol
 
 import numpy as np
 
-from tensim.learn.problem import Evaluation, Problem, evaluate_task, lost_evaluation
+from tensim.learn.problem import (
+    Evaluation,
+    Problem,
+    evaluate_task,
+    evaluation_of,
+    lost_evaluation,
+)
 
 log = logging.getLogger(__name__)
 Task = tuple[int, np.ndarray]
@@ -61,6 +69,51 @@ class InlineExecutor:
         """Nothing to release."""
 
     def __enter__(self) -> InlineExecutor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class ThreadBatchExecutor:
+    """Runs trials as batches in this process, on threads (the default).
+
+    A problem with ``evaluate_batch`` (a simulated gait) runs up to ``batch_size`` trials per
+    call of the batch engine, its trials spread over ``workers`` threads; others run inline.
+    """
+
+    backend = "threads"
+
+    def __init__(self, problem: Problem, workers: int, batch_size: int = 32):
+        self.problem, self.workers, self.batch_size = problem, max(1, workers), batch_size
+
+    def run(self, tasks: Sequence[Task]) -> Iterator[Evaluation]:
+        """Evaluates the tasks, a batch at a time."""
+        evaluate = getattr(self.problem, "evaluate_batch", None)
+        if evaluate is None:
+            for index, unit in tasks:
+                yield evaluate_task(self.problem, index, unit)
+            return
+        for first in range(0, len(tasks), self.batch_size):
+            chunk = tasks[first:first + self.batch_size]
+            start = time.perf_counter()
+            try:
+                outcomes = evaluate([np.asarray(u, dtype=float) for _, u in chunk],
+                                    self.workers)
+            except Exception as err:  # the whole batch failed: try its trials one by one
+                log.warning("batch of %d trials failed (%s); running them one at a time",
+                            len(chunk), err)
+                for index, unit in chunk:
+                    yield evaluate_task(self.problem, index, unit)
+                continue
+            wall = (time.perf_counter() - start) / len(chunk)
+            for (index, unit), outcome in zip(chunk, outcomes, strict=True):
+                yield evaluation_of(self.problem, index, unit, outcome, wall)
+
+    def close(self) -> None:
+        """Nothing to release (the batch's threads end with each call)."""
+
+    def __enter__(self) -> ThreadBatchExecutor:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -241,17 +294,21 @@ class RayExecutor:
 
 
 def make_executor(problem: Problem, workers: int, *, ray: bool = False,
-                  ray_address: str | None = None) -> Executor:
+                  ray_address: str | None = None, processes: bool = False) -> Executor:
     """The executor for the command line's choice.
 
     Args:
         problem: the problem.
-        workers: worker processes (0: run trials in this process).
+        workers: threads of the batch engine, or worker processes with ``processes`` or Ray
+            (0: run trials one by one in this process).
         ray: run on Ray (a local one unless ``ray_address`` is given).
         ray_address: address of a running Ray cluster (implies ``ray``).
+        processes: one trial per task on a local process pool instead of batches on threads.
     """
     if ray or ray_address:
         return RayExecutor(problem, ray_address, max(1, workers))
     if workers == 0:
         return InlineExecutor(problem)
-    return ProcessPoolExecutor(problem, workers)
+    if processes:
+        return ProcessPoolExecutor(problem, workers)
+    return ThreadBatchExecutor(problem, workers)

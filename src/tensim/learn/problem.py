@@ -28,7 +28,7 @@ from tensim.control import ControllerConfig, GaitError, ParameterLayout
 from tensim.learn.families import check_family, gait_layout
 from tensim.learn.objective import Objective
 from tensim.model import CompiledModel, WorldOptions, compile_structure
-from tensim.sim import SimulationError, simulate
+from tensim.sim import SimulationError, Trial, TrialResult, run_batch, simulate
 from tensim.structure import Structure
 from tensim.terrain import format_terrain
 
@@ -232,7 +232,34 @@ class TrialProblem:
                               record_dt=self.record_dt)
         except SimulationError as err:
             return Outcome(self.penalty, UNSTABLE, f"unstable: {err}")
-        score, metrics, flipped = self.objective.score(result.trajectory, self.bodies)
+        return self._score(TrialResult(result))
+
+    def evaluate_batch(self, units: Sequence[np.ndarray], threads: int) -> list[Outcome]:
+        """Simulates the trials of ``units`` as one batch on ``threads`` threads and scores
+        them; each outcome equals :meth:`evaluate`'s for the same point."""
+        compiled = self.compiled()
+        outcomes: list[Outcome | None] = [None] * len(units)
+        trials, where = [], []
+        for i, unit in enumerate(units):
+            try:
+                controller = self.controller(unit).build(compiled.model.opt.timestep)
+            except GaitError as err:
+                outcomes[i] = Outcome(self.penalty, GAIT, f"gait: {err}")
+                continue
+            trials.append(Trial(controller))
+            where.append(i)
+        if trials:
+            results = run_batch(compiled, trials, self.duration_s, threads=threads,
+                                record_dt=self.record_dt)
+            for i, trial in zip(where, results, strict=True):
+                outcomes[i] = self._score(trial)
+        return [o for o in outcomes if o is not None]
+
+    def _score(self, trial: TrialResult) -> Outcome:
+        if trial.result is None:
+            status = UNSTABLE if "unstable" in str(trial.error) else ERROR
+            return Outcome(self.penalty, status, f"{status}: {trial.error}")
+        score, metrics, flipped = self.objective.score(trial.result.trajectory, self.bodies)
         if flipped:
             return Outcome(self.penalty, FLIPPED, flipped, metrics)
         return Outcome(score, OK, "", metrics)
@@ -292,7 +319,13 @@ def evaluate_task(problem: Problem, index: int, unit: Sequence[float]) -> Evalua
         outcome = problem.evaluate(u)
     except Exception as err:  # a trial that raises is recorded as failed
         outcome = Outcome(problem.penalty, ERROR, f"error: {type(err).__name__}: {err}")
-    wall = time.perf_counter() - start
+    return evaluation_of(problem, index, u, outcome, time.perf_counter() - start)
+
+
+def evaluation_of(problem: Problem, index: int, unit: Sequence[float], outcome: Outcome,
+                  wall: float) -> Evaluation:
+    """The record of a finished trial."""
+    u = np.asarray(unit, dtype=float)
     return Evaluation(index, tuple(float(x) for x in u),
                       tuple(float(x) for x in problem.values(u)), float(outcome.score),
                       outcome.status, outcome.reason, wall, outcome.metrics)

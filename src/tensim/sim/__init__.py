@@ -1,5 +1,6 @@
 """Simulation: the fixed-step loop, cables and motors, external forces and recording."""
 
+from tensim.sim._batch import PhysicsScale, Trial, TrialResult, run_batch
 from tensim.sim._drive import MODE_IMPEDANCE, MODE_REST, CableDrive, InputPlan
 from tensim.sim._law import cable_law, compiled_available, installed_backend
 from tensim.sim._law import install as install_law
@@ -25,11 +26,14 @@ __all__ = [
     "InputPlan",
     "Controller",
     "NodeLoad",
+    "PhysicsScale",
     "Simulation",
     "SimulationError",
     "SimulationResult",
     "StabilityLimits",
     "TimeSeries",
+    "Trial",
+    "TrialResult",
     "cable_law",
     "cable_tension",
     "compiled_available",
@@ -39,5 +43,6 @@ __all__ = [
     "installed_backend",
     "motor_step",
     "ramp_hold_release",
+    "run_batch",
     "simulate",
 ]

@@ -1,0 +1,128 @@
+"""Batch benchmark: many Tetraspine3 CPG trials per call, against ``mujoco.rollout``.
+
+N trials of different CPG gaits (random points of the learning layout) run three ways, the
+runs interleaved and each timed in wall and process CPU time: through :func:`run_batch` on 1
+and 2 threads (gait build, stepping, recording and scoring-ready channels included), and as
+``mujoco.rollout`` replaying the same per-step ``ctrl`` on the same per-trial models on the
+same thread count (the cable law runs inside MuJoCo in both), which is the engine's batched
+limit for that work.
+"""
+
+from __future__ import annotations
+
+import copy
+import resource
+import statistics
+import time
+from collections.abc import Callable
+from typing import Any
+
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from tensim.learn.families import default_base
+from tensim.learn.problem import TrialProblem
+from tensim.model import BUILD_KEY
+from tensim.models import preset
+from tensim.sim import CableDrive, InputPlan, Trial, install_law, run_batch
+
+
+def _problem(duration: float) -> TrialProblem:
+    structure = preset("tetraspine3").build()
+    return TrialProblem(structure, default_base("tetraspine3", "cpg", structure), "cpg",
+                        duration, model="tetraspine3")
+
+
+def _timed(fn: Callable[[], object]) -> tuple[float, float]:
+    wall, cpu = time.perf_counter(), time.process_time()
+    fn()
+    return time.perf_counter() - wall, time.process_time() - cpu
+
+
+def _rollout_inputs(problem: TrialProblem, points: np.ndarray):
+    """Per-trial models, initial state and the (N, nstep, nu) ctrl of the same trials."""
+    compiled = problem.compiled()
+    m, dt = compiled.model, compiled.model.opt.timestep
+    nstep = round(problem.duration_s / dt) + 1
+    models, controls = [], []
+    for unit in points:
+        model = copy.copy(m)
+        drive = CableDrive(compiled, model)
+        setup = type("Setup", (), {"compiled": compiled, "drive": drive, "dt": dt,
+                                   "index": compiled.index})()
+        problem.controller(unit).build(dt).configure(setup)
+        models.append(model)
+        controls.append(InputPlan(drive, (), compiled).control(0, nstep))
+    data = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, data, m.key(BUILD_KEY).id)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(m, data, state, spec)
+    return models, state, np.stack(controls), nstep
+
+
+def bench_batch(trials: int = 64, duration: float = 10.0, repeats: int = 3,
+                seed: int = 0) -> dict[str, Any]:
+    """Trials per second of the batch engine and of ``mujoco.rollout`` on 1 and 2 threads.
+
+    Returns:
+        per method and thread count: best and median wall and CPU time [s] and trials/s; the
+        ratios batch/rollout and 2-thread/1-thread scaling; peak resident memory [MiB].
+    """
+    install_law("compiled")
+    problem = _problem(duration)
+    compiled = problem.compiled()
+    points = np.random.default_rng(seed).random((trials, problem.dimension))
+    models, state, control, nstep = _rollout_inputs(problem, points)
+
+    def batch(threads: int) -> None:
+        dt = compiled.model.opt.timestep
+        run_batch(compiled, [Trial(problem.controller(u).build(dt)) for u in points],
+                  duration, threads=threads, record_dt=problem.record_dt)
+
+    def engine(threads: int) -> None:
+        datas = [mujoco.MjData(models[0]) for _ in range(threads)]
+        rollout.rollout(models, datas, state, control, nstep=nstep)
+
+    times: dict[str, list[tuple[float, float]]] = {}
+    for _ in range(repeats):  # interleaved: every method once per round
+        for threads in (1, 2):
+            for name, fn in (("batch", batch), ("rollout", engine)):
+                times.setdefault(f"{name}_{threads}", []).append(
+                    _timed(lambda fn=fn, threads=threads: fn(threads)))
+    figures: dict[str, Any] = {}
+    for key, runs in times.items():
+        walls, cpus = [w for w, _ in runs], [c for _, c in runs]
+        figures[key] = {"wall_best_s": min(walls), "wall_median_s": statistics.median(walls),
+                        "cpu_best_s": min(cpus), "trials_per_s": trials / min(walls)}
+    return {
+        "case": f"tetraspine3 cpg, {trials} trials of {duration:g} s",
+        **figures,
+        "batch_over_rollout": {t: figures[f"rollout_{t}"]["wall_best_s"]
+                               / figures[f"batch_{t}"]["wall_best_s"] for t in (1, 2)},
+        "scaling_2_over_1": {m: figures[f"{m}_1"]["wall_best_s"] / figures[f"{m}_2"]["wall_best_s"]
+                             for m in ("batch", "rollout")},
+        "peak_rss_MiB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "real_time_factor_2_threads": trials * duration / figures["batch_2"]["wall_best_s"],
+    }
+
+
+def format_batch(report: dict[str, Any]) -> str:
+    """The batch figures as a few printed lines."""
+    lines = [f"batch ({report['case']}):"]
+    for threads in (1, 2):
+        b, r = report[f"batch_{threads}"], report[f"rollout_{threads}"]
+        lines.append(f"  {threads} thread(s): batch {b['trials_per_s']:.2f} trials/s "
+                     f"(wall best {b['wall_best_s']:.2f} s, median {b['wall_median_s']:.2f} s, "
+                     f"CPU {b['cpu_best_s']:.2f} s); mujoco.rollout {r['trials_per_s']:.2f} "
+                     f"trials/s; batch/rollout {report['batch_over_rollout'][threads]:.3f}")
+    s = report["scaling_2_over_1"]
+    lines.append(f"  2 threads / 1: batch {s['batch']:.2f}x, rollout {s['rollout']:.2f}x; "
+                 f"{report['real_time_factor_2_threads']:.0f}x real time in all; peak memory "
+                 f"of this process {report['peak_rss_MiB']:.0f} MiB")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(format_batch(bench_batch()))

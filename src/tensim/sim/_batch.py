@@ -1,0 +1,347 @@
+"""Many trials of one robot in one call, on threads: MuJoCo's batch engine with the cable law.
+
+Every trial is a row of MuJoCo state in a :class:`mujoco.batch.Batch`; its controller writes
+its law parameters into the trial's own copy of the actuator parameters and its commands into
+its ``ctrl`` rows, its physical parameters are per-trial model fields, and the stateless
+compiled law runs inside MuJoCo's step on the batch's threads. A trial here is bit-identical to
+the same trial run alone with :class:`~tensim.sim.Simulation`, at any thread count.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time as _time
+from collections.abc import Callable, Sequence
+
+import mujoco
+import numpy as np
+from mujoco import batch as mjbatch
+
+from tensim.model import BUILD_KEY, CompiledModel
+from tensim.sim import _law
+from tensim.sim._drive import CableDrive, InputPlan
+from tensim.sim._loads import NodeLoad
+from tensim.sim._samples import SampleBuffers, sample_channels
+from tensim.sim._simulation import (
+    _CHECK_EVERY,
+    Controller,
+    SimulationResult,
+    StabilityLimits,
+    _whole_steps,
+    diagnose,
+)
+
+MAX_SAMPLES = 50_000_000  # trials x samples x channels a batch may hold in memory
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+_RECORD = ("ten_length", "ten_velocity", "xpos", "xquat", "subtree_com", "act", "ctrl", "qvel",
+           "actuator_force")
+
+
+@dataclasses.dataclass(frozen=True)
+class PhysicsScale:
+    """Multipliers on a trial's physical parameters (1 leaves one as built).
+
+    Attributes:
+        friction: sliding friction of every robot geom.
+        stiffness: every cable's stiffness k.
+        damping: every cable's damping b.
+        mass: every rigid body's mass and inertia (rods and point masses alike).
+        motor_speed: every motor's maximum speed.
+    """
+
+    friction: float = 1.0
+    stiffness: float = 1.0
+    damping: float = 1.0
+    mass: float = 1.0
+    motor_speed: float = 1.0
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ValueError(f"physics scale {f.name} must be a finite number > 0, "
+                                 f"got {value!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Trial:
+    """One run of a batch.
+
+    Attributes:
+        controller: sets up the cable drive (None: rest lengths held).
+        loads: external node forces.
+        initial_state: ``Simulation.get_state()`` of the same model to start from (None: the
+            build pose, with the motor update at t = 0 taken first, as a new Simulation does).
+        physics: per-trial physical parameters.
+    """
+
+    controller: Controller | None = None
+    loads: tuple[NodeLoad, ...] = ()
+    initial_state: np.ndarray | None = None
+    physics: PhysicsScale = PhysicsScale()
+
+
+@dataclasses.dataclass(frozen=True)
+class TrialResult:
+    """A trial's outcome: its run, or why it failed.
+
+    Attributes:
+        result: the finished run (None if it failed).
+        error: what went wrong (None if it finished).
+    """
+
+    result: SimulationResult | None
+    error: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        """Whether the trial ran to the end."""
+        return self.result is not None
+
+
+@dataclasses.dataclass
+class _TrialSetup:
+    """What a controller configures for one trial (the attributes a Simulation offers it)."""
+
+    compiled: CompiledModel
+    drive: CableDrive
+    dt: float
+
+    @property
+    def index(self):  # noqa: ANN201 - the ModelIndex
+        return self.compiled.index
+
+
+def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float, *,
+              threads: int = 1, record_dt: float = 0.01,
+              limits: StabilityLimits | None = None,
+              progress: Callable[[float, float], None] | None = None) -> list[TrialResult]:
+    """Runs ``trials`` of ``compiled`` for ``duration`` seconds each, ``threads`` at a time.
+
+    Each trial is recorded like :func:`~tensim.sim.simulate` (same channels, same
+    ``TimeSeries``). A trial that fails (a controller error, NaN parameters, an unstable
+    state) is reported with its diagnosis and the others go on.
+
+    Args:
+        compiled: the model all trials share.
+        trials: the trials.
+        duration: simulated time per trial [s].
+        threads: worker threads (the calling thread counts as one).
+        record_dt: recording period [s]; a whole number of physics steps.
+        limits: the stability bounds.
+        progress: called as progress(done_s, total_s) about every simulated second.
+
+    Raises:
+        ValueError: no trials, a bad duration or record_dt, or a batch too large to hold.
+    """
+    if not trials:
+        raise ValueError("a batch needs at least one trial")
+    if not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be a finite number of seconds > 0, got {duration}")
+    if threads < 1:
+        raise ValueError(f"threads must be >= 1, got {threads}")
+    _law.install("compiled")
+    nodes = tuple(dict.fromkeys(ld.node for t in trials for ld in t.loads))
+    compiled = compiled.with_load_nodes(nodes)
+    dt = float(compiled.model.opt.timestep)
+    record_steps = _whole_steps(record_dt, dt, "record_dt")
+    n_samples = math.floor(duration / (record_steps * dt) + 1e-9)
+    size = len(trials) * (n_samples + 1) * (6 * compiled.n_cables + 7 * len(compiled.index.bodies))
+    if size > MAX_SAMPLES:
+        raise ValueError(f"a batch of {len(trials)} trials x {n_samples + 1} samples would hold "
+                         f"{size:.3g} recorded values (limit {MAX_SAMPLES:.0e}); run fewer "
+                         "trials per batch or record less often (record_dt)")
+    runner = _BatchRun(compiled, trials, threads, record_steps, limits or StabilityLimits())
+    started = _time.perf_counter()
+    runner.run(n_samples, duration, progress)
+    wall = _time.perf_counter() - started
+    return runner.results(duration, wall)
+
+
+class _BatchRun:
+    """The state of one :func:`run_batch` call."""
+
+    def __init__(self, compiled: CompiledModel, trials: Sequence[Trial], threads: int,
+                 record_steps: int, limits: StabilityLimits):
+        self.compiled, self.trials, self.limits = compiled, trials, limits
+        self.record_steps, self.dt = record_steps, float(compiled.model.opt.timestep)
+        n, m = len(trials), compiled.model
+        self.batch = mjbatch.Batch(m, n, nthread=threads)
+        self.batch.reset(keyframe=m.key(BUILD_KEY).id, stage=mujoco.mjtStage.mjSTAGE_NONE)
+        self.error: list[str | None] = [None] * n
+        self.dynprm = self.batch.expand("actuator_dynprm")
+        self.biasprm = self.batch.expand("actuator_biasprm")
+        self.plans: list[InputPlan | None] = [self._setup(i, t) for i, t in enumerate(trials)]
+        self.samples: SampleBuffers | None = None
+        self.count = np.zeros(n, dtype=int)
+        self._template = mujoco.MjData(m)
+        self._bound = {name: self.batch.bind(name) for name in _RECORD}  # refreshed per call
+        self._out: dict[tuple[int, int], dict[str, np.ndarray]] = {}
+
+    # -- set-up ------------------------------------------------------------------------------
+
+    def _setup(self, i: int, trial: Trial) -> InputPlan | None:
+        n = self.compiled.n_cables
+        drive = CableDrive(self.compiled, self.compiled.model, dynprm=self.dynprm[i, :n],
+                           biasprm=self.biasprm[i, :n])
+        try:
+            self._scale(i, trial.physics)
+            if trial.controller is not None:
+                trial.controller.configure(_TrialSetup(self.compiled, drive, self.dt))
+            bad = ~np.isfinite(self.dynprm[i, :n]).all(axis=1) | \
+                ~np.isfinite(self.biasprm[i, :n]).all(axis=1)
+            if bad.any():
+                cable = self.compiled.index.cables[int(np.argmax(bad))]
+                raise ValueError(f"cable {cable!r} has non-finite law parameters")
+            if trial.initial_state is not None:
+                self._restore(i, trial.initial_state)
+            return InputPlan(drive, trial.loads, self.compiled)
+        except (ValueError, KeyError, TypeError) as exc:
+            self.error[i] = f"trial {i}: {exc}"
+            return None
+
+    def _scale(self, i: int, physics: PhysicsScale) -> None:
+        if physics == PhysicsScale():
+            return
+        m, n, b = self.compiled.model, self.compiled.n_cables, self.batch
+        robot_geoms = np.flatnonzero(m.geom_bodyid != 0)
+        if physics.friction != 1.0:
+            b.expand("geom_friction")[i, robot_geoms, 0] *= physics.friction
+        self.biasprm[i, :n, _law.B_STIFFNESS] *= physics.stiffness
+        self.biasprm[i, :n, _law.B_DAMPING] *= physics.damping
+        self.dynprm[i, :n, _law.P_MAX_SPEED] *= physics.motor_speed
+        if physics.mass != 1.0:
+            b.expand("body_mass")[i, 1:] *= physics.mass
+            b.expand("body_inertia")[i, 1:] *= physics.mass
+            b.set_const([i])
+
+    def _restore(self, i: int, state: np.ndarray) -> None:
+        state = np.asarray(state, dtype=float)
+        size = mujoco.mj_stateSize(self.compiled.model, _STATE)
+        if state.shape != (size,):
+            raise ValueError(f"initial_state must have {size} values (mjSTATE_INTEGRATION of "
+                             f"this model), got shape {state.shape}")
+        self.batch.state[i] = state
+
+    # -- stepping ----------------------------------------------------------------------------
+
+    def _live(self) -> np.ndarray:
+        return np.array([i for i, e in enumerate(self.error) if e is None], dtype=np.int32)
+
+    def _start(self, n_samples: int) -> None:
+        """The motor update at t = 0 for fresh trials; derived fields for restored ones."""
+        self.samples = SampleBuffers.empty(self.compiled, n_samples + 1, (len(self.trials),))
+        live = self._live()
+        fresh = np.array([i for i in live if self.trials[i].initial_state is None],
+                         dtype=np.int32)
+        restored = np.setdiff1d(live, fresh).astype(np.int32)
+        if fresh.size:
+            self._rollout(fresh, 1)
+        if restored.size:
+            try:
+                self.batch.forward(restored)
+            except mjbatch.SimulationError as exc:
+                self._fail(exc.ids)
+        live = self._live()
+        self._take(live, {name: field[live] for name, field in self._bound.items()})
+
+    def _plan(self, i: int) -> InputPlan:
+        plan = self.plans[i]
+        assert plan is not None
+        return plan
+
+    def run(self, n_samples: int, duration: float,
+            progress: Callable[[float, float], None] | None) -> None:
+        self._start(n_samples)
+        every = max(1, round(1.0 / (self.record_steps * self.dt)))
+        for k in range(n_samples):
+            live = self._live()
+            if not live.size:
+                break
+            ids, fields = self._rollout(live, self.record_steps)
+            self._take(ids, fields)
+            if k % _CHECK_EVERY == 0 or k == n_samples - 1:
+                self._check(ids, fields)
+            if progress is not None and (k + 1) % every == 0:
+                progress((k + 1) * self.record_steps * self.dt, duration)
+
+    def _rollout(self, live: np.ndarray, nstep: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Steps trials ``live`` by nstep with their inputs; returns the trials that ran and
+        their derived fields of the last step. Trials MuJoCo raises on are marked failed
+        (MuJoCo leaves them as they were and runs the others to the end)."""
+        steps = np.rint(self.batch.state[live, 0] / self.dt).astype(np.int64)
+        control = np.stack([self._plan(int(i)).control(int(s), nstep)
+                            for i, s in zip(live, steps, strict=True)])
+        out = self._buffers(live.size, nstep)
+        try:
+            self.batch.rollout(nstep, control, record=_RECORD, ids=live, out=out)
+        except mjbatch.SimulationError as exc:
+            self._fail(exc.ids)
+        ran = np.array([self.error[int(i)] is None for i in live])
+        return live[ran], {name: v[ran, -1] for name, v in out.items()}
+
+    def _buffers(self, n: int, nstep: int) -> dict[str, np.ndarray]:
+        key = (n, nstep)
+        if key not in self._out:
+            d = self._template
+            self._out = {key: {name: np.empty((n, nstep, *getattr(d, name).shape),
+                                              getattr(d, name).dtype) for name in _RECORD}}
+        return self._out[key]
+
+    def _fail(self, ids: np.ndarray) -> None:
+        for i in ids:
+            self.error[int(i)] = f"trial {int(i)}: MuJoCo: {self.batch.error(int(i))}"
+
+    def _take(self, ids: np.ndarray, fields: dict[str, np.ndarray]) -> None:
+        s, index, n = self.samples, self.compiled.index, self.compiled.n_cables
+        assert s is not None
+        k = self.count[ids]
+        s.time[ids, k] = (np.rint(self.batch.state[ids, 0] / self.dt) - 1) * self.dt
+        s.length[ids, k] = fields["ten_length"][:, index.tendon]
+        s.velocity[ids, k] = fields["ten_velocity"][:, index.tendon]
+        s.rest[ids, k] = fields["act"][:, 0:2 * n:2]
+        s.command[ids, k] = fields["ctrl"][:, :n]
+        s.pos[ids, k, :-1] = fields["xpos"][:, index.body]
+        s.pos[ids, k, -1] = fields["subtree_com"][:, 0]
+        s.quat[ids, k] = fields["xquat"][:, index.body]
+        self.count[ids] += 1
+
+    def _check(self, ids: np.ndarray, fields: dict[str, np.ndarray]) -> None:
+        n = self.compiled.n_cables
+        speed = np.abs(fields["qvel"]).max(axis=1, initial=0.0)
+        force = -fields["actuator_force"][:, :n].min(axis=1, initial=0.0)
+        bad_acc = self.batch.warning[ids, mujoco.mjtWarning.mjWARN_BADQACC, 1]
+        fine = (speed < self.limits.max_speed) & (force < self.limits.max_tension) & \
+            (bad_acc == 0)
+        for row in np.flatnonzero(~fine):
+            i = int(ids[row])
+            d = mujoco.MjData(self.compiled.model)
+            d.qvel[:] = fields["qvel"][row]
+            d.actuator_force[:] = fields["actuator_force"][row]
+            time = float(self.samples.time[i, self.count[i] - 1]) if self.samples else 0.0
+            self.error[i] = f"trial {i}: " + diagnose(
+                self.compiled.model, d, self.compiled.index, self.limits, time,
+                bool(bad_acc[row]))
+
+    # -- results -----------------------------------------------------------------------------
+
+    def results(self, duration: float, wall: float) -> list[TrialResult]:
+        out = []
+        n, index = self.compiled.n_cables, self.compiled.index
+        assert self.samples is not None
+        peak = self.batch.bind("act")[:, 1:2 * n:2]
+        for i in range(len(self.trials)):
+            if self.error[i] is not None:
+                out.append(TrialResult(None, self.error[i]))
+                continue
+            series = sample_channels(self.samples.trial(i).head(int(self.count[i])), index,
+                                     self.dynprm[i, :n], self.biasprm[i, :n])
+            out.append(TrialResult(SimulationResult(series, peak[i].copy(), wall, duration,
+                                                    self.dt, index.cables)))
+        return out
+
+
+def _pos(ids: np.ndarray, subset: np.ndarray) -> np.ndarray:
+    """Positions of ``subset`` within ``ids``."""
+    return np.searchsorted(ids, subset)
