@@ -10,9 +10,11 @@ presence means the folder is complete.
 from __future__ import annotations
 
 import collections
+import importlib
 import logging
 import platform
 import sys
+import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -80,6 +82,29 @@ def _install() -> RunLog:
 
 
 RUN_LOG = _install()
+
+
+def prepare_outputs() -> threading.Thread:
+    """Starts loading what writing a run folder needs first, in a background thread: the
+    plotting module (matplotlib) and the trial of an offscreen OpenGL backend for frame.png.
+
+    Call it before simulating: MuJoCo lets other threads run while it steps, so on a machine
+    with a second core this work overlaps the simulation instead of following it. Failures are
+    left for the run folder's writer to meet and report.
+    """
+
+    def load() -> None:
+        try:
+            importlib.import_module("tensim.viz.plots")
+            from tensim.viz import _gl
+
+            _gl.select_backend()
+        except Exception as err:  # reported when the folder is written
+            logging.getLogger(__name__).debug("preparing the run folder's outputs: %s", err)
+
+    thread = threading.Thread(target=load, name="tensim-prepare-outputs", daemon=True)
+    thread.start()
+    return thread
 
 
 def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = None) -> Path:

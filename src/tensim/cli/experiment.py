@@ -177,7 +177,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.target is not None and args.name != "goal":
         raise ValueError(f"--target is for the goal experiment, not {args.name!r}")
+    from tensim.runs import prepare_outputs
+
     out = Path(args.out or f"runs/{args.name}")
+    prepare_outputs()  # plotting and the GL trial load while the simulation runs
     summary = EXPERIMENTS[args.name][1](args, out)
     if "duration_s" in summary and args.name != "timestep":
         print_summary(summary, out)

@@ -33,10 +33,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from tensim.control import load_velocity_table, resolve_controller
     from tensim.model import compile_structure
-    from tensim.runs import world_record, write_run
+    from tensim.runs import prepare_outputs, world_record, write_run
     from tensim.sim import simulate
     from tensim.viz import plot_cable_tensions, plot_path
 
+    prepare_outputs()  # plotting and the GL trial load while the simulation runs
     structure = load_model(args.model)
     config = resolve_controller(args.model, structure, args.controller)
     if args.velocity_input and config is None:

@@ -23,8 +23,6 @@ from tensim.models.tetraspine import node_name
 from tensim.runs import world_record, write_run
 from tensim.sim import NodeLoad, SimulationResult, ramp_hold_release, simulate
 from tensim.structure import Structure
-from tensim.viz import plot_cable_tensions, plot_lengths
-from tensim.viz.plots import Span
 
 PEAK_FORCE = 22.56  # N
 START, RISE, HOLD, FALL = 30.0, 5.0, 5.0, 5.0  # s
@@ -90,6 +88,8 @@ def write_disturbance(out: Path, result: SimulationResult, summary: dict[str, An
                       structure: Structure | None = None) -> Path:
     """Writes the run folder: trajectory, tension and length figures, the robot (``structure``,
     None: the preset) and its controller, summary."""
+    from tensim.viz.plots import Span, plot_cable_tensions, plot_lengths
+
     order = [f"{kind}_{j}" for j in (1, 2) for kind in
              ("outer_top", "outer_left", "outer_right", "inner_top", "inner_left", "inner_right")]
     spans = (Span(START, START + RISE + HOLD + FALL, "force ramps / holds", 0.10),

@@ -20,7 +20,6 @@ from tensim.models import preset
 from tensim.runs import world_record, write_run
 from tensim.sim import COM, SimulationResult, TimeSeries, simulate
 from tensim.structure import Structure
-from tensim.viz import plot_cable_tensions, plot_path, plot_velocity_input
 
 CABLE_ORDER = tuple(f"{kind}_{j}" for j in (1, 2) for kind in (
     "outer_top", "outer_left", "outer_right", "inner_top", "inner_left", "inner_right"))
@@ -134,6 +133,8 @@ def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
                config: ControllerConfig, structure: Structure | None = None) -> Path:
     """Writes tensions (Fig. 4/5 style), V* inputs, path, trajectory, the robot (``structure``,
     None: the preset) and controller, and the summary."""
+    from tensim.viz.plots import plot_cable_tensions, plot_path, plot_velocity_input
+
     cables = [c for c in CABLE_ORDER if c in result.cables] or list(result.cables)
     name = summary.get("experiment", "gait")
     plot_cable_tensions(result.trajectory, out / "tensions.png", cables=cables, columns=3,

@@ -16,7 +16,6 @@ import math
 import matplotlib
 import mujoco
 import numpy as np
-from scipy.optimize import brentq
 
 from tensim.model import CompiledModel
 from tensim.viz._scene import add_connector
@@ -100,6 +99,8 @@ def sag_depth(span: np.ndarray, length: np.ndarray) -> np.ndarray:
     L = sqrt(x² + 16 h²) / 2 + x² / (8 h) asinh(4 h / x); it grows with h, so each depth is
     the root of L(h) = length.
     """
+    from scipy.optimize import brentq  # ~0.3 s to import: only once a cable hangs slack
+
     span, length = np.broadcast_arrays(np.asarray(span, float), np.asarray(length, float))
     depth = np.zeros(span.shape)
     for i in np.flatnonzero(length > span * (1 + 1e-9)):

@@ -166,7 +166,7 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str], title: str =
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.17, right=0.96, bottom=0.11, top=0.93)  # room for the labels
     return save_figure(fig, path)
 
 
