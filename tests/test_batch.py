@@ -67,7 +67,7 @@ def test_each_trial_equals_its_single_run_bit_for_bit(robot):
 
 
 def test_one_thread_equals_two_and_repeats_exactly(robot):
-    p, structure, compiled = robot
+    _, structure, compiled = robot
     trials = [Trial(_gait(structure, compiled, "tetraspine3_cpg"),
                     physics=PhysicsScale(friction=f)) for f in np.linspace(0.5, 1.5, 6)]
     reference = run_batch(compiled, trials, 0.3, threads=1)
@@ -94,11 +94,13 @@ def _modified(structure, stiffness=1.0, damping=1.0, friction=1.0, motor_speed=1
     {"stiffness": 1.1}, {"damping": 0.7}, {"friction": 1.3}, {"motor_speed": 0.8},
 ])
 def test_physics_scales_equal_recompiled_structures(robot, scale):
-    p, structure, compiled = robot
+    _, structure, compiled = robot
     gait = _gait(structure, compiled, "tetraspine3_cpg")
-    [trial] = run_batch(compiled, [Trial(gait, physics=PhysicsScale(**scale))], DURATION)
     rebuilt = compile_structure(_modified(structure, **scale))
+    trial, own = run_batch(compiled, [Trial(gait, physics=PhysicsScale(**scale)),
+                                      Trial(gait, compiled=rebuilt)], DURATION, threads=2)
     _assert_identical(simulate(rebuilt, DURATION, controller=gait), trial)
+    _assert_identical(simulate(rebuilt, DURATION, controller=gait), own)  # a per-trial model
     nominal = simulate(compiled, DURATION, controller=gait)
     assert not np.array_equal(nominal.trajectory["tension/inner_top_1"],
                               trial.result.trajectory["tension/inner_top_1"])
@@ -122,7 +124,7 @@ def test_mass_scale_equals_a_heavier_robot(robot):
 
 
 def test_a_bad_trial_fails_alone_with_a_message(robot):
-    p, structure, compiled = robot
+    p, _, compiled = robot
     names = list(compiled.index.cables)
 
     class NanGain:  # e.g. an optimizer's proposal gone wrong, past the gains' own checks
@@ -155,7 +157,7 @@ def test_a_batch_too_large_to_hold_is_refused_up_front(robot):
 def test_starting_from_a_snapshot_equals_continuing(robot):
     from tensim.sim import Simulation
 
-    p, structure, compiled = robot
+    _, structure, compiled = robot
     gait = _gait(structure, compiled, "tetraspine3_cpg")
     with Simulation(compiled, controller=gait) as sim:
         sim.run(0.5)

@@ -6,9 +6,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from tensim.control import load_controller
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
-from tensim.control import load_controller
 from tensim.sim import Simulation, cable_law, compiled_available, ramp_hold_release, simulate
 
 needs_compiled = pytest.mark.skipif(

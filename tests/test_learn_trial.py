@@ -249,3 +249,37 @@ def test_learn_command_refuses_bad_input(tmp_path, capsys):
     assert "unknown segment 'tail'" in capsys.readouterr().err
     assert main(["learn", "--resume", str(tmp_path / "none")]) == 2
     assert "not a learning run folder" in capsys.readouterr().err
+
+
+def test_a_randomised_candidate_scores_the_mean_or_worst_of_its_robots():
+    import dataclasses as dc
+
+    from tensim.learn.families import default_base
+    from tensim.learn.problem import TrialProblem
+    from tensim.models import preset as get_preset
+    from tensim.sim import PhysicsScale
+
+    structure = get_preset("tetraspine3").build()
+    problem = TrialProblem(structure, default_base("tetraspine3", "cpg", structure), "cpg", 1.5,
+                           randomize=(("friction", 0.5, 1.5), ("stiffness", 0.9, 1.1)),
+                           robots=3)
+    draws = problem.physics
+    assert len(set(draws)) == 3 and all(0.5 <= d.friction <= 1.5 for d in draws)
+    unit = np.random.default_rng(2).random(problem.dimension)
+    mean = problem.evaluate(unit)
+    each = [dc.replace(problem, randomize=(), robots=1)._score(r) for r in _runs(problem, unit)]
+    scores = [o.score for o in each]
+    assert len(set(scores)) == 3  # the robots differ
+    assert mean.score == pytest.approx(np.mean(scores), rel=1e-12)
+    worst = dc.replace(problem, robust="worst").evaluate(unit)
+    assert worst.score == min(scores)
+    assert PhysicsScale() not in draws
+
+
+def _runs(problem, unit):
+    from tensim.sim import Trial, run_batch
+
+    compiled = problem.compiled()
+    controller = problem.controller(unit).build(compiled.model.opt.timestep)
+    return [run_batch(compiled, [Trial(controller, physics=ps)], problem.duration_s)[0]
+            for ps in problem.physics]

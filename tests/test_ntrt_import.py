@@ -228,8 +228,8 @@ def test_builder_choice_follows_the_toolkit(tmp_path):
     ("nodes:\n  a: [0, 0, 0]\n  a: [1, 0, 0]\n", r"bad\.yaml.*duplicate key 'a'"),
     ("nodes:\n  a: [0, 0, 0]\npair_groups:\n  rod:\n    - [a, z]\n",
      r"bad\.yaml: pair_groups 'rod' \[a, z\]: unknown node 'z'"),
-    ("builders:\n  rod:\n    class: tgSphereInfo\n",
-     r"bad\.yaml: builders 'rod': unsupported builder class 'tgSphereInfo'"),
+    ("builders:\n  rod:\n    class: tgCapsuleInfo\n",
+     r"bad\.yaml: builders 'rod': unsupported builder class 'tgCapsuleInfo'"),
     ("builders:\n  rod:\n    class: tgRodInfo\n    parameters: {mass: 1}\n",
      r"bad\.yaml: builders 'rod': unsupported tgRodInfo parameter 'mass'"),
     ("substructures:\n  s:\n    path: missing.yaml\n",
@@ -242,22 +242,6 @@ def test_builder_choice_follows_the_toolkit(tmp_path):
 def test_bad_files_name_the_file_and_entry(tmp_path, text, match):
     path = _write(tmp_path, "bad.yaml", text)
     with pytest.raises(StructureError, match=match):
-        import_ntrt(path, "cm")
-
-
-def test_node_edge_bonds_are_refused_clearly(tmp_path):
-    _write(tmp_path, "parts/unit.yaml", PART)
-    path = _write(tmp_path, "edge.yaml", """\
-        substructures:
-          a/b:
-            path: parts/unit.yaml
-        bond_groups:
-          string:
-            a/b/node_edge:
-              - [tip, hub/side]
-        """)
-    with pytest.raises(StructureError, match=r"edge\.yaml: bond_groups 'a/b/node_edge'.*not "
-                                             r"supported"):
         import_ntrt(path, "cm")
 
 
@@ -315,3 +299,24 @@ def test_cli_imports_a_spine_that_simulates(tmp_path, capsys):
     result = simulate(compile_structure(s), 1.0, record_dt=0.05)
     assert np.all(np.isfinite(result.trajectory.matrix("tension")))
     assert result.peak_tension.max() < 10.0  # 3 N pretension; the spine just settles
+
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ntrt" / "prism_tower.yaml"
+
+
+def test_the_shipped_example_imports_and_stands_5_s(tmp_path, capsys):
+    out = tmp_path / "tower.yaml"
+    assert main(["import-ntrt", str(EXAMPLE), "--units", "dm", "--out", str(out)]) == 0
+    # three prisms of 6 nodes, 3 bars and 9 strings; 6 saddle strings; the node_edge bond
+    # takes the top prism's 3 bottom edges and the middle's 3 top strings, adds 2 x 3
+    assert "18 nodes, 9 rods in 9 rigid bodies, 33 cables" in capsys.readouterr().out
+    s = load_structure(out)
+    bar = math.dist((0, 0, 3), (-1.5, 6, -2.598076))  # bottom1 -> top1 [dm]
+    area, density = math.pi * 0.01**2, 1.3 / 0.1**3  # 0.1 dm radius [m^2]; kg/dm^3 -> kg/m^3
+    # the file rounds its coordinates to 1e-6 dm: its three bars' lengths differ by ~1e-9
+    assert s.total_mass() == pytest.approx(density * area * 0.1 * bar * (6 + 3 * 0.7), rel=1e-8)
+    assert sum(c.name.startswith("cap_") for c in s.cables) == 6
+    assert sum(c.name.startswith("saddle_") for c in s.cables) == 6
+    result = simulate(compile_structure(s), 5.0, record_dt=0.1)
+    assert np.all(np.isfinite(result.trajectory.matrix("tension")))
+    assert result.peak_tension.max() < 100.0  # 40 N pretension; it settles, nothing flies off

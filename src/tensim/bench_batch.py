@@ -40,7 +40,7 @@ def _timed(fn: Callable[[], object]) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def _rollout_inputs(problem: TrialProblem, points: np.ndarray):
+def rollout_inputs(problem: TrialProblem, points: np.ndarray):
     """Per-trial models, initial state and the (N, nstep, nu) ctrl of the same trials."""
     compiled = problem.compiled()
     m, dt = compiled.model, compiled.model.opt.timestep
@@ -74,7 +74,7 @@ def bench_batch(trials: int = 64, duration: float = 10.0, repeats: int = 3,
     problem = _problem(duration)
     compiled = problem.compiled()
     points = np.random.default_rng(seed).random((trials, problem.dimension))
-    models, state, control, nstep = _rollout_inputs(problem, points)
+    models, state, control, nstep = rollout_inputs(problem, points)
 
     def batch(threads: int) -> None:
         dt = compiled.model.opt.timestep

@@ -14,7 +14,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--repeats", type=int, default=5,
                    help="runs of each loop, tensim and MuJoCo alone taking turns")
     p.add_argument("--learning", action="store_true", help="also learning throughput: "
-                   "evaluations/s of Tetraspine3 trials with 1 and 2 worker processes")
+                   "CMA-ES evaluations/s of Tetraspine3 CPG trials on 2 threads, against "
+                   "mujoco.rollout and a process pool")
+    p.add_argument("--batch", type=int, default=0, metavar="N",
+                   help="also N Tetraspine3 CPG trials per batch on 1 and 2 threads, against "
+                   "mujoco.rollout (e.g. 64)")
     p.set_defaults(run=run)
 
 
@@ -29,6 +33,11 @@ def run(args: argparse.Namespace) -> int:
 
         report["learning"] = bench_learning(args.duration)
         print(format_learning(report["learning"]))
+    if args.batch:
+        from tensim.bench_batch import bench_batch, format_batch
+
+        report["batch"] = bench_batch(args.batch, args.duration, args.repeats)
+        print(format_batch(report["batch"]))
     if args.json:
         write_json(Path(args.json), report)
     return 0

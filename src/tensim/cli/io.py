@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--up", default="y", choices=["y", "z"],
                    help="the file's up axis (default y, the toolkit's)")
     p.add_argument("--clearance", type=float, default=0.01,
-                   help="place the lowest rod surface this far above the ground [m] "
+                   help="place the lowest rod or sphere surface this far above the ground [m] "
                         "(default 0.01)")
     p.add_argument("--keep-position", action="store_true",
                    help="keep the file's positions (no --clearance placement)")

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 _PROBLEM_OPTIONS = ("model", "controller", "base_controller", "optimizer", "trial_duration",
                     "seed", "segment", "direction", "energy_weight", "settle", "max_tilt",
                     "penalty", "dt", "record_dt", "terrain", "target", "step", "batch",
-                    "monte_carlo")
+                    "monte_carlo", "randomize", "robots", "robust")
 _DEFAULTS: dict[str, Any] = {
     "model": "tetraspine3", "controller": "cpg", "optimizer": "ntrt", "evaluations": 100,
     "trial_duration": 10.0, "seed": 0, "segment": "com",
@@ -89,6 +89,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     search.add_argument("--monte-carlo", type=int, metavar="N",
                         help=f"ntrt: random samples before hill climbing (default "
                         f"{d['monte_carlo']})")
+    robust = p.add_argument_group("robust gaits (domain randomisation)")
+    robust.add_argument("--randomize", metavar="NAME=LO:HI,...",
+                        help="score each candidate on randomised robots: multipliers of "
+                        "friction, stiffness, damping, mass, motor_speed, e.g. "
+                        "friction=0.7:1.3,stiffness=0.9:1.1 (the draws follow --seed)")
+    robust.add_argument("--robots", type=int, metavar="K",
+                        help="robots per candidate (default 8 with --randomize, else 1)")
+    robust.add_argument("--robust", choices=("mean", "worst"),
+                        help="a candidate's score over its robots: the mean (default) or the "
+                        "worst")
     run = p.add_argument_group("running")
     run.add_argument("--evaluations", type=int, metavar="N",
                      help=f"evaluation budget (default {d['evaluations']}); with --resume, "
@@ -121,8 +131,29 @@ def _problem(args: argparse.Namespace) -> TrialProblem:
     target = parse_point(args.target, "--target") if args.target is not None else None
     objective = Objective(args.segment, None if target else direction, either_way,
                           args.energy_weight, args.settle, args.max_tilt, target)
+    randomize = parse_randomize(args.randomize) if args.randomize else ()
+    robots = args.robots if args.robots is not None else (8 if randomize else 1)
     return TrialProblem(structure, base, args.controller, args.trial_duration, objective,
-                        world_from_args(args), args.record_dt, args.penalty, args.model)
+                        world_from_args(args), args.record_dt, args.penalty, args.model,
+                        randomize, robots, args.robust or "mean", args.seed)
+
+
+def parse_randomize(text: str) -> tuple[tuple[str, float, float], ...]:
+    """``friction=0.7:1.3,stiffness=0.9:1.1`` as ((name, low, high), ...).
+
+    Raises:
+        ValueError: a malformed entry, naming it.
+    """
+    out = []
+    for item in text.split(","):
+        name, _, bounds = item.partition("=")
+        low, _, high = bounds.partition(":")
+        try:
+            out.append((name.strip(), float(low), float(high)))
+        except ValueError:
+            raise ValueError(f"--randomize entry {item!r}: expected NAME=LOW:HIGH, e.g. "
+                             "friction=0.7:1.3") from None
+    return tuple(out)
 
 
 class _LearningProgress:

@@ -6,16 +6,17 @@ measurement parameters only reshape the simulated signals, so the optimizer's fi
 differences over them reuse a cached simulation. The optimizer is scipy's bounded
 trust-region least squares on the unit cube of the bounds, with a finite-difference step large
 enough to step over the small, irregular changes that contact and motor limits cause; the
-uncertainty comes from the Jacobian at the solution. (MuJoCo's ``mujoco.sysid`` toolbox makes
-the same physical/measurement split, but rolls out MjModels driven through ``ctrl``; tensim's
-cables run in a control callback with motor state, and its physical parameters change the
-structure description, so the optimizer is called directly.)
+uncertainty comes from the Jacobian at the solution. A Jacobian's perturbed models (each a
+recompiled structure) are simulated together, one batch per log, on the batch engine's threads.
+(MuJoCo's ``mujoco.sysid`` toolbox makes the same physical/measurement split; tensim keeps its
+own driver because its physical parameters change the structure description and recompile.)
 """
 
 from __future__ import annotations
 
 import collections
 import dataclasses
+import os
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -24,12 +25,12 @@ from scipy import optimize
 
 from tensim.control import ControllerConfig
 from tensim.hardware.compare import Comparison, compare_tensions
-from tensim.hardware.logs import HardwareLog
+from tensim.hardware.logs import HardwareLog, check_items
 from tensim.hardware.parameters import SysidSpace, apply_measurement, apply_physical
-from tensim.hardware.replay import replay
+from tensim.hardware.replay import replay_config
 from tensim.hardware.sensor import SensorModel
-from tensim.model import WorldOptions
-from tensim.sim import TimeSeries
+from tensim.model import WorldOptions, compile_structure
+from tensim.sim import SimulationError, TimeSeries, Trial, run_batch
 from tensim.structure import Structure
 
 _CACHE_SIZE = 16
@@ -45,6 +46,7 @@ class SysidSettings:
         max_offset: largest time offset the cross-correlation tries [s].
         margin: simulated time past each log's end [s].
         skip: leave each log's first seconds out of the residual [s].
+        threads: threads of the batch engine that runs the perturbed models (0: every core).
     """
 
     max_simulations: int = 60
@@ -52,6 +54,7 @@ class SysidSettings:
     max_offset: float = 0.5
     margin: float = 0.5
     skip: float = 0.0
+    threads: int = 0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -142,28 +145,50 @@ class _Problem:
         With ``snap`` the physical values are first rounded to the space's grid (see
         :meth:`SysidSpace.snap`); the nominal model is simulated exactly as given.
         """
-        values = self.space.snap(values) if snap else values
-        key = self.space.physical_key(values)
-        if key in self.cache:
+        return self.simulate_many([values], snap)[0]
+
+    def simulate_many(self, values: Sequence[np.ndarray], snap: bool = True
+                      ) -> list[list[TimeSeries]]:
+        """:meth:`simulate` for several parameter vectors, the uncached ones as one batch per
+        log on the batch engine's threads."""
+        values = [self.space.snap(v) if snap else v for v in values]
+        keys = [self.space.physical_key(v) for v in values]
+        todo = {k: v for k, v in zip(keys, values, strict=True) if k not in self.cache}
+        if todo:
+            runs = self._run(list(todo.values()))
+            for key, run in zip(todo, runs, strict=True):
+                self.cache[key] = run
+        for key in keys:
             self.cache.move_to_end(key)
-            return self.cache[key]
-        named = self.space.as_dict(values)
-        structure = apply_physical(self.space.structure, named)
-        runs = []
+        out = [self.cache[key] for key in keys]
+        while len(self.cache) > max(_CACHE_SIZE, len(set(keys))):
+            self.cache.popitem(last=False)
+        return out
+
+    def _run(self, values: list[np.ndarray]) -> list[list[TimeSeries]]:
+        """Replays every log for every parameter vector: per vector, a list over the logs."""
+        named = [self.space.as_dict(v) for v in values]
+        compiled = [compile_structure(apply_physical(self.space.structure, n), self.world)
+                    for n in named]
+        out: list[list[TimeSeries]] = [[] for _ in values]
         for log in self.logs:
-            result = replay(log, structure, self.config, world=self.world,
-                            vstar_scale=named.get("vstar_scale", 1.0),
-                            margin=self.settings.margin)
-            runs.append(TimeSeries(result.trajectory.time,
-                                   {c: result.trajectory[c] for c in result.trajectory.channels
-                                    if c.startswith("tension/")}))
-            self.simulations += 1
+            check_items(log, compiled[0].structure)
+            trials = [Trial(replay_config(log, self.config, vstar_scale=n.get("vstar_scale", 1.0),
+                                          margin=self.settings.margin
+                                          ).build(c.model.opt.timestep), compiled=c)
+                      for n, c in zip(named, compiled, strict=True)]
+            results = run_batch(compiled[0], trials, log.duration + self.settings.margin,
+                                threads=self.settings.threads or os.cpu_count() or 1)
+            for k, trial in enumerate(results):
+                if trial.result is None:
+                    raise SimulationError(f"replaying {log.source}: {trial.error}")
+                series = trial.result.trajectory
+                out[k].append(TimeSeries(series.time, {c: series[c] for c in series.channels
+                                                       if c.startswith("tension/")}))
+            self.simulations += len(trials)
             if self.progress is not None:
                 self.progress(self.simulations, self.settings.max_simulations)
-        self.cache[key] = runs
-        if len(self.cache) > _CACHE_SIZE:
-            self.cache.popitem(last=False)
-        return runs
+        return out
 
     def comparisons(self, values: np.ndarray) -> list[Comparison]:
         """Per log, the logged tensions against the simulated readings for ``values``."""
@@ -189,14 +214,19 @@ class _Problem:
         A fixed, fairly large step steps over the small irregular changes that contacts and
         motor limits make in a simulated tension; measurement columns reuse the cached run.
         """
-        base = self.residuals(unit)
-        columns = []
+        steps, points = [], []
         for k in range(unit.size):
             step = self.settings.diff_step if unit[k] + self.settings.diff_step <= 1.0 \
                 else -self.settings.diff_step
             moved = unit.copy()
             moved[k] += step
-            columns.append((self.residuals(moved) - base) / step)
+            steps.append(step)
+            points.append(moved)
+        # every perturbed model at once, one batch per log
+        self.simulate_many([self.space.from_unit(u) for u in [unit, *points]])
+        base = self.residuals(unit)
+        columns = [(self.residuals(moved) - base) / step
+                   for moved, step in zip(points, steps, strict=True)]
         return np.stack(columns, axis=1)
 
 

@@ -3,19 +3,19 @@
 This follows NTRTsim's ``yamlbuilder`` (``TensegrityModel.cpp``): a file has ``nodes`` (name:
 [x, y, z]), ``pair_groups`` (tags: list of [node, node]), ``builders`` (tags: {class,
 parameters}), ``substructures`` (name or ``a/b/c``: {path, rotation, scale, offset,
-translation}) and ``bond_groups`` (node pairs between substructures, ``a/b/node_node``). A
-substructure is turned about ``rotation.reference`` (default: its centroid), then scaled about
-its centroid, moved by ``offset`` times its index in an ``a/b/c`` list, then by
+translation}) and ``bond_groups`` (pairs between substructures, ``a/b/node_node``, or
+``a/b/node_edge``: see :mod:`tensim.io._ntrt_edge`). The substructures with a ``path`` are read
+first; then every entry, with a path or without, turns the substructures it names about
+``rotation.reference`` (default: the centroid), then every entry scales them about their
+centroid, moves them by ``offset`` times their index in its ``a/b/c`` list, then by
 ``translation``. Everything stays in the file's units and frame here; :mod:`tensim.io.ntrt`
 converts.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import math
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -23,82 +23,13 @@ import numpy as np
 import yaml
 from scipy.spatial.transform import Rotation
 
+from tensim.io._ntrt_edge import add_node_edge
+from tensim.io._ntrt_parts import Builder, Part, Tree, add_pair, fail, find_child, find_node
 from tensim.structure import StructureError
 
 _TOP_KEYS = ("nodes", "pair_groups", "builders", "substructures", "bond_groups")
 _CHILD_KEYS = ("path", "rotation", "translation", "scale", "offset")
 _ROTATION_KEYS = ("axis", "angle", "reference")
-
-
-@dataclasses.dataclass(eq=False)
-class Part:
-    """One structure of the file tree: the top file or a substructure (positions in file units).
-
-    Attributes:
-        name: its substructure name ("" for the top file).
-        prefix: its path from the top, ending in "/" ("" for the top), e.g. ``"spine/t1/"``.
-        source: the file it came from.
-        nodes: node name -> (3,) position, changed in place by the transforms.
-        children: its substructures, in file order.
-    """
-
-    name: str
-    prefix: str
-    source: Path
-    nodes: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
-    children: list[Part] = dataclasses.field(default_factory=list)
-
-    def walk(self) -> Iterator[Part]:
-        """This part, then its descendants breadth-first (the toolkit's search order)."""
-        queue = [self]
-        while queue:
-            part = queue.pop(0)
-            yield part
-            queue.extend(part.children)
-
-
-@dataclasses.dataclass(frozen=True)
-class Pair:
-    """A node pair that a builder may turn into a rod or a cable.
-
-    Attributes:
-        ends: the two nodes as (part, node name).
-        tags: the pair's tags (for bonds, plus the two substructure names and ``a/b``).
-        owner: the part whose file declared it (its name also matches builder tags).
-        label: where it was declared, for messages.
-    """
-
-    ends: tuple[tuple[Part, str], tuple[Part, str]]
-    tags: tuple[str, ...]
-    owner: Part
-    label: str
-
-
-@dataclasses.dataclass(frozen=True)
-class Builder:
-    """A builder entry: pairs carrying all of ``tags`` are built as ``cls``.
-
-    Attributes:
-        tags: the tag search (space-separated in the file).
-        cls: the toolkit's builder class name, e.g. ``tgRodInfo``.
-        parameters: the parameters given in the file (file units).
-        source: the file it came from.
-    """
-
-    tags: tuple[str, ...]
-    cls: str
-    parameters: dict[str, Any]
-    source: str
-
-
-@dataclasses.dataclass
-class Tree:
-    """A whole model: the top part, every pair and the builders in the order they were added."""
-
-    top: Part
-    pairs: list[Pair]
-    builders: list[Builder]
-    files: list[Path]
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):
@@ -115,17 +46,13 @@ class _UniqueKeyLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep)
 
 
-def _fail(source: Path, item: str, message: str) -> StructureError:
-    return StructureError(message, item=item, source=str(source))
-
-
 def _vector(value: Any, source: Path, item: str) -> np.ndarray:
     try:
         out = np.array([float(v) for v in value])
     except (TypeError, ValueError):
-        raise _fail(source, item, f"expected three numbers, got {value!r}") from None
+        raise fail(source, item, f"expected three numbers, got {value!r}") from None
     if out.shape != (3,) or not np.all(np.isfinite(out)):
-        raise _fail(source, item, f"expected three finite numbers, got {value!r}")
+        raise fail(source, item, f"expected three finite numbers, got {value!r}")
     return out
 
 
@@ -134,25 +61,48 @@ def _mapping(value: Any, source: Path, item: str, keys: tuple[str, ...] | None =
     if value is None:
         return {}
     if not isinstance(value, dict):
-        raise _fail(source, item, f"expected a mapping, got {value!r}")
+        raise fail(source, item, f"expected a mapping, got {value!r}")
     unknown = [k for k in value if keys is not None and k not in keys]
     if unknown:
-        raise _fail(source, item, f"unknown key {unknown[0]!r}; expected one of {list(keys or ())}")
+        raise fail(source, item, f"unknown key {unknown[0]!r}; expected one of {list(keys or ())}")
     return {str(k): v for k, v in value.items()}
 
 
-def _load(path: Path, parent: Path | None) -> dict[str, Any]:
+def _load(path: Path, parent: Path | None, notes: list[str]) -> dict[str, Any]:
     try:
         text = path.read_text()
     except OSError as err:
         where = str(parent) if parent else str(path)
         raise StructureError(f"cannot read structure file {str(path)!r}: {err.strerror}",
                              source=where) from None
+    text = _as_toolkit_reads(text, path, notes)
     try:
         data = yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass
     except yaml.YAMLError as err:
         raise StructureError(f"not valid YAML: {err}", source=str(path)) from None
     return _mapping(data, path, "top level", _TOP_KEYS)
+
+
+def _as_toolkit_reads(text: str, path: Path, notes: list[str]) -> str:
+    """The text as the toolkit's reader (yaml-cpp) takes it, in terms PyYAML reads alike.
+
+    yaml-cpp takes a tab after a line's indentation as a space, and a ``%`` in the first column
+    after some content as a directive that ends the document: the lines after it are a second
+    document, which the toolkit never reads.
+    """
+    lines = text.splitlines()
+    started = False
+    for number, line in enumerate(lines):
+        if line.startswith("%") and started:
+            notes.append(f"{path.name} line {number + 1} starts with '%', which ends the YAML "
+                         f"document for the toolkit's reader: its {len(lines) - number} last "
+                         "line(s) were ignored, as the toolkit ignores them")
+            lines = lines[:number]
+            break
+        started = started or (bool(line.strip()) and not line.lstrip().startswith("#"))
+        indent = len(line) - len(line.lstrip(" \t"))  # a tab here is an error for both
+        lines[number] = line[:indent] + line[indent:].replace("\t", " ")
+    return "\n".join(lines) + "\n"
 
 
 def read_tree(path: Path) -> Tree:
@@ -163,7 +113,8 @@ def read_tree(path: Path) -> Tree:
     """
     builders = [Builder(("rod",), "tgRodInfo", {}, "default"),
                 Builder(("string",), "tgBasicActuatorInfo", {}, "default"),
-                Builder(("box",), "tgBoxInfo", {}, "default")]
+                Builder(("box",), "tgBoxInfo", {}, "default"),
+                Builder(("sphere",), "tgSphereInfo", {}, "default")]
     tree = Tree(Part("", "", path), [], builders, [])
     _read_part(tree, tree.top, path, chain=())
     return tree
@@ -174,16 +125,20 @@ def _read_part(tree: Tree, part: Part, path: Path, chain: tuple[Path, ...]) -> N
     if resolved in chain:
         raise StructureError("substructure files include each other in a loop",
                              source=str(path))
-    data = _load(path, chain[-1] if chain else None)
+    data = _load(path, chain[-1] if chain else None, tree.notes)
     tree.files.append(path)
     # the toolkit's order: substructures (and their builders), own builders, nodes, pairs, bonds
-    for key, attrs in _mapping(data.get("substructures"), path, "substructures").items():
-        _add_children(tree, part, path, key, _mapping(attrs, path, f"substructures {key!r}",
-                                                      _CHILD_KEYS), (*chain, resolved))
+    entries = {key: _mapping(attrs, path, f"substructures {key!r}", _CHILD_KEYS)
+               for key, attrs in _mapping(data.get("substructures"), path,
+                                          "substructures").items()}
+    for key, attrs in entries.items():
+        if "path" in attrs:
+            _add_children(tree, part, path, key, attrs, (*chain, resolved))
+    _transform_children(part, entries, path)
     for key, entry in _mapping(data.get("builders"), path, "builders").items():
         entry = _mapping(entry, path, f"builders {key!r}", ("class", "parameters"))
         if "class" not in entry:
-            raise _fail(path, f"builders {key!r}", "no 'class' given (e.g. tgRodInfo)")
+            raise fail(path, f"builders {key!r}", "no 'class' given (e.g. tgRodInfo)")
         tree.builders.append(Builder(tuple(key.split()), str(entry["class"]),
                                      _mapping(entry.get("parameters"), path,
                                               f"builders {key!r} parameters"), str(path)))
@@ -197,7 +152,7 @@ def _read_part(tree: Tree, part: Part, path: Path, chain: tuple[Path, ...]) -> N
         for inner, pairs in _mapping(content, path, f"bond_groups {key!r}").items():
             bonds, tags = (key, inner) if "/" in key else (inner, key)
             if ("/" in key) == ("/" in inner):
-                raise _fail(path, f"bond_groups {key!r} {inner!r}", "expected a tag and a bond "
+                raise fail(path, f"bond_groups {key!r} {inner!r}", "expected a tag and a bond "
                             "like 'a/b/node_node', one nested in the other")
             _add_bonds(tree, part, path, bonds, tags, pairs)
 
@@ -205,42 +160,66 @@ def _read_part(tree: Tree, part: Part, path: Path, chain: tuple[Path, ...]) -> N
 def _add_children(tree: Tree, part: Part, path: Path, key: str, attrs: dict[str, Any],
                   chain: tuple[Path, ...]) -> None:
     item = f"substructures {key!r}"
-    if "path" not in attrs:
-        raise _fail(path, item, "no 'path' to the substructure's file given")
-    child_path = path.parent / str(attrs["path"])
-    for index, name in enumerate(key.split("/")):
+    if not isinstance(attrs["path"], str) or not attrs["path"]:
+        raise fail(path, f"{item} path", f"expected a file path, got {attrs['path']!r}")
+    child_path = path.parent / attrs["path"]
+    for name in key.split("/"):
         if any(c.name == name for c in part.children):
-            raise _fail(path, item, f"substructure name {name!r} is used twice")
+            raise fail(path, item, f"substructure name {name!r} is used twice")
         child = Part(name, f"{part.prefix}{name}/", child_path)
         part.children.append(child)
         _read_part(tree, child, child_path, chain)
-        _transform(child, attrs, index, path, item)
 
 
-def _transform(child: Part, attrs: dict[str, Any], index: int, path: Path, item: str) -> None:
-    """Rotation, scale, offset x index, translation: the toolkit's order."""
-    nodes = [p for part in child.walk() for p in part.nodes.values()]
+def _transform_children(part: Part, entries: dict[str, dict[str, Any]], path: Path) -> None:
+    """Every entry's rotation, then every entry's scale, offset x index and translation.
+
+    As the toolkit does, an entry transforms the substructures it names (searched breadth-first
+    below ``part``) whether or not it has a ``path``: entries without one only transform.
+    """
+    named = {key: [find_child(part, name, path, f"substructures {key!r}")
+                   for name in key.split("/")] for key in entries}
+    for key, attrs in entries.items():
+        if attrs.get("rotation") is not None:
+            for child in named[key]:
+                _rotate(child, attrs["rotation"], path, f"substructures {key!r} rotation")
+    for key, attrs in entries.items():
+        for index, child in enumerate(named[key]):
+            _scale_and_move(child, attrs, index, path, f"substructures {key!r}")
+
+
+def _positions(child: Part) -> list[np.ndarray]:
+    return [p for part in child.walk() for p in part.nodes.values()]
+
+
+def _rotate(child: Part, rotation: Any, path: Path, item: str) -> None:
+    """Turns ``child`` by ``angle`` degrees about ``axis`` through ``reference`` (or its
+    centroid)."""
+    rot = _mapping(rotation, path, item, _ROTATION_KEYS)
+    axis = _vector(rot.get("axis"), path, f"{item} axis")
+    if not np.linalg.norm(axis) > 0 or "angle" not in rot:
+        raise fail(path, item, "needs a non-zero 'axis' and an 'angle' [deg]")
+    nodes = _positions(child)
     if not nodes:
         return
+    turn = Rotation.from_rotvec(axis / np.linalg.norm(axis) * math.radians(float(rot["angle"])))
+    ref = (_vector(rot["reference"], path, f"{item} reference") if "reference" in rot
+           else np.mean(nodes, axis=0))
+    for p in nodes:
+        p[:] = ref + turn.apply(p - ref)
 
-    def centroid() -> np.ndarray:
-        return np.mean(nodes, axis=0)
 
-    if attrs.get("rotation") is not None:
-        rot = _mapping(attrs["rotation"], path, f"{item} rotation", _ROTATION_KEYS)
-        axis = _vector(rot.get("axis"), path, f"{item} rotation axis")
-        if not np.linalg.norm(axis) > 0 or "angle" not in rot:
-            raise _fail(path, f"{item} rotation", "needs a non-zero 'axis' and an 'angle' [deg]")
-        turn = Rotation.from_rotvec(axis / np.linalg.norm(axis) * math.radians(float(rot["angle"])))
-        ref = (_vector(rot["reference"], path, f"{item} rotation reference")
-               if "reference" in rot else centroid())
-        for p in nodes:
-            p[:] = ref + turn.apply(p - ref)
+def _scale_and_move(child: Part, attrs: dict[str, Any], index: int, path: Path,
+                    item: str) -> None:
+    """Scale about the centroid, then offset x index, then translation: the toolkit's order."""
+    nodes = _positions(child)
+    if not nodes:
+        return
     if attrs.get("scale") is not None:
         factor = float(attrs["scale"])
         if not factor > 0:
-            raise _fail(path, f"{item} scale", f"expected a factor > 0, got {attrs['scale']!r}")
-        centre = centroid()
+            raise fail(path, f"{item} scale", f"expected a factor > 0, got {attrs['scale']!r}")
+        centre = np.mean(nodes, axis=0)
         for p in nodes:
             p[:] = centre + factor * (p - centre)
     shift = np.zeros(3)
@@ -257,54 +236,30 @@ def _pair_list(pairs: Any, path: Path, item: str) -> list[tuple[str, str]]:
         return []
     if not isinstance(pairs, list) or not all(isinstance(p, list) and len(p) == 2
                                               for p in pairs):
-        raise _fail(path, item, f"expected a list of [node, node] pairs, got {pairs!r}")
+        raise fail(path, item, f"expected a list of [node, node] pairs, got {pairs!r}")
     return [(str(a), str(b)) for a, b in pairs]
 
 
 def _add_bonds(tree: Tree, part: Part, path: Path, bonds: str, tags: str, pairs: Any) -> None:
     item = f"bond_groups {bonds!r}"
     *names, kind = bonds.split("/")
-    if kind == "node_edge":
-        raise _fail(path, item, "node_edge bonds (which re-pose a substructure onto another) "
-                    "are not supported; use node_node bonds")
-    if kind != "node_node" or len(names) < 2:
-        raise _fail(path, item, "expected 'a/b/node_node' (two or more substructures, then "
-                    "the bond type)")
+    if kind not in ("node_node", "node_edge") or len(names) < 2:
+        raise fail(path, item, "expected 'a/b/node_node' or 'a/b/node_edge' (two or more "
+                    "substructures, then the bond type)")
     for first, second in itertools.pairwise(names):
-        one, two = _find_child(part, first, path, item), _find_child(part, second, path, item)
+        one, two = find_child(part, first, path, item), find_child(part, second, path, item)
+        if kind == "node_edge":
+            add_node_edge(tree, part, (one, two), tuple(tags.split()),
+                          _pair_list(pairs, path, item), f"{item} {tags!r}")
+            continue
         for a, b in _pair_list(pairs, path, item):
             _add_pair(tree, part, (one, a), (two, b),
                       (*tags.split(), first, second, f"{first}/{second}"),
                       f"{item} {tags!r} [{a}, {b}]")
 
 
-def _find_child(part: Part, name: str, path: Path, item: str) -> Part:
-    for child in list(part.walk())[1:]:
-        if child.name == name:
-            return child
-    raise _fail(path, item, f"no substructure {name!r}; substructures: "
-                f"{[c.prefix.rstrip('/') for c in list(part.walk())[1:]]}")
-
-
-def _find_node(part: Part, ref: str, path: Path, item: str) -> tuple[Part, str]:
-    """The node ``ref`` (``node`` or ``child.node``) searched from ``part`` breadth-first."""
-    *children, name = ref.split(".")
-    target = part
-    for child in children:
-        target = _find_child(target, child, path, item)
-    for candidate in target.walk():
-        if name in candidate.nodes:
-            return candidate, name
-    raise _fail(path, item, f"unknown node {ref!r}; nodes here: {sorted(target.nodes)}")
-
-
 def _add_pair(tree: Tree, owner: Part, a: tuple[Part, str], b: tuple[Part, str],
               tags: tuple[str, ...], label: str) -> None:
-    ends = (_find_node(a[0], a[1], owner.source, label),
-            _find_node(b[0], b[1], owner.source, label))
-    if ends[0] == ends[1]:
-        raise _fail(owner.source, label, "a pair needs two different nodes")
-    for other in tree.pairs:
-        if other.owner is owner and set(other.ends) == set(ends):
-            raise _fail(owner.source, label, f"this pair is already declared ({other.label})")
-    tree.pairs.append(Pair(ends, tags, owner, label))
+    ends = (find_node(a[0], a[1], owner.source, label),
+            find_node(b[0], b[1], owner.source, label))
+    add_pair(tree, owner, ends, tags, label)

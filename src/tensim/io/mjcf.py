@@ -4,9 +4,10 @@ importers) can open it.
 The XML holds everything MuJoCo itself knows: bodies, inertias, rod and mass geoms, contact
 settings, the cables' spatial tendons (with their via sites) and one plain tendon actuator per
 cable (ctrl = the signed tendon force, -tension [N]). It cannot hold the cable law and the
-motors, which tensim runs in its own compiled actuator callbacks. With ``springs=True`` (the default) each tendon gets MuJoCo's
-own spring as a stand-in: stiffness k, damping b and a dead band [0, rest length], so that,
-like the cable, it pulls only while stretched past its rest length, with k (x - l) + b dx/dt.
+motors, which tensim runs in its own compiled actuator callbacks. With ``springs=True`` (the
+default) each tendon gets MuJoCo's own spring as a stand-in: stiffness k, damping b and a dead
+band [0, rest length], so that, like the cable, it pulls only while stretched past its rest
+length, with k (x - l) + b dx/dt.
 Two differences remain: MuJoCo damps a slack tendon too (the cable law does not), and the rest
 lengths stay fixed (no motors, no controller). MuJoCo writes numbers with 6 significant digits.
 """

@@ -1,21 +1,23 @@
-"""Learning throughput: evaluations per second with 1 and 2 worker processes.
+"""Learning throughput: evaluations per second of CMA-ES on Tetraspine3 CPG gaits.
 
-The same Monte Carlo sample of Tetraspine3 CPG gaits (10 s trials) is run three ways: each
-trial as a plain simulation in this process (gait generation + :func:`tensim.simulate`, the
-work of one ``tensim simulate`` without its file output), then through the learning
-executor's process pool with 1 and with 2 workers (trial, scoring and result transfer). The
-pools are started and their robots compiled before the clock starts, as in a long run.
+The points of a CMA-ES run are evaluated as a whole ``tensim learn`` run, as bare batches on
+threads, on a warm process pool, one plain simulation after another, and replayed by
+``mujoco.rollout`` on the same threads (the engine's batched limit for the same work).
 """
 
 from __future__ import annotations
 
+import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 
-from tensim.learn.executors import ProcessPoolExecutor
+from tensim.learn.executors import ProcessPoolExecutor, ThreadBatchExecutor
 from tensim.learn.families import default_base
+from tensim.learn.optimizers import OptimizerSettings
 from tensim.learn.problem import TrialProblem
 from tensim.models import preset
 from tensim.sim import simulate
@@ -82,39 +84,90 @@ def machine_scaling(repeats: int = 3, n: int = 4_000_000) -> float:
     return wall(1) / wall(2)
 
 
-def bench_learning(duration: float = 10.0, trials: int = 8, repeats: int = 2,
-                   seed: int = 0) -> dict[str, Any]:
-    """Evaluations per second for ``trials`` trials of ``duration`` seconds (best of
-    ``repeats``).
+def _threads_s(problem: TrialProblem, points: np.ndarray, workers: int) -> float:
+    """Wall time of the trials as batches on ``workers`` threads [s]."""
+    start = time.perf_counter()
+    done = sum(1 for _ in ThreadBatchExecutor(problem, workers).run(list(enumerate(points))))
+    if done != len(points):
+        raise RuntimeError("the batch lost trials")
+    return time.perf_counter() - start
+
+
+def _rollout_s(problem: TrialProblem, points: np.ndarray, workers: int) -> float:
+    """Wall time of ``mujoco.rollout`` replaying the same trials' ctrl on ``workers`` threads,
+    the engine's batched limit for the same work [s]."""
+    from mujoco import rollout
+
+    from tensim.bench_batch import rollout_inputs
+
+    models, state, control, nstep = rollout_inputs(problem, points)
+    datas = [mujoco.MjData(models[0]) for _ in range(workers)]
+    start = time.perf_counter()
+    rollout.rollout(models, datas, state, control, nstep=nstep)
+    return time.perf_counter() - start
+
+
+def _learn_run_s(problem: TrialProblem, evaluations: int, workers: int) -> tuple[float, np.ndarray]:
+    """Wall time of a whole CMA-ES ``learn`` run on ``workers`` threads, from the call to the
+    written run folder, and the points it evaluated."""
+    from tensim.learn.run import LearningSettings, learn
+    from tensim.learn.store import RunStore
+
+    with tempfile.TemporaryDirectory() as folder:
+        out = Path(folder) / "run"
+        settings = LearningSettings(OptimizerSettings("cma"), evaluations, seed=0)
+        start = time.perf_counter()
+        learn(problem, settings, out, executor=lambda p: ThreadBatchExecutor(p, workers))
+        wall = time.perf_counter() - start
+        points = np.array([e.unit for _, e in sorted(RunStore(out).evaluations().items())])
+    return wall, points
+
+
+def bench_learning(duration: float = 10.0, evaluations: int = 20, repeats: int = 2
+                   ) -> dict[str, Any]:
+    """Evaluations per second of CMA-ES learning on Tetraspine3 CPG gaits, 2 threads.
+
+    A whole ``learn`` run (run folder, optimizer, batches on threads, learning curve) is timed;
+    then its evaluated points again as bare batches on threads, on a process pool of 2 workers
+    (the earlier engine), and as ``mujoco.rollout`` of the same inputs on 2 threads (the
+    engine's limit). Interleaved, best of ``repeats``.
 
     Returns:
-        ``evaluations_per_s`` for 1 and 2 workers, ``scaling_2_over_1``,
-        ``machine_scaling_2_over_1`` (the same for a busy loop: the machine's free cores),
-        ``trial_cost_ratio`` (1-worker wall per trial / plain simulation per trial) and the
-        underlying times.
+        evaluations per second of each, and the ratios to the rollout limit.
     """
     problem = _problem(duration)
-    points = np.random.default_rng(seed).random((trials, problem.dimension))
-    plain = _plain_simulation_s(problem, points, repeats)
-    one = _pool_s(problem, points, 1, repeats)
-    two = _pool_s(problem, points, 2, repeats)
+    walls: dict[str, list[float]] = {"learn": [], "threads": [], "processes": [],
+                                     "rollout": [], "plain_1_thread": []}
+    points = np.empty((0, problem.dimension))
+    for _ in range(repeats):
+        wall, points = _learn_run_s(problem, evaluations, 2)
+        walls["learn"].append(wall)
+        walls["threads"].append(_threads_s(problem, points, 2))
+        walls["processes"].append(_pool_s(problem, points, 2, 1))
+        walls["rollout"].append(_rollout_s(problem, points, 2))
+    walls["plain_1_thread"].append(_plain_simulation_s(problem, points, 1))
+    n = len(points)
+    rate = {k: n / min(v) for k, v in walls.items()}
     return {
         "machine_scaling_2_over_1": machine_scaling(),
-        "case": f"tetraspine3 cpg, {duration:g} s trials",
-        "trials": trials,
-        "plain_simulation_s_per_trial": plain / trials,
-        "evaluations_per_s": {"1": trials / one, "2": trials / two},
-        "scaling_2_over_1": one / two,
-        "trial_cost_ratio": one / plain,
+        "case": f"tetraspine3 cpg, CMA-ES, {n} evaluations of {duration:g} s",
+        "evaluations": n,
+        "evaluations_per_s": rate,
+        "learn_over_rollout": rate["learn"] / rate["rollout"],
+        "threads_over_rollout": rate["threads"] / rate["rollout"],
+        "processes_over_rollout": rate["processes"] / rate["rollout"],
     }
 
 
 def format_learning(report: dict[str, Any]) -> str:
     """The learning figures as a few printed lines."""
     rate = report["evaluations_per_s"]
-    return (f"learning ({report['case']}, {report['trials']} trials): "
-            f"{rate['1']:.2f} evaluations/s with 1 worker, {rate['2']:.2f} with 2 "
-            f"(scaling {report['scaling_2_over_1']:.2f}x; a pure-Python busy loop scales "
-            f"{report['machine_scaling_2_over_1']:.2f}x on this machine now)\n"
-            f"  a trial through the pool costs {report['trial_cost_ratio']:.3f}x a plain "
-            f"simulation of the same length ({report['plain_simulation_s_per_trial']:.3f} s)")
+    return (f"learning ({report['case']}, 2 threads or workers):\n"
+            f"  tensim learn {rate['learn']:.2f} evaluations/s "
+            f"({report['learn_over_rollout']:.2f} of mujoco.rollout's "
+            f"{rate['rollout']:.2f}); bare batches {rate['threads']:.2f} "
+            f"({report['threads_over_rollout']:.2f}); process pool {rate['processes']:.2f} "
+            f"({report['processes_over_rollout']:.2f}); one plain simulation after another "
+            f"{rate['plain_1_thread']:.2f}\n"
+            f"  (a pure-Python busy loop scales {report['machine_scaling_2_over_1']:.2f}x on 2 "
+            f"processes on this machine now)")

@@ -28,7 +28,7 @@ from tensim.control import ControllerConfig, GaitError, ParameterLayout
 from tensim.learn.families import check_family, gait_layout
 from tensim.learn.objective import Objective
 from tensim.model import CompiledModel, WorldOptions, compile_structure
-from tensim.sim import SimulationError, Trial, TrialResult, run_batch, simulate
+from tensim.sim import PhysicsScale, SimulationError, Trial, TrialResult, run_batch, simulate
 from tensim.structure import Structure
 from tensim.terrain import format_terrain
 
@@ -145,6 +145,14 @@ class TrialProblem:
         penalty: score of a trial that failed (gait error, unstable, flipped, raised); keep it
             below any real score.
         model: the preset name or structure file it was made from (a label).
+        randomize: physical parameters drawn per robot, as (name, low, high) multipliers of
+            :class:`~tensim.sim.PhysicsScale` fields (friction, stiffness, damping, mass,
+            motor_speed); empty: one nominal robot.
+        robots: randomised robots each candidate is scored on (the same draws for every
+            candidate, so candidates compare fairly).
+        robust: ``"mean"`` (the average score over the robots) or ``"worst"`` (the lowest);
+            a robot whose trial fails counts with the penalty.
+        randomize_seed: seed of the robots' draws.
     """
 
     structure: Structure
@@ -156,9 +164,23 @@ class TrialProblem:
     record_dt: float = 0.01
     penalty: float = -1.0
     model: str = ""
+    randomize: tuple[tuple[str, float, float], ...] = ()
+    robots: int = 1
+    robust: str = "mean"
+    randomize_seed: int = 0
 
     def __post_init__(self) -> None:
         check_family(self.family)
+        names = {f.name for f in dataclasses.fields(PhysicsScale)}
+        for name, low, high in self.randomize:
+            if name not in names:
+                raise ValueError(f"cannot randomize {name!r}; choose from {sorted(names)}")
+            if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high):
+                raise ValueError(f"randomize {name}={low}:{high}: need 0 < low <= high")
+        if not (isinstance(self.robots, int) and 1 <= self.robots <= 1000):
+            raise ValueError(f"robots must be an integer in [1, 1000], got {self.robots!r}")
+        if self.robust not in ("mean", "worst"):
+            raise ValueError(f"robust must be 'mean' or 'worst', got {self.robust!r}")
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ValueError(f"trial duration must be > 0 s, got {self.duration_s}")
         if self.objective.settle_s >= self.duration_s:
@@ -220,8 +242,22 @@ class TrialProblem:
             _COMPILED[self.key] = compile_structure(self.structure, self.world)
         return _COMPILED[self.key]
 
+    @functools.cached_property
+    def physics(self) -> tuple[PhysicsScale, ...]:
+        """The robots every candidate runs on: one nominal, or ``robots`` random draws."""
+        if not self.randomize:
+            return (PhysicsScale(),) * self.robots
+        rng = np.random.default_rng(self.randomize_seed)
+        draws = []
+        for _ in range(self.robots):
+            draws.append(PhysicsScale(**{name: float(rng.uniform(low, high))
+                                         for name, low, high in self.randomize}))
+        return tuple(draws)
+
     def evaluate(self, unit: np.ndarray) -> Outcome:
         """Simulates one trial with the gait of ``unit`` and scores it."""
+        if self.randomize or self.robots > 1:
+            return self.evaluate_batch([unit], threads=1)[0]
         compiled = self.compiled()
         try:
             controller = self.controller(unit).build(compiled.model.opt.timestep)
@@ -246,14 +282,33 @@ class TrialProblem:
             except GaitError as err:
                 outcomes[i] = Outcome(self.penalty, GAIT, f"gait: {err}")
                 continue
-            trials.append(Trial(controller))
+            trials.extend(Trial(controller, physics=ps) for ps in self.physics)
             where.append(i)
         if trials:
             results = run_batch(compiled, trials, self.duration_s, threads=threads,
                                 record_dt=self.record_dt)
-            for i, trial in zip(where, results, strict=True):
-                outcomes[i] = self._score(trial)
+            k = len(self.physics)
+            for j, i in enumerate(where):
+                outcomes[i] = self._combine([self._score(t) for t in results[j * k:(j + 1) * k]])
         return [o for o in outcomes if o is not None]
+
+    def _combine(self, robots: list[Outcome]) -> Outcome:
+        """One candidate's outcome over its robots (itself for a single robot)."""
+        if len(robots) == 1:
+            return robots[0]
+        scores = np.array([o.score for o in robots])
+        failed = [o for o in robots if o.status != OK]
+        if len(failed) == len(robots):
+            return failed[0]
+        score = float(scores.mean() if self.robust == "mean" else scores.min())
+        ok = [o.metrics for o in robots if o.status == OK]
+        metrics = {key: float(np.mean([m[key] for m in ok])) for key in ok[0]
+                   if all(key in m for m in ok)}
+        metrics.update(score_mean=float(scores.mean()), score_worst=float(scores.min()),
+                       score_std=float(scores.std()), robots_failed=float(len(failed)))
+        reason = f"{len(failed)} of {len(robots)} robots failed ({failed[0].reason})" \
+            if failed else ""
+        return Outcome(score, OK, reason, metrics)
 
     def _score(self, trial: TrialResult) -> Outcome:
         if trial.result is None:
@@ -272,7 +327,10 @@ class TrialProblem:
                 "objective_text": self.objective.describe(),
                 "world": _jsonable(self.world), "terrain": format_terrain(self.world.terrain),
                 "dimension": self.dimension,
-                "parameter_names": list(self.layout.names)}
+                "parameter_names": list(self.layout.names),
+                "randomize": {name: [low, high] for name, low, high in self.randomize},
+                "robots": self.robots, "robust": self.robust,
+                "randomize_seed": self.randomize_seed}
 
 
 @dataclasses.dataclass(frozen=True)

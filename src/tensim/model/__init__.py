@@ -13,5 +13,15 @@ from tensim.model._compile import (
     without_cable_law,
 )
 
-__all__ = ["BUILD_KEY", "CABLE_MARKER", "WORLD_FRAME_SITE", "CompiledModel", "ModelError", "ModelIndex", "WorldOptions", "compile_spec",
-           "compile_structure", "without_cable_law"]
+__all__ = [
+    "BUILD_KEY",
+    "CABLE_MARKER",
+    "WORLD_FRAME_SITE",
+    "CompiledModel",
+    "ModelError",
+    "ModelIndex",
+    "WorldOptions",
+    "compile_spec",
+    "compile_structure",
+    "without_cable_law",
+]

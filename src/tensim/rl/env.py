@@ -13,7 +13,7 @@ way. An unstable simulation ends the episode (terminated); the time limit trunca
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import mujoco
@@ -104,7 +104,7 @@ class _Robot:
 class TensegrityEnv(gym.Env):
     """One robot (see the module docstring for actions, observations and reward)."""
 
-    metadata = {"render_modes": []}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
 
     def __init__(self, config: EnvConfig | None = None):
         self.robot = _Robot(config or EnvConfig())
@@ -163,7 +163,7 @@ class TensegrityVectorEnv(VectorEnv):
     is the new episode's, and ``info["final_obs"]`` holds the last one.
     """
 
-    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
+    metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.SAME_STEP}
 
     def __init__(self, num_envs: int, config: EnvConfig | None = None, threads: int = 1):
         if num_envs < 1:

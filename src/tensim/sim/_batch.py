@@ -9,6 +9,7 @@ the same trial run alone with :class:`~tensim.sim.Simulation`, at any thread cou
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import time as _time
@@ -34,6 +35,7 @@ from tensim.sim._simulation import (
 
 MAX_SAMPLES = 50_000_000  # trials x samples x channels a batch may hold in memory
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+_BLOCK_STEPS = 2_000  # physics steps of inputs computed at once
 _RECORD = ("ten_length", "ten_velocity", "xpos", "xquat", "subtree_com", "act", "ctrl", "qvel",
            "actuator_force")
 
@@ -73,13 +75,16 @@ class Trial:
         loads: external node forces.
         initial_state: ``Simulation.get_state()`` of the same model to start from (None: the
             build pose, with the motor update at t = 0 taken first, as a new Simulation does).
-        physics: per-trial physical parameters.
+        physics: per-trial physical parameters (multipliers).
+        compiled: the trial's own model, e.g. a structure with other parameters recompiled
+            (None: the batch's); it must have the batch model's layout (same sizes).
     """
 
     controller: Controller | None = None
     loads: tuple[NodeLoad, ...] = ()
     initial_state: np.ndarray | None = None
     physics: PhysicsScale = PhysicsScale()
+    compiled: CompiledModel | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -109,7 +114,7 @@ class _TrialSetup:
     dt: float
 
     @property
-    def index(self):  # noqa: ANN201 - the ModelIndex
+    def index(self):
         return self.compiled.index
 
 
@@ -167,12 +172,20 @@ class _BatchRun:
         self.compiled, self.trials, self.limits = compiled, trials, limits
         self.record_steps, self.dt = record_steps, float(compiled.model.opt.timestep)
         n, m = len(trials), compiled.model
-        self.batch = mjbatch.Batch(m, n, nthread=threads)
-        self.batch.reset(keyframe=m.key(BUILD_KEY).id, stage=mujoco.mjtStage.mjSTAGE_NONE)
         self.error: list[str | None] = [None] * n
-        self.dynprm = self.batch.expand("actuator_dynprm")
-        self.biasprm = self.batch.expand("actuator_biasprm")
+        self.compileds = _trial_models(compiled, trials)
+        # each trial steps its own copy of its model: its controller's gains, its physics
+        self.models = [copy.copy(c.model) for c in self.compileds]
         self.plans: list[InputPlan | None] = [self._setup(i, t) for i, t in enumerate(trials)]
+        self.batch = mjbatch.Batch(m, n, nthread=threads)
+        try:
+            self.batch.set_models(self.models)
+        except ValueError as exc:
+            raise ValueError(f"the trials' models differ in layout (sizes): {exc}") from None
+        self.batch.reset(keyframe=m.key(BUILD_KEY).id, stage=mujoco.mjtStage.mjSTAGE_NONE)
+        for i, trial in enumerate(trials):
+            if self.error[i] is None and trial.initial_state is not None:
+                self.batch.state[i] = trial.initial_state
         self.samples: SampleBuffers | None = None
         self.count = np.zeros(n, dtype=int)
         self._template = mujoco.MjData(m)
@@ -182,47 +195,24 @@ class _BatchRun:
     # -- set-up ------------------------------------------------------------------------------
 
     def _setup(self, i: int, trial: Trial) -> InputPlan | None:
-        n = self.compiled.n_cables
-        drive = CableDrive(self.compiled, self.compiled.model, dynprm=self.dynprm[i, :n],
-                           biasprm=self.biasprm[i, :n])
+        compiled, model = self.compileds[i], self.models[i]
+        n = compiled.n_cables
+        drive = CableDrive(compiled, model)
         try:
-            self._scale(i, trial.physics)
+            _scale(compiled, model, trial.physics)
             if trial.controller is not None:
-                trial.controller.configure(_TrialSetup(self.compiled, drive, self.dt))
-            bad = ~np.isfinite(self.dynprm[i, :n]).all(axis=1) | \
-                ~np.isfinite(self.biasprm[i, :n]).all(axis=1)
+                trial.controller.configure(_TrialSetup(compiled, drive, self.dt))
+            bad = ~np.isfinite(model.actuator_dynprm[:n]).all(axis=1) | \
+                ~np.isfinite(model.actuator_biasprm[:n]).all(axis=1)
             if bad.any():
-                cable = self.compiled.index.cables[int(np.argmax(bad))]
+                cable = compiled.index.cables[int(np.argmax(bad))]
                 raise ValueError(f"cable {cable!r} has non-finite law parameters")
             if trial.initial_state is not None:
-                self._restore(i, trial.initial_state)
-            return InputPlan(drive, trial.loads, self.compiled)
+                _check_state(model, trial.initial_state)
+            return InputPlan(drive, trial.loads, compiled)
         except (ValueError, KeyError, TypeError) as exc:
             self.error[i] = f"trial {i}: {exc}"
             return None
-
-    def _scale(self, i: int, physics: PhysicsScale) -> None:
-        if physics == PhysicsScale():
-            return
-        m, n, b = self.compiled.model, self.compiled.n_cables, self.batch
-        robot_geoms = np.flatnonzero(m.geom_bodyid != 0)
-        if physics.friction != 1.0:
-            b.expand("geom_friction")[i, robot_geoms, 0] *= physics.friction
-        self.biasprm[i, :n, _law.B_STIFFNESS] *= physics.stiffness
-        self.biasprm[i, :n, _law.B_DAMPING] *= physics.damping
-        self.dynprm[i, :n, _law.P_MAX_SPEED] *= physics.motor_speed
-        if physics.mass != 1.0:
-            b.expand("body_mass")[i, 1:] *= physics.mass
-            b.expand("body_inertia")[i, 1:] *= physics.mass
-            b.set_const([i])
-
-    def _restore(self, i: int, state: np.ndarray) -> None:
-        state = np.asarray(state, dtype=float)
-        size = mujoco.mj_stateSize(self.compiled.model, _STATE)
-        if state.shape != (size,):
-            raise ValueError(f"initial_state must have {size} values (mjSTATE_INTEGRATION of "
-                             f"this model), got shape {state.shape}")
-        self.batch.state[i] = state
 
     # -- stepping ----------------------------------------------------------------------------
 
@@ -255,31 +245,24 @@ class _BatchRun:
             progress: Callable[[float, float], None] | None) -> None:
         self._start(n_samples)
         every = max(1, round(1.0 / (self.record_steps * self.dt)))
+        rs = self.record_steps
+        per_block = max(1, _BLOCK_STEPS // rs)
         for k in range(n_samples):
+            if k % per_block == 0:  # the inputs of the next records, every trial at once
+                block = _Block(self, min(per_block, n_samples - k) * rs)
             live = self._live()
             if not live.size:
                 break
-            ids, fields = self._rollout(live, self.record_steps)
+            ids, fields = block.advance(live, rs)
             self._take(ids, fields)
             if k % _CHECK_EVERY == 0 or k == n_samples - 1:
                 self._check(ids, fields)
             if progress is not None and (k + 1) % every == 0:
-                progress((k + 1) * self.record_steps * self.dt, duration)
+                progress((k + 1) * rs * self.dt, duration)
 
     def _rollout(self, live: np.ndarray, nstep: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """Steps trials ``live`` by nstep with their inputs; returns the trials that ran and
-        their derived fields of the last step. Trials MuJoCo raises on are marked failed
-        (MuJoCo leaves them as they were and runs the others to the end)."""
-        steps = np.rint(self.batch.state[live, 0] / self.dt).astype(np.int64)
-        control = np.stack([self._plan(int(i)).control(int(s), nstep)
-                            for i, s in zip(live, steps, strict=True)])
-        out = self._buffers(live.size, nstep)
-        try:
-            self.batch.rollout(nstep, control, record=_RECORD, ids=live, out=out)
-        except mjbatch.SimulationError as exc:
-            self._fail(exc.ids)
-        ran = np.array([self.error[int(i)] is None for i in live])
-        return live[ran], {name: v[ran, -1] for name, v in out.items()}
+        """Steps trials ``live`` by nstep with their inputs (see :class:`_Block`)."""
+        return _Block(self, nstep).advance(live, nstep)
 
     def _buffers(self, n: int, nstep: int) -> dict[str, np.ndarray]:
         key = (n, nstep)
@@ -335,13 +318,84 @@ class _BatchRun:
             if self.error[i] is not None:
                 out.append(TrialResult(None, self.error[i]))
                 continue
+            model = self.models[i]
             series = sample_channels(self.samples.trial(i).head(int(self.count[i])), index,
-                                     self.dynprm[i, :n], self.biasprm[i, :n])
+                                     model.actuator_dynprm[:n], model.actuator_biasprm[:n])
             out.append(TrialResult(SimulationResult(series, peak[i].copy(), wall, duration,
                                                     self.dt, index.cables)))
         return out
 
 
-def _pos(ids: np.ndarray, subset: np.ndarray) -> np.ndarray:
-    """Positions of ``subset`` within ``ids``."""
-    return np.searchsorted(ids, subset)
+class _Block:
+    """The inputs of a block of steps for the live trials, stepped a record at a time.
+
+    A record whose inputs stay constant for every trial is one ``Batch.step`` call (the
+    common case: commands change on their own period); otherwise ``Batch.rollout`` sets each
+    step's inputs. Trials MuJoCo raises on are marked failed (MuJoCo leaves them as they were
+    and runs the others to the end).
+    """
+
+    def __init__(self, run: _BatchRun, nstep: int):
+        self.run, self.ids, self.at = run, run._live(), 0
+        steps = np.rint(run.batch.state[self.ids, 0] / run.dt).astype(np.int64)
+        self.control = np.stack([run._plan(int(i)).control(int(s), nstep)
+                                 for i, s in zip(self.ids, steps, strict=True)])
+        self.change = (self.control[:, 1:] != self.control[:, :-1]).any(axis=(0, 2))
+
+    def advance(self, live: np.ndarray, nstep: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Steps trials ``live`` (a subset of the block's) by nstep; returns the trials that
+        ran and their fields after the last step."""
+        run, a = self.run, self.at
+        rows = self.control[np.searchsorted(self.ids, live), a:a + nstep]
+        self.at += nstep
+        try:
+            if self.change[a:a + nstep - 1].any():
+                out = run._buffers(live.size, nstep)
+                run.batch.rollout(nstep, rows, record=_RECORD, ids=live, out=out)
+                fields = {name: v[:, -1] for name, v in out.items()}
+            else:
+                run._bound["ctrl"][live] = rows[:, 0]  # a view of the state rows
+                run.batch.step(live, nstep)
+                fields = {name: field[live] for name, field in run._bound.items()}
+        except mjbatch.SimulationError as exc:
+            run._fail(exc.ids)
+            fields = {name: field[live] for name, field in run._bound.items()}
+        ran = np.array([run.error[int(i)] is None for i in live])
+        return live[ran], {name: v[ran] for name, v in fields.items()}
+
+
+def _trial_models(compiled: CompiledModel, trials: Sequence[Trial]) -> list[CompiledModel]:
+    """Each trial's compiled model, all with the force inputs that any trial's loads need."""
+    nodes = tuple(dict.fromkeys(ld.node for t in trials for ld in t.loads))
+    done: dict[int, CompiledModel] = {}
+    out = []
+    for trial in trials:
+        own = trial.compiled or compiled
+        if id(own) not in done:
+            done[id(own)] = own.with_load_nodes(nodes)
+        out.append(done[id(own)])
+    return out
+
+
+def _scale(compiled: CompiledModel, model: mujoco.MjModel, physics: PhysicsScale) -> None:
+    """Applies a trial's physics multipliers to its own model copy."""
+    if physics == PhysicsScale():
+        return
+    n = compiled.n_cables
+    model.geom_friction[model.geom_bodyid != 0, 0] *= physics.friction
+    model.actuator_biasprm[:n, _law.B_STIFFNESS] *= physics.stiffness
+    model.actuator_biasprm[:n, _law.B_DAMPING] *= physics.damping
+    model.actuator_dynprm[:n, _law.P_MAX_SPEED] *= physics.motor_speed
+    if physics.mass != 1.0:
+        model.body_mass[1:] *= physics.mass
+        model.body_inertia[1:] *= physics.mass
+        mujoco.mj_setConst(model, mujoco.MjData(model))  # the constants derived from masses
+
+
+def _check_state(model: mujoco.MjModel, state: np.ndarray) -> None:
+    size = mujoco.mj_stateSize(model, _STATE)
+    if np.shape(state) != (size,):
+        raise ValueError(f"initial_state must have {size} values (mjSTATE_INTEGRATION of this "
+                         f"model), got shape {np.shape(state)}")
+    if not np.all(np.isfinite(state)):
+        raise ValueError("initial_state holds non-finite values")
