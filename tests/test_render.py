@@ -29,7 +29,7 @@ def _backend() -> str:
     except _gl.OffscreenUnavailable as err:
         pytest.skip(f"no offscreen OpenGL backend on this machine ({err}); to run these "
                     "tests: sudo apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 "
-                    "(as .ci/run does; see the README's Tests section)")
+                    "(as .ci/run does; see the README)")
 
 
 def _falling_rod() -> Structure:
@@ -76,7 +76,7 @@ def test_a_broken_egl_falls_back_to_osmesa_for_real() -> None:
     """EGL with no vendor library fails; the choice, made in a fresh process, is then OSMesa."""
     if _gl.probe("osmesa") is not None:
         pytest.skip("OSMesa is not installed here; to run this test: sudo apt-get install "
-                    "libosmesa6 (as .ci/run does; see the README's Tests section)")
+                    "libosmesa6 (as .ci/run does; see the README)")
     env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY",
                                                             "WAYLAND_DISPLAY")}
     env["__EGL_VENDOR_LIBRARY_FILENAMES"] = os.devnull  # glvnd finds no EGL driver
