@@ -10,8 +10,8 @@ presence means the folder is complete.
 from __future__ import annotations
 
 import collections
-import importlib
 import logging
+import os
 import platform
 import sys
 import threading
@@ -84,25 +84,28 @@ def _install() -> RunLog:
 RUN_LOG = _install()
 
 
-def prepare_outputs() -> threading.Thread:
-    """Starts loading what writing a run folder needs first, in a background thread: the
-    plotting module (matplotlib) and the trial of an offscreen OpenGL backend for frame.png.
+def prepare_outputs() -> threading.Thread | None:
+    """Starts the trial of an offscreen OpenGL backend for frame.png in a background thread.
 
-    Call it before simulating: MuJoCo lets other threads run while it steps, so on a machine
-    with a second core this work overlaps the simulation instead of following it. Failures are
-    left for the run folder's writer to meet and report.
+    Call it before simulating: the trial runs in a child process, so the thread only waits
+    (it holds no Python lock the simulation needs) and the trial overlaps the simulation
+    instead of following it. With a single usable core it would take that core from the
+    simulation (and skew its real-time factor), so then it does nothing and the report runs
+    the trial later. A failure is left for the report to meet and note. (Loading matplotlib
+    this way was tried and dropped: an import holds Python's lock and slowed the simulation,
+    and the real-time factor it reports, by as much as it saved.)
     """
+    if len(os.sched_getaffinity(0)) < 2:
+        return None
+    from tensim.viz import _gl  # imported here: an import in the thread would hold the lock
 
-    def load() -> None:
+    def trial() -> None:
         try:
-            importlib.import_module("tensim.viz.plots")
-            from tensim.viz import _gl
-
             _gl.select_backend()
-        except Exception as err:  # reported when the folder is written
-            logging.getLogger(__name__).debug("preparing the run folder's outputs: %s", err)
+        except _gl.OffscreenUnavailable as err:
+            logging.getLogger(__name__).debug("no offscreen OpenGL backend: %s", err)
 
-    thread = threading.Thread(target=load, name="tensim-prepare-outputs", daemon=True)
+    thread = threading.Thread(target=trial, name="tensim-gl-trial", daemon=True)
     thread.start()
     return thread
 

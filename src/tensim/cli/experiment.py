@@ -180,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
     from tensim.runs import prepare_outputs
 
     out = Path(args.out or f"runs/{args.name}")
-    prepare_outputs()  # plotting and the GL trial load while the simulation runs
+    prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     summary = EXPERIMENTS[args.name][1](args, out)
     if "duration_s" in summary and args.name != "timestep":
         print_summary(summary, out)

@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from tensim.sim import simulate
     from tensim.viz import plot_cable_tensions, plot_path
 
-    prepare_outputs()  # plotting and the GL trial load while the simulation runs
+    prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     structure = load_model(args.model)
     config = resolve_controller(args.model, structure, args.controller)
     if args.velocity_input and config is None:
