@@ -11,6 +11,7 @@ limit for that work.
 from __future__ import annotations
 
 import copy
+import functools
 import resource
 import statistics
 import time
@@ -90,7 +91,7 @@ def bench_batch(trials: int = 64, duration: float = 10.0, repeats: int = 3,
         for threads in (1, 2):
             for name, fn in (("batch", batch), ("rollout", engine)):
                 times.setdefault(f"{name}_{threads}", []).append(
-                    _timed(lambda fn=fn, threads=threads: fn(threads)))
+                    _timed(functools.partial(fn, threads)))
     figures: dict[str, Any] = {}
     for key, runs in times.items():
         walls, cpus = [w for w, _ in runs], [c for _, c in runs]

@@ -9,7 +9,7 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from tensim.control.impedance import ImpedanceController
-from tensim.sim import Simulation
+from tensim.sim import CableSetup
 from tensim.structure import Cable
 
 _JOINT_TAG = re.compile(r"joint_(\d+)")
@@ -57,7 +57,7 @@ def check_driven(impedance: ImpedanceController, cables: Iterable[str]) -> None:
                          "so V* would have no effect; add them to the ImpedanceController")
 
 
-def write_target_velocity(sim: Simulation, cables: Sequence[str], table: np.ndarray,
+def write_target_velocity(sim: CableSetup, cables: Sequence[str], table: np.ndarray,
                           table_dt: float) -> None:
     """Writes a gait's V* table into ``sim.drive``; cables not named get V* = 0.
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from tensim.control._common import check_driven, per_item, sample_times, write_target_velocity
 from tensim.control.impedance import ImpedanceController
-from tensim.sim import Simulation
+from tensim.sim import CableSetup
 
 
 class GaitError(RuntimeError):
@@ -332,7 +332,7 @@ class CPGController:
                 self.initial_phase, self.network.size, "initial_phase"))
         check_driven(self.impedance, self.network.names)
 
-    def configure(self, sim: Simulation) -> None:
+    def configure(self, sim: CableSetup) -> None:
         """Writes the impedance gains and the sampled CPG output into ``sim.drive``.
 
         Raises:

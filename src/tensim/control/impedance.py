@@ -7,7 +7,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from tensim.sim import MODE_IMPEDANCE, Simulation
+from tensim.sim import MODE_IMPEDANCE, CableSetup
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,7 +45,7 @@ class ImpedanceController:
     gains: Mapping[str, ImpedanceGains]
     target_velocity: float = 0.0
 
-    def configure(self, sim: Simulation) -> None:
+    def configure(self, sim: CableSetup) -> None:
         """Writes the gains into ``sim.drive`` (in place, as the callback reads them)."""
         drive = sim.drive
         for name, g in self.gains.items():

@@ -25,7 +25,7 @@ from tensim.control._common import (
 )
 from tensim.control.impedance import ImpedanceController
 from tensim.control.velocity_table import VelocityTable
-from tensim.sim import Simulation
+from tensim.sim import CableSetup
 from tensim.structure import Structure
 
 # -- the gait -------------------------------------------------------------------------------------
@@ -160,7 +160,7 @@ class SineController:
             raise ValueError(f"sample_steps must be an integer >= 1, got {self.sample_steps}")
         check_driven(self.impedance, self.gait.cables)
 
-    def configure(self, sim: Simulation) -> None:
+    def configure(self, sim: CableSetup) -> None:
         """Writes the impedance gains and the sampled gait into ``sim.drive``."""
         self.impedance.configure(sim)
         table_dt = self.sample_steps * sim.dt

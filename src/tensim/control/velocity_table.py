@@ -32,7 +32,7 @@ import numpy as np
 from tensim._files import write_text
 from tensim.control._common import check_driven, write_target_velocity
 from tensim.control.impedance import ImpedanceController
-from tensim.sim import Simulation
+from tensim.sim import CableSetup
 
 HEADER = "# tensim velocity input: target cable velocity V* of the impedance law (eq. 3)"
 
@@ -108,7 +108,7 @@ class TableController:
     def __post_init__(self) -> None:
         check_driven(self.impedance, self.table.cables)
 
-    def configure(self, sim: Simulation) -> None:
+    def configure(self, sim: CableSetup) -> None:
         """Writes the impedance gains and the V* table into ``sim.drive``."""
         self.impedance.configure(sim)
         write_target_velocity(sim, self.table.cables, self.table.values, self.table.period)

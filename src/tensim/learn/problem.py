@@ -275,7 +275,8 @@ class TrialProblem:
         them; each outcome equals :meth:`evaluate`'s for the same point."""
         compiled = self.compiled()
         outcomes: list[Outcome | None] = [None] * len(units)
-        trials, where = [], []
+        trials: list[Trial] = []
+        where: list[int] = []
         for i, unit in enumerate(units):
             try:
                 controller = self.controller(unit).build(compiled.model.opt.timestep)
@@ -380,8 +381,8 @@ def evaluate_task(problem: Problem, index: int, unit: Sequence[float]) -> Evalua
     return evaluation_of(problem, index, u, outcome, time.perf_counter() - start)
 
 
-def evaluation_of(problem: Problem, index: int, unit: Sequence[float], outcome: Outcome,
-                  wall: float) -> Evaluation:
+def evaluation_of(problem: Problem, index: int, unit: Sequence[float] | np.ndarray,
+                  outcome: Outcome, wall: float) -> Evaluation:
     """The record of a finished trial."""
     u = np.asarray(unit, dtype=float)
     return Evaluation(index, tuple(float(x) for x in u),

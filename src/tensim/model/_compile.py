@@ -249,10 +249,10 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
                           rgba=[0.25, 0.25, 0.3, 1])
         for node in group.nodes:
             if node in masses:
-                ends = [r for r in structure.rods if node in r.nodes]
+                touching = [r for r in structure.rods if node in r.nodes]
                 # a sphere inside a rod's end cap adds no surface, only duplicate contacts
-                covered = any(r.radius >= masses[node].radius for r in ends)
-                friction = max((r.friction for r in ends), default=1.0)
+                covered = any(r.radius >= masses[node].radius for r in touching)
+                friction = max((r.friction for r in touching), default=1.0)
                 body.add_geom(name=f"mass_{node}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
                               pos=node_local[node].tolist(), size=[masses[node].radius, 0, 0],
                               friction=[friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
@@ -260,10 +260,10 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
                               conaffinity=0 if covered else 1,
                               solref=[world.contact_timeconst, 1.0],
                               rgba=[0.7, 0.45, 0.2, 1])
-    for node in structure.nodes:
-        if node.name not in node_body:  # a fixed anchor point in the world
-            node_body[node.name] = "world"
-            node_local[node.name] = structure.position(node.name)
+    for anchor in structure.nodes:
+        if anchor.name not in node_body:  # a fixed anchor point in the world
+            node_body[anchor.name] = "world"
+            node_local[anchor.name] = structure.position(anchor.name)
     bodies = {b.name: b for b in spec.bodies}
     for cable in structure.cables:
         tendon = spec.add_tendon(name=cable.name, rgba=[0.8, 0.1, 0.1, 1], width=0.002)

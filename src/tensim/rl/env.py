@@ -13,7 +13,7 @@ way. An unstable simulation ends the episode (terminated); the time limit trunca
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, ClassVar
+from typing import Any
 
 import gymnasium as gym
 import mujoco
@@ -104,7 +104,7 @@ class _Robot:
 class TensegrityEnv(gym.Env):
     """One robot (see the module docstring for actions, observations and reward)."""
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
+    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012 - Gymnasium's attribute
 
     def __init__(self, config: EnvConfig | None = None):
         self.robot = _Robot(config or EnvConfig())
@@ -129,8 +129,8 @@ class TensegrityEnv(gym.Env):
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Applies ``action`` for one control period."""
-        action = np.clip(np.asarray(action, dtype=float), self.action_space.low,
-                         self.action_space.high)
+        box = self.robot.action_space
+        action = np.clip(np.asarray(action, dtype=float), box.low, box.high)
         drive = self.sim.drive
         if self.robot.config.action == "vstar":
             drive.set_target_velocity(action[None, :], 1e9)
@@ -163,7 +163,8 @@ class TensegrityVectorEnv(VectorEnv):
     is the new episode's, and ``info["final_obs"]`` holds the last one.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.SAME_STEP}
+    metadata: dict[str, Any] = {  # noqa: RUF012 - Gymnasium's attribute
+        "autoreset_mode": AutoresetMode.SAME_STEP}
 
     def __init__(self, num_envs: int, config: EnvConfig | None = None, threads: int = 1):
         if num_envs < 1:
@@ -206,8 +207,8 @@ class TensegrityVectorEnv(VectorEnv):
     def step(self, actions: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Applies each robot's action for one control period."""
-        actions = np.clip(np.asarray(actions, dtype=float), self.single_action_space.low,
-                          self.single_action_space.high)
+        box = self.robot.action_space
+        actions = np.clip(np.asarray(actions, dtype=float), box.low, box.high)
         n = self.robot.n
         self._ctrl[:, :n] = actions
         before = self._fields["subtree_com"][:, 0, :2].copy()

@@ -8,6 +8,7 @@ from tensim.sim._laws import cable_tension, impedance_rest_target, impedance_set
 from tensim.sim._loads import NodeLoad, ramp_hold_release
 from tensim.sim._simulation import (
     COM,
+    CableSetup,
     Controller,
     Simulation,
     SimulationError,
@@ -23,6 +24,7 @@ __all__ = [
     "MODE_REST",
     "UNITS",
     "CableDrive",
+    "CableSetup",
     "Controller",
     "InputPlan",
     "NodeLoad",

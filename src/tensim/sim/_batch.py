@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjbatch
 
-from tensim.model import BUILD_KEY, CompiledModel
+from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
 from tensim.sim import _law
 from tensim.sim._drive import CableDrive, InputPlan
 from tensim.sim._loads import NodeLoad
@@ -114,7 +114,8 @@ class _TrialSetup:
     dt: float
 
     @property
-    def index(self):
+    def index(self) -> ModelIndex:
+        """The model's names and ids."""
         return self.compiled.index
 
 
@@ -314,6 +315,7 @@ class _BatchRun:
         n, index = self.compiled.n_cables, self.compiled.index
         assert self.samples is not None
         peak = self.batch.bind("act")[:, 1:2 * n:2]
+        out_of = self.trials
         for i in range(len(self.trials)):
             if self.error[i] is not None:
                 out.append(TrialResult(None, self.error[i]))
@@ -321,8 +323,9 @@ class _BatchRun:
             model = self.models[i]
             series = sample_channels(self.samples.trial(i).head(int(self.count[i])), index,
                                      model.actuator_dynprm[:n], model.actuator_biasprm[:n])
-            out.append(TrialResult(SimulationResult(series, peak[i].copy(), wall, duration,
-                                                    self.dt, index.cables)))
+            # wall_s: the trial's share of the batch's wall time
+            out.append(TrialResult(SimulationResult(series, peak[i].copy(), wall / len(out_of),
+                                                    duration, self.dt, index.cables)))
         return out
 
 

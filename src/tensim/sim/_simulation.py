@@ -27,10 +27,30 @@ class SimulationError(RuntimeError):
     """The simulation became unstable (non-finite state or runaway energy)."""
 
 
+class CableSetup(Protocol):
+    """What a controller configures: a Simulation, or one trial of a batch."""
+
+    @property
+    def compiled(self) -> CompiledModel:
+        """The compiled model."""
+
+    @property
+    def drive(self) -> CableDrive:
+        """The law's parameters and commands."""
+
+    @property
+    def dt(self) -> float:
+        """The physics step [s]."""
+
+    @property
+    def index(self) -> ModelIndex:
+        """Names and ids."""
+
+
 class Controller(Protocol):
     """Anything that sets up a simulation's cable drive (gains, targets, V* table)."""
 
-    def configure(self, sim: Simulation) -> None:
+    def configure(self, sim: CableSetup) -> None:
         """Writes this controller's commands into ``sim.drive``."""
 
 
@@ -350,5 +370,5 @@ def simulate(compiled: CompiledModel, duration: float, *, controller: Controller
                                 sim.index.cables)
 
 
-__all__ = ["COM", "Controller", "Simulation", "SimulationError", "SimulationResult",
+__all__ = ["COM", "CableSetup", "Controller", "Simulation", "SimulationError", "SimulationResult",
            "StabilityLimits", "diagnose", "simulate"]
