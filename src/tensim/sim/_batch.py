@@ -36,6 +36,7 @@ from tensim.sim._simulation import (
 MAX_SAMPLES = 50_000_000  # trials x samples x channels a batch may hold in memory
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _BLOCK_STEPS = 2_000  # physics steps of inputs computed at once
+_MAX_STEP_CALLS = 3  # runs of constant inputs in a record stepped one Batch.step call each
 _RECORD = ("ten_length", "ten_velocity", "xpos", "xquat", "subtree_com", "act", "ctrl", "qvel",
            "actuator_force")
 
@@ -332,9 +333,9 @@ class _BatchRun:
 class _Block:
     """The inputs of a block of steps for the live trials, stepped a record at a time.
 
-    A record whose inputs stay constant for every trial is one ``Batch.step`` call (the
-    common case: commands change on their own period); otherwise ``Batch.rollout`` sets each
-    step's inputs. Trials MuJoCo raises on are marked failed (MuJoCo leaves them as they were
+    A record's runs of constant inputs (the common case: commands change on their own period)
+    are one ``Batch.step`` call each; where the inputs change more often, ``Batch.rollout``
+    sets each step's inputs. Trials MuJoCo raises on are marked failed (MuJoCo leaves them as they were
     and runs the others to the end).
     """
 
@@ -351,14 +352,16 @@ class _Block:
         run, a = self.run, self.at
         rows = self.control[np.searchsorted(self.ids, live), a:a + nstep]
         self.at += nstep
+        cuts = [0, *(np.flatnonzero(self.change[a:a + nstep - 1]) + 1).tolist(), nstep]
         try:
-            if self.change[a:a + nstep - 1].any():
+            if len(cuts) > _MAX_STEP_CALLS + 1:  # inputs change often: set them step by step
                 out = run._buffers(live.size, nstep)
                 run.batch.rollout(nstep, rows, record=_RECORD, ids=live, out=out)
                 fields = {name: v[:, -1] for name, v in out.items()}
-            else:
-                run._bound["ctrl"][live] = rows[:, 0]  # a view of the state rows
-                run.batch.step(live, nstep)
+            else:  # a few runs of constant inputs: one Batch.step each
+                for start, stop in zip(cuts[:-1], cuts[1:], strict=True):
+                    run._bound["ctrl"][live] = rows[:, start]  # a view of the state rows
+                    run.batch.step(live, stop - start)
                 fields = {name: field[live] for name, field in run._bound.items()}
         except mjbatch.SimulationError as exc:
             run._fail(exc.ids)
