@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import itertools
 import math
 import time as _time
 from collections.abc import Callable, Sequence
@@ -335,8 +336,8 @@ class _Block:
 
     A record's runs of constant inputs (the common case: commands change on their own period)
     are one ``Batch.step`` call each; where the inputs change more often, ``Batch.rollout``
-    sets each step's inputs. Trials MuJoCo raises on are marked failed (MuJoCo leaves them as they were
-    and runs the others to the end).
+    sets each step's inputs. Trials MuJoCo raises on are marked failed (MuJoCo leaves them as
+    they were and runs the others to the end).
     """
 
     def __init__(self, run: _BatchRun, nstep: int):
@@ -359,7 +360,7 @@ class _Block:
                 run.batch.rollout(nstep, rows, record=_RECORD, ids=live, out=out)
                 fields = {name: v[:, -1] for name, v in out.items()}
             else:  # a few runs of constant inputs: one Batch.step each
-                for start, stop in zip(cuts[:-1], cuts[1:], strict=True):
+                for start, stop in itertools.pairwise(cuts):
                     run._bound["ctrl"][live] = rows[:, start]  # a view of the state rows
                     run.batch.step(live, stop - start)
                 fields = {name: field[live] for name, field in run._bound.items()}
