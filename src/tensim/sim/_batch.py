@@ -124,7 +124,8 @@ class _TrialSetup:
 def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float, *,
               threads: int = 1, record_dt: float = 0.01,
               limits: StabilityLimits | None = None,
-              progress: Callable[[float, float], None] | None = None) -> list[TrialResult]:
+              progress: Callable[[float, float], None] | None = None,
+              backend: str = "cpu", device: str | None = None) -> list[TrialResult]:
     """Runs ``trials`` of ``compiled`` for ``duration`` seconds each, ``threads`` at a time.
 
     Each trial is recorded like :func:`~tensim.sim.simulate` (same channels, same
@@ -139,9 +140,14 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         record_dt: recording period [s]; a whole number of physics steps.
         limits: the stability bounds.
         progress: called as progress(done_s, total_s) about every simulated second.
+        backend: ``"cpu"`` (MuJoCo's batch engine, bit-identical to single runs) or
+            ``"warp"`` (MuJoCo Warp, one world per trial, float32; ``tensim[gpu]``).
+        device: the Warp device for ``backend="warp"`` (None: a GPU if there is one).
 
     Raises:
-        ValueError: no trials, a bad duration or record_dt, or a batch too large to hold.
+        ValueError: no trials, a bad duration, record_dt or backend, or a batch too large to
+            hold.
+        ImportError: ``backend="warp"`` without MuJoCo Warp installed.
     """
     if not trials:
         raise ValueError("a batch needs at least one trial")
@@ -149,7 +155,8 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         raise ValueError(f"duration must be a finite number of seconds > 0, got {duration}")
     if threads < 1:
         raise ValueError(f"threads must be >= 1, got {threads}")
-    _law.install("compiled")
+    if backend not in ("cpu", "warp"):
+        raise ValueError(f"backend must be 'cpu' or 'warp', got {backend!r}")
     nodes = tuple(dict.fromkeys(ld.node for t in trials for ld in t.loads))
     compiled = compiled.with_load_nodes(nodes)
     dt = float(compiled.model.opt.timestep)
@@ -160,6 +167,13 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         raise ValueError(f"a batch of {len(trials)} trials x {n_samples + 1} samples would hold "
                          f"{size:.3g} recorded values (limit {MAX_SAMPLES:.0e}); run fewer "
                          "trials per batch or record less often (record_dt)")
+    if backend == "warp":
+        from tensim.sim._warp_batch import run_batch_warp
+
+        return run_batch_warp(compiled, trials, duration, record_steps=record_steps,
+                              n_samples=n_samples, limits=limits or StabilityLimits(),
+                              progress=progress, device=device)
+    _law.install("compiled")
     runner = _BatchRun(compiled, trials, threads, record_steps, limits or StabilityLimits())
     started = _time.perf_counter()
     runner.run(n_samples, duration, progress)
