@@ -18,10 +18,10 @@ import pytest
 pytest.importorskip("mujoco_warp", reason="MuJoCo Warp (pip install 'tensim[gpu]') is not "
                     "installed")
 
-from tensim.control import load_controller  # noqa: E402
-from tensim.model import compile_structure  # noqa: E402
-from tensim.models import preset  # noqa: E402
-from tensim.sim import PhysicsScale, Trial, ramp_hold_release, run_batch  # noqa: E402
+from tensim.control import load_controller
+from tensim.model import compile_structure
+from tensim.models import preset
+from tensim.sim import PhysicsScale, Trial, ramp_hold_release, run_batch
 
 DURATION = 1.0  # s: MuJoCo Warp on the CPU device takes ~7 ms a step
 

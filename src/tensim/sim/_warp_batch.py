@@ -66,6 +66,7 @@ def run_batch_warp(compiled: CompiledModel, trials: Sequence[Trial], duration: f
         raise ImportError("the warp backend needs MuJoCo Warp: pip install 'tensim[gpu]'")
     import warp as wp
 
+    wp.config.quiet = True  # no line per kernel module loaded
     for i, trial in enumerate(trials):
         if trial.compiled is not None and trial.compiled is not compiled:
             raise ValueError(f"trial {i}: per-trial compiled models are not supported on the "
