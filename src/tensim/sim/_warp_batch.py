@@ -38,8 +38,10 @@ _PER_WORLD = ("actuator_dynprm", "actuator_biasprm", "geom_friction")
 def warp_available() -> bool:
     """Whether MuJoCo Warp (the ``tensim[gpu]`` extra) is installed."""
     try:
+        import warp
+
+        warp.config.quiet = True  # before MuJoCo Warp initialises Warp: no banner
         import mujoco_warp  # noqa: F401
-        import warp  # noqa: F401
     except ImportError:
         return False
     return True
@@ -66,7 +68,6 @@ def run_batch_warp(compiled: CompiledModel, trials: Sequence[Trial], duration: f
         raise ImportError("the warp backend needs MuJoCo Warp: pip install 'tensim[gpu]'")
     import warp as wp
 
-    wp.config.quiet = True  # no line per kernel module loaded
     for i, trial in enumerate(trials):
         if trial.compiled is not None and trial.compiled is not compiled:
             raise ValueError(f"trial {i}: per-trial compiled models are not supported on the "
