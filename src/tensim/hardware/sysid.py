@@ -25,6 +25,7 @@ from scipy import optimize
 
 from tensim.control import ControllerConfig
 from tensim.hardware.compare import Comparison, compare_tensions
+from tensim.hardware.loads import loads_for
 from tensim.hardware.logs import HardwareLog, check_items
 from tensim.hardware.parameters import SysidSpace, apply_measurement, apply_physical
 from tensim.hardware.replay import replay_config
@@ -173,9 +174,11 @@ class _Problem:
         out: list[list[TimeSeries]] = [[] for _ in values]
         for log in self.logs:
             check_items(log, compiled[0].structure)
+            loads = loads_for(log, compiled[0].structure)
             trials = [Trial(replay_config(log, self.config, vstar_scale=n.get("vstar_scale", 1.0),
                                           margin=self.settings.margin
-                                          ).build(c.model.opt.timestep), compiled=c)
+                                          ).build(c.model.opt.timestep), loads=loads,
+                            compiled=c)
                       for n, c in zip(named, compiled, strict=True)]
             results = run_batch(compiled[0], trials, log.duration + self.settings.margin,
                                 threads=self.settings.threads or os.cpu_count() or 1)
