@@ -199,8 +199,9 @@ def _register_sysid(sub: argparse._SubParsersAction) -> None:
                    help="fit on the samples from A to B seconds after each log's start "
                         "(default: all)")
     p.add_argument("--validate-window", default=None, metavar="C:D",
-                   help="judge the fit on these samples (default: the fit window); a fit "
-                        "worse than the nominal model there is not saved")
+                   help="judge the fit on these samples (default: the fit window); without "
+                        "--fit-window the fit uses the samples before C (after D if C is 0); "
+                        "a fit worse than the nominal model there is not saved")
     p.add_argument("--force", action="store_true",
                    help="save the fit even if it is worse than the nominal model")
     p.add_argument("--bounds", default=None, help="e.g. friction=0.02:0.3,stiffness=150:350")
@@ -257,11 +258,11 @@ def _sysid(args: argparse.Namespace) -> int:
     if result.kept_nominal:
         print("the fit is WORSE than the nominal model there: the nominal model was written "
               "instead (--force writes the fit)")
+        return 0
     elif v["fitted_rmse_N"] > v["nominal_rmse_N"]:
         print("the fit is worse than the nominal model there; written because of --force")
-    print(f"use it: tensim simulate {out}/fitted_structure.yaml --controller {args.controller}; "
-          f"tensim compare LOG --model {out}/fitted_structure.yaml --sensor "
-          f"{out}/measurement.json")
+    print(f"use it: tensim compare {args.logs[0]} --model {out}/fitted_structure.yaml "
+          f"--sensor {out}/measurement.json (replays the log's V* and loads)")
     return 0
 
 

@@ -21,7 +21,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
 from tensim.control import ControllerConfig
 from tensim.hardware.compare import Comparison, compare_tensions
@@ -30,6 +30,7 @@ from tensim.hardware.logs import HardwareLog, check_items
 from tensim.hardware.parameters import SysidSpace, apply_measurement, apply_physical
 from tensim.hardware.replay import replay_config
 from tensim.hardware.sensor import SensorModel
+from tensim.hardware.uncertainty import block_stderr, interval_factor, naive_stderr
 from tensim.model import WorldOptions, compile_structure
 from tensim.sim import SimulationError, TimeSeries, Trial, run_batch
 from tensim.structure import Structure
@@ -55,7 +56,8 @@ class SysidSettings:
         skip: leave each log's first seconds out of the residual [s].
         threads: threads of the batch engine that runs the perturbed models (0: every core).
         fit_window: (start, end) of the samples the fit uses, from each log's start [s]
-            (None: all after ``skip``).
+            (None: all after ``skip``, or with a validation window, the samples before it, or
+            after it if it starts at 0).
         validate_window: (start, end) of the samples that judge the fit [s] (None: the fit
             window; then the verdict is on the fitted data).
         force: keep a fit that is worse than the nominal model on the validation samples.
@@ -86,8 +88,9 @@ class SysidResult:
     Attributes:
         space: the fitted parameters (names, bounds, starting values).
         fitted: (n,) fitted values.
-        stderr: (n,) standard errors from time blocks of each log (inf: not determined);
-            see :func:`block_stderr`.
+        stderr: (n,) standard errors: the larger of the time-block error
+            (:func:`~tensim.hardware.uncertainty.block_stderr`) and ``naive_stderr``
+            (inf: not determined).
         naive_stderr: (n,) the textbook s^2 (J^T J)^-1 errors, which assume independent
             residuals (kept for comparison; too small on autocorrelated residuals).
         before, after: per log, the comparison with the nominal model (time offset
@@ -329,7 +332,7 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     """
     if not logs:
         raise ValueError("system identification needs at least one log")
-    settings = settings or SysidSettings()
+    settings = _hold_out(settings or SysidSettings())
     _check_informed(logs, names, settings)
     start = dict(start or {})
     nominal = SysidSpace.build(structure, names, bounds=bounds)
@@ -349,8 +352,9 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     jac = problem.jacobian(space.to_unit(fitted))
     residual = problem.residuals(space.to_unit(fitted))
     scale = space.high - space.low
-    stderr = block_stderr(jac, residual, problem.sample_rows(space.to_unit(fitted))) * scale
-    naive = _naive_stderr(jac, residual) * scale
+    naive = naive_stderr(jac, residual) * scale
+    stderr = np.maximum(block_stderr(jac, residual, problem.sample_rows(space.to_unit(fitted)),
+                                     BLOCKS) * scale, naive)
     validation = _validation(problem, nominal, space, fitted, before)
     kept = validation["fitted_rmse_N"] > validation["nominal_rmse_N"] and not settings.force
     named = nominal.as_dict(nominal.structure_values()) if kept else space.as_dict(fitted)
@@ -358,6 +362,16 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
                        tuple(problem.comparisons(fitted)), apply_physical(structure, named),
                        apply_measurement(problem.sensor, named), named.get("vstar_scale", 1.0),
                        problem.simulations, fit, validation, kept)
+
+
+def _hold_out(settings: SysidSettings) -> SysidSettings:
+    """With a validation window and no fit window, fit on the samples before it (or after it,
+    when it starts at 0): validation samples are never fitted unless asked for."""
+    validate = settings.validate_window
+    if validate is None or settings.fit_window is not None:
+        return settings
+    fit = (0.0, validate[0]) if validate[0] > 0 else (validate[1], np.inf)
+    return dataclasses.replace(settings, fit_window=fit)
 
 
 def _check_informed(logs: Sequence[HardwareLog], names: Sequence[str],
@@ -400,61 +414,3 @@ def _nominal_comparisons(problem: _Problem, space: SysidSpace) -> list[Compariso
     return [compare_tensions(log, run, max_offset=problem.settings.max_offset,
                              skip=problem.settings.skip)
             for log, run in zip(problem.logs, runs, strict=True)]
-
-
-def block_stderr(jac: np.ndarray, residual: np.ndarray, rows: np.ndarray,
-                 blocks: int = BLOCKS) -> np.ndarray:
-    """Standard errors of a least-squares fit whose residuals are correlated in time.
-
-    A simulated run's residuals stay correlated over many samples (a model error lasts as
-    long as the motion that shows it), so s^2 (J^T J)^-1, which counts every sample as
-    independent, is far too small. Here each log's sample rows are cut into ``blocks``
-    contiguous time blocks; the sums of the scores J_i^T r_i over a block are nearly
-    independent, and the sandwich (J^T J)^-1 S (J^T J)^-1 takes S from their scatter
-    (blocks / (blocks - 1) x the sum of their outer products, about their mean). Intervals
-    use Student's t with ``blocks - 1`` degrees of freedom (:func:`interval_factor`).
-
-    Args:
-        jac: (m, n) Jacobian of the residuals.
-        residual: (m,) residuals at the solution.
-        rows: (m,) label of each residual's sample row: log index x 1e9 + row.
-        blocks: time blocks per log (>= 2).
-
-    Returns:
-        (n,) standard errors (inf: not determined).
-    """
-    labels, inverse = np.unique(rows, return_inverse=True)
-    scores = np.zeros((labels.size, jac.shape[1]))
-    np.add.at(scores, inverse, jac * residual[:, None])
-    sums = []
-    for log in np.unique(labels // 1_000_000_000):
-        own = scores[labels // 1_000_000_000 == log]
-        sums += [part.sum(axis=0) for part in np.array_split(own, min(blocks, len(own)))]
-    if len(sums) < 2:
-        return np.full(jac.shape[1], np.inf)
-    centred = np.array(sums) - np.mean(sums, axis=0)
-    meat = len(sums) / (len(sums) - 1) * centred.T @ centred
-    try:
-        bread = np.linalg.inv(jac.T @ jac)
-    except np.linalg.LinAlgError:
-        return np.full(jac.shape[1], np.inf)
-    variance = np.diag(bread @ meat @ bread)
-    return np.where(variance >= 0, np.sqrt(np.abs(variance)), np.inf)
-
-
-def interval_factor(blocks: int = BLOCKS, logs: int = 1) -> float:
-    """Half-width of the 95 % interval in standard errors: Student's t, blocks x logs - 1 dof."""
-    return float(stats.t.ppf(0.975, max(blocks * logs - 1, 1)))
-
-
-def _naive_stderr(jac: np.ndarray, residual: np.ndarray) -> np.ndarray:
-    """s^2 (J^T J)^-1 with s^2 = RSS / (m - n): independent residuals assumed."""
-    m, n = jac.shape
-    if m <= n:
-        return np.full(n, np.inf)
-    try:
-        covariance = float(residual @ residual) / (m - n) * np.linalg.inv(jac.T @ jac)
-    except np.linalg.LinAlgError:
-        return np.full(n, np.inf)
-    variance = np.diag(covariance)
-    return np.where(variance >= 0, np.sqrt(np.abs(variance)), np.inf)
