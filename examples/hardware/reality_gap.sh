@@ -25,7 +25,10 @@ for r in rows:
 run tensim --quiet compare "$out/no_loads.csv" --out "$out/compare_no_loads"
 run tensim --quiet sysid examples/hardware/disturbance_log.csv --fit-window 0:4 \
     --validate-window 4:7 --out "$out/sysid"
+run tensim --quiet compare examples/hardware/disturbance_log.csv \
+    --model "$out/sysid/fitted_structure.yaml" --sensor "$out/sysid/measurement.json" \
+    --out "$out/compare_fitted"
 run tensim --quiet sysid examples/hardware/sine_log.csv --fit-window 0:5 \
     --validate-window 5:8 --out "$out/sysid_sine"
 run tensim --quiet sysid examples/hardware/disturbance_log.csv --params stiffness \
-    --start stiffness=450 --max-sims 3 --validate-window 4:7 --out "$out/sysid_bad_start"
+    --start stiffness=450 --max-sims 3 --out "$out/sysid_bad_start"

@@ -134,8 +134,7 @@ def _compare(args: argparse.Namespace) -> int:
         simulated = replay(log, structure, config, world=world_from_args(args),
                            vstar_scale=vstar_scale, margin=args.max_offset,
                            progress=Progress("replay", args.quiet)).trajectory
-    offset = args.offset if args.offset is not None else (sensor.delay if sensor else None)
-    comparison = compare_tensions(log, simulated, sensor=sensor, offset=offset,
+    comparison = compare_tensions(log, simulated, sensor=sensor, offset=args.offset,
                                   max_offset=args.max_offset, skip=args.skip,
                                   settle=args.settle)
     mocap = displacement_errors(log, simulated, compile_structure(
@@ -250,7 +249,7 @@ def _sysid(args: argparse.Namespace) -> int:
         error = "" if p["ci95"] is None else f" ± {p['ci95']:.3g}"
         print(f"  {name:<12} {p['fitted']:10.5g}{error} {p['unit']:<6} (nominal "
               f"{p['nominal']:.5g})")
-    print("  (± : 95 % interval from time blocks of the residuals)")
+    print("  (±: 95 % interval; residuals correlated in time, see docs/hardware.md)")
     v = summary["validation"]
     where = "fit samples" if v["on_fit_data"] else f"validation samples {args.validate_window} s"
     print(f"RMSE on the {where}: nominal {v['nominal_rmse_N']:.3f} N, fitted "
