@@ -6,6 +6,7 @@ set -euo pipefail
 run() { echo "\$ $*"; "$@" 2>&1; echo; }
 out=${OUT:-runs/reality_gap}
 mkdir -p "$out"
+run tensim --quiet compare examples/hardware/sine_log.csv --out "$out/compare_sine"
 run tensim --quiet make-log --controller tetraspine3_impedance --duration 7 \
     --experiment disturbance --experiment-params start=2.5,rise=1,hold=1.5,fall=1 \
     --set friction=0.1,stiffness=252.076 --offset 0.5 --noise 0.1 --delay 0.025 --quantise \
