@@ -206,3 +206,17 @@ def test_disturbance_log_end_to_end(tmp_path, capsys):
         assert abs(p["fitted"] - value) <= p["ci95"], name
     assert fit["validation"]["fitted_rmse_N"] < 0.5 * fit["validation"]["nominal_rmse_N"]
     assert not fit["kept_nominal"]
+
+
+def test_cli_refuses_bad_windows_and_logs(push_log, tmp_path, capsys):
+    log = write_log(push_log, tmp_path / "push.csv")
+    assert main(["--quiet", "sysid", str(log), "--fit-window", "2", "--out",
+                 str(tmp_path / "s")]) == 2
+    assert "--fit-window: expected A:B seconds with A < B, got '2'" in capsys.readouterr().err
+    assert main(["--quiet", "sysid", str(log), "--validate-window", "8:9", "--out",
+                 str(tmp_path / "s")]) == 2
+    assert "--validate-window 8:9 s holds no tension sample" in capsys.readouterr().err
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,tension_N/inner_top_1,load_N/s9_tip/x\n0,20,0\n0.2,20,1\n")
+    assert main(["check-log", str(bad), "--model", "tetraspine3"]) == 2
+    assert "no node 's9_tip'" in capsys.readouterr().err

@@ -6,7 +6,9 @@ measurement parameters only reshape the simulated signals, so the optimizer's fi
 differences over them reuse a cached simulation. The optimizer is scipy's bounded
 trust-region least squares on the unit cube of the bounds, with a finite-difference step large
 enough to step over the small, irregular changes that contact and motor limits cause; the
-uncertainty comes from the Jacobian at the solution. A Jacobian's perturbed models (each a
+uncertainty comes from the Jacobian and the residuals at the solution, over time blocks
+(:mod:`tensim.hardware.uncertainty`). A fit is judged on validation samples and is replaced by
+the nominal model when it is worse there. A Jacobian's perturbed models (each a
 recompiled structure) are simulated together, one batch per log, on the batch engine's threads.
 (MuJoCo's ``mujoco.sysid`` toolbox makes the same physical/measurement split; tensim keeps its
 own driver because its physical parameters change the structure description and recompile.)
