@@ -254,6 +254,11 @@ def _sysid(args: argparse.Namespace) -> int:
     where = "fit samples" if v["on_fit_data"] else f"validation samples {args.validate_window} s"
     print(f"RMSE on the {where}: nominal {v['nominal_rmse_N']:.3f} N, fitted "
           f"{v['fitted_rmse_N']:.3f} N")
+    print(f"error on the max system tension after settling "
+          f"{summary['max_settled_system_tension_error_before_percent']:.2f} % -> "
+          f"{summary['max_settled_system_tension_error_after_percent']:.2f} % (whole run "
+          f"{summary['max_system_tension_error_before_percent']:.2f} % -> "
+          f"{summary['max_system_tension_error_after_percent']:.2f} %; all samples)")
     if result.kept_nominal:
         print("the fit is WORSE than the nominal model there: the nominal model was written "
               "instead (--force writes the fit)")

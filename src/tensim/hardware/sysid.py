@@ -154,6 +154,10 @@ class SysidResult:
                     before, "max_system_tension_error_percent", absolute=True),
                 "max_system_tension_error_after_percent": _mean_of(
                     after, "max_system_tension_error_percent", absolute=True),
+                "max_settled_system_tension_error_before_percent": _mean_of(
+                    before, "max_settled_system_tension_error_percent", absolute=True),
+                "max_settled_system_tension_error_after_percent": _mean_of(
+                    after, "max_settled_system_tension_error_percent", absolute=True),
                 "logs": [{"before": b, "after": a} for b, a in zip(before, after, strict=True)]}
 
 
