@@ -11,6 +11,7 @@ import argparse
 import dataclasses
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tensim.cli._common import (
     Progress,
@@ -19,6 +20,9 @@ from tensim.cli._common import (
     load_model,
     world_from_args,
 )
+
+if TYPE_CHECKING:
+    from tensim.hardware import HardwareLog
 
 _DEFAULT_CONTROLLER = "tetraspine3_impedance"
 
@@ -152,11 +156,11 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def _warn_jumps(log: object) -> None:
+def _warn_jumps(log: HardwareLog) -> None:
     from tensim.hardware.checklog import unexplained_jumps
 
-    for time, cables in unexplained_jumps(log)[:5]:  # type: ignore[arg-type]
-        print(f"warning: {getattr(log, 'source', 'log')}: tensions jump at {time:g} s "
+    for time, cables in unexplained_jumps(log)[:5]:
+        print(f"warning: {log.source}: tensions jump at {time:g} s "
               f"({', '.join(cables)}) where no logged load changes; a push the log does not "
               "record? (load_N/<node>/<axis> columns or an '# experiment:' header)",
               file=sys.stderr)
@@ -370,14 +374,14 @@ def _register_check_log(sub: argparse._SubParsersAction) -> None:
 def _check_log(args: argparse.Namespace) -> int:
     import json
 
-    from tensim.hardware import read_log
+    from tensim.hardware import load_log
     from tensim.hardware.checklog import summarize_log
     from tensim.hardware.loads import loads_for
     from tensim.hardware.logs import check_items
 
     structure = load_model(args.model) if args.model else None
     for path in args.logs:
-        log = read_log(path)
+        log = load_log(path)  # validated; adc/ columns converted (header calibration, eq. 7)
         if structure is not None:
             check_items(log, structure)
             loads_for(log, structure)
