@@ -190,6 +190,7 @@ def test_disturbance_log_end_to_end(tmp_path, capsys):
                  "start=2.5,rise=1,hold=1.5,fall=1", "--set", "friction=0.1,stiffness=252.076",
                  "--offset", "0.5", "--noise", "0.1", "--delay", "0.025", "--quantise",
                  "--out", str(log)]) == 0
+    capsys.readouterr()
     assert main(["check-log", str(log), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["experiment"]["params"]["start"] == 2.5
