@@ -106,6 +106,9 @@ def test_bad_load_columns_are_refused(tmp_path, robot):
                     "0,20,1,1\n0.1,20,2,\n")
     with pytest.raises(LogError, match=r"node 's0_tip': expected every axis sampled"):
         column_loads(read_log(path))
+    path.write_text("time_s,tension_N/inner_top_1,load_N/s0_tip/x\n0,20,\n")
+    with pytest.raises(LogError, match=r"node 's0_tip': no sample"):
+        column_loads(read_log(path))
 
 
 def test_alignment_is_refused_on_a_step_and_found_on_a_wave():

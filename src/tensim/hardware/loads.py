@@ -118,7 +118,7 @@ def column_loads(log: HardwareLog) -> tuple[NodeLoad, ...]:
     """The ``load_N/<node>/<axis>`` columns as node loads (an axis not logged is 0 N).
 
     Raises:
-        LogError: a node whose axis columns are not sampled on the same rows.
+        LogError: a node whose axis columns are not sampled on the same rows, or not at all.
     """
     nodes = list(dict.fromkeys(item.rpartition("/")[0] for item in log.series.items("load")))
     out = []
@@ -134,6 +134,9 @@ def column_loads(log: HardwareLog) -> tuple[NodeLoad, ...]:
                            f"sampled on the same rows; time {log.series.time[row]:g} s has some "
                            "and not others")
         rows = sampled[:, 0]
+        if not rows.any():
+            raise LogError(f"{log.source}: load columns of node {node!r}: no sample; expected "
+                           "at least one row with a force (0 for none)")
         out.append(NodeLoad(node, log.series.time[rows] - log.start,
                             np.nan_to_num(columns[rows], nan=0.0)))
     return tuple(out)
