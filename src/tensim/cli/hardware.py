@@ -186,10 +186,14 @@ def _print_comparison(s: dict) -> None:
 # -- sysid --------------------------------------------------------------------------------------
 
 
-def _register_sysid(sub: argparse._SubParsersAction) -> None:
-    from tensim.hardware.parameters import DEFINITIONS
+# the names and units of tensim.hardware.parameters.DEFINITIONS, spelt out so that building the
+# parser imports no simulation code (tests check the two agree)
+SYSID_PARAMETERS = ("friction [-], stiffness [N/m], damping [N s/m], max_speed [m/s], "
+                    "mass_scale [-], vstar_scale [-], offset [N], gain [-], delay [s]")
 
-    names = ", ".join(f"{d.name} [{d.unit}]" for d in DEFINITIONS.values())
+
+def _register_sysid(sub: argparse._SubParsersAction) -> None:
+    names = SYSID_PARAMETERS
     p = sub.add_parser("sysid", help="fit model parameters to hardware logs",
                        description=f"Fits named parameters ({names}) to minimise the tension "
                        "error across the logs; writes the fitted structure, measurement.json, "
@@ -258,7 +262,8 @@ def _sysid(args: argparse.Namespace) -> int:
     where = "fit samples" if v["on_fit_data"] else f"validation samples {args.validate_window} s"
     print(f"RMSE on the {where}: nominal {v['nominal_rmse_N']:.3f} N, fitted "
           f"{v['fitted_rmse_N']:.3f} N")
-    print(f"error on the max system tension after settling "
+    print(f"|error| on the max system tension after settling (mean over the logs; compare "
+          f"prints it signed) "
           f"{summary['max_settled_system_tension_error_before_percent']:.2f} % -> "
           f"{summary['max_settled_system_tension_error_after_percent']:.2f} % (whole run "
           f"{summary['max_system_tension_error_before_percent']:.2f} % -> "

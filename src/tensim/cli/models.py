@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 import textwrap
 
-import yaml
-
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("models", help="list the model presets and shipped controller files")
@@ -14,6 +12,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import yaml
+
     from tensim.control import shipped_controllers
     from tensim.models import PRESETS
 

@@ -33,10 +33,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from tensim.control import load_velocity_table, resolve_controller
     from tensim.model import compile_structure
-    from tensim.runs import write_run
+    from tensim.runs import prepare_outputs, world_record, write_run
     from tensim.sim import simulate
     from tensim.viz import plot_cable_tensions, plot_path
 
+    prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     structure = load_model(args.model)
     config = resolve_controller(args.model, structure, args.controller)
     if args.velocity_input and config is None:
@@ -51,7 +52,8 @@ def run(args: argparse.Namespace) -> int:
     controller = config.build(compiled.model.opt.timestep) if config else None
     result = simulate(compiled, duration, controller=controller, record_dt=args.record_dt,
                       progress=Progress(args.model, args.quiet))
-    summary = {"model": args.model, "controller": args.controller, **result.summary()}
+    summary = {"model": args.model, "controller": _controller_label(args, config),
+               **result.summary(), **world_record(compiled.world)}
     out = Path(args.out)
     figures = ["path.png"]
     if compiled.n_cables:
@@ -59,6 +61,15 @@ def run(args: argparse.Namespace) -> int:
                             title=f"{args.model}: cable tensions")
         figures.insert(0, "tensions.png")
     plot_path(result.trajectory, out / "path.png", compiled.index.bodies)
-    write_run(out, result, {**summary, "figures": figures})
+    write_run(out, result, {**summary, "figures": figures}, structure=structure,
+              controller=config)
     print_summary(summary, out)
     return 0
+
+
+def _controller_label(args: argparse.Namespace, config: object) -> str:
+    """What drove the cables, for the summary (the file itself is saved as controller.yaml)."""
+    if config is None:
+        return "none (passive cables)"
+    label = args.controller or f"the {args.model} preset's impedance laws"
+    return f"{label}, V* from {args.velocity_input}" if args.velocity_input else label

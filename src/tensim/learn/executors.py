@@ -224,16 +224,19 @@ class ProcessPoolExecutor:
         self.close()
 
 
-def _ray_task(problem: Problem, index: int, unit: np.ndarray) -> Evaluation:
-    return evaluate_task(problem, index, unit)
+def _ray_task(problem: Problem, tasks: list[Task]) -> list[Evaluation]:
+    """A Ray task: a share of the generation as one batch on the worker's own thread."""
+    return list(ThreadBatchExecutor(problem, 1).run(tasks))
 
 
 class RayExecutor:
     """Trials as Ray tasks, on a running cluster (``address``) or a local Ray started here.
 
-    The problem goes into Ray's object store once; Ray reuses worker processes, so each
-    compiles the robot once. A task whose worker dies is retried by Ray up to
-    ``max_attempts`` − 1 times, then recorded as lost.
+    Each generation is split into one share per CPU of the cluster, and each task evaluates its
+    share as a batch (:class:`ThreadBatchExecutor`). The problem goes into Ray's object store
+    once; Ray reuses worker processes, so each compiles the robot once. A task whose worker
+    dies is retried by Ray up to ``max_attempts`` − 1 times, then its trials are recorded as
+    lost.
 
     Args:
         problem: the problem every task belongs to.
@@ -266,18 +269,21 @@ class RayExecutor:
         """Submits every task; yields each evaluation as its task finishes."""
         import ray
 
-        pending: dict[Any, Task] = {self._remote.remote(self._problem_ref, i, u): (i, u)
-                                    for i, u in tasks}
+        share = max(1, -(-len(tasks) // self.workers))
+        chunks = [list(tasks[k:k + share]) for k in range(0, len(tasks), share)]
+        pending: dict[Any, list[Task]] = {self._remote.remote(self._problem_ref, chunk): chunk
+                                          for chunk in chunks}
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
-                index, unit = pending.pop(ref)
+                chunk = pending.pop(ref)
                 try:
-                    yield ray.get(ref)
+                    yield from ray.get(ref)
                 except ray.exceptions.RayError as err:
                     reason = f"lost: {type(err).__name__} after {self.max_attempts} tries"
-                    log.warning("evaluation %d %s", index, reason)
-                    yield lost_evaluation(self.problem, index, unit, reason)
+                    for index, unit in chunk:
+                        log.warning("evaluation %d %s", index, reason)
+                        yield lost_evaluation(self.problem, index, unit, reason)
 
     def close(self) -> None:
         """Shuts down a local Ray this executor started."""

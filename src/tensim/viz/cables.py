@@ -11,11 +11,11 @@ tendon drawing is switched off so each cable is drawn once.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import matplotlib
 import mujoco
 import numpy as np
-from scipy.optimize import brentq
 
 from tensim.model import CompiledModel
 from tensim.viz._scene import add_connector
@@ -44,9 +44,24 @@ class TensionColors:
 
     @classmethod
     def for_model(cls, compiled: CompiledModel) -> TensionColors:
-        """Scaled to the strongest motor's tension limit (its cables cannot get much tauter)."""
+        """For a run not yet simulated: twice the highest tension at the start (the
+        pretension), rounded up to 1, 2 or 5 x 10^k N, and no more than the strongest motor's
+        tension limit; 50 N for a structure with no tension at the start.
+        """
+        data = mujoco.MjData(compiled.model)
+        mujoco.mj_fwdPosition(compiled.model, data)
+        length = data.ten_length[compiled.index.tendon]
+        start = compiled.stiffness * np.maximum(0.0, length - compiled.rest_length)
+        top = nice_ceiling(2 * float(start.max(initial=0.0))) if start.size else 50.0
         limits = compiled.max_tension[np.isfinite(compiled.max_tension)]
-        return cls(float(limits.max()) if limits.size else 50.0)
+        return cls(min(top or 50.0, float(limits.max())) if limits.size else top or 50.0)
+
+    @classmethod
+    def for_run(cls, tension: np.ndarray) -> TensionColors:
+        """Scaled to a recorded run: its highest tension [N], rounded up to 1, 2 or 5 x 10^k N
+        (50 N when no cable was ever taut)."""
+        top = float(np.nanmax(tension, initial=0.0))
+        return cls(nice_ceiling(top) if top > 0 else 50.0)
 
     def rgba(self, tension: np.ndarray) -> np.ndarray:
         """(n, 4) colours for (n,) tensions [N]: grey where slack (tension <= 0)."""
@@ -68,6 +83,15 @@ class TensionColors:
                 "grey dashed: slack")
 
 
+def nice_ceiling(value: float) -> float:
+    """The smallest of 1, 2, 2.5, 5 x 10^k at or above ``value`` (> 0); 0 for 0."""
+    if value <= 0:
+        return 0.0
+    decade = 10.0 ** math.floor(math.log10(value))
+    return next(step * decade for step in (1.0, 2.0, 2.5, 5.0, 10.0)
+                if step * decade >= value * (1 - 1e-12))
+
+
 def sag_depth(span: np.ndarray, length: np.ndarray) -> np.ndarray:
     """Depth of a parabola of arc length ``length`` hung over ``span`` [m] (0 where taut).
 
@@ -75,6 +99,8 @@ def sag_depth(span: np.ndarray, length: np.ndarray) -> np.ndarray:
     L = sqrt(x² + 16 h²) / 2 + x² / (8 h) asinh(4 h / x); it grows with h, so each depth is
     the root of L(h) = length.
     """
+    from scipy.optimize import brentq  # ~0.3 s to import: only once a cable hangs slack
+
     span, length = np.broadcast_arrays(np.asarray(span, float), np.asarray(length, float))
     depth = np.zeros(span.shape)
     for i in np.flatnonzero(length > span * (1 + 1e-9)):
