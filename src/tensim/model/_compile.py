@@ -17,7 +17,7 @@ import math
 import mujoco
 import numpy as np
 
-from tensim.structure import Cable, Structure, mass_properties
+from tensim.structure import Cable, Rod, Structure, mass_properties
 from tensim.structure._mass import MassProperties
 from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain
 
@@ -270,12 +270,16 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
         # anchor site, a site at each via node (MuJoCo pulls each along both spans), anchor site
         sites = [f"{cable.name}_0", *(f"{cable.name}_via{k}" for k in range(len(cable.via))),
                  f"{cable.name}_1"]
-        for site, node, point in zip(sites, cable.path, structure.cable_points(cable),
-                                     strict=True):
+        for k, (site, node, point) in enumerate(zip(sites, cable.path,
+                                                    structure.cable_points(cable), strict=True)):
             body = bodies[node_body[node]]
             local = point - (structure.position(node) - node_local[node])
             body.add_site(name=site, pos=local.tolist(), size=[0.002, 0, 0])
             tendon.wrap_site(site)
+            if k == 0:  # between the anchors: the rods the cable wraps around, in order
+                for rod in cable.wrap:
+                    tendon.wrap_geom(_wrap_geom(spec, bodies, rods[rod], node_body,
+                                                node_local), "")
     for cable in structure.cables:  # cable actuators first: ids 0..n_cables-1
         _add_cable_actuator(spec, cable, structure.rest_length(cable))
     _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
@@ -327,6 +331,18 @@ def without_cable_law(compiled: CompiledModel) -> mujoco.MjSpec:
 def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
     """Compiles a spec (see :func:`_compile_spec`)."""
     return _compile_spec(spec)
+
+
+def _wrap_geom(spec: mujoco.MjSpec, bodies: dict[str, mujoco.MjsBody], rod: Rod,
+               node_body: dict[str, str], node_local: dict[str, np.ndarray]) -> str:
+    """The invisible, contact-free cylinder of ``rod`` that cables wrap around (made once)."""
+    name = f"wrap_{rod.name}"
+    if spec.geom(name) is None:
+        ends = [node_local[n] for n in rod.nodes]
+        bodies[node_body[rod.nodes[0]]].add_geom(
+            name=name, type=mujoco.mjtGeom.mjGEOM_CYLINDER, fromto=np.concatenate(ends).tolist(),
+            size=[rod.radius, 0, 0], contype=0, conaffinity=0, group=5, rgba=[0, 0, 0, 0])
+    return name
 
 
 def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -> None:

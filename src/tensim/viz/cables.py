@@ -11,6 +11,7 @@ tendon drawing is switched off so each cable is drawn once.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import matplotlib
@@ -156,11 +157,15 @@ class CableArtist:
         self.sites = np.array([[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, f"{c}_{end}")
                                 for end in (0, 1)] for c in compiled.index.cables],
                               dtype=int).reshape(-1, 2)
+        self.tendons = np.asarray(compiled.index.tendon, dtype=int)
+        # a routed or wrapped cable: one piece per span (each wrap adds up to 2 points)
+        spans = [len(c.via) + 2 * len(c.wrap) + 1 for c in compiled.structure.cables]
+        self._most = sum(max(s, self.segments // 2 + 1) for s in spans)
 
     @property
     def max_geoms(self) -> int:
         """The most geoms one :meth:`draw` adds."""
-        return len(self.sites) * (self.segments // 2 + 1)
+        return self._most
 
     def draw(self, scene: mujoco.MjvScene, data: mujoco.MjData, tension: np.ndarray,
              rest_length: np.ndarray) -> None:
@@ -173,8 +178,14 @@ class CableArtist:
             rest_length: (n_cables,) motor rest lengths [m]: a slack cable's length.
         """
         colors = self.colors.rgba(tension)
-        for i, (a, b) in enumerate(self.sites):
-            start, end = data.site_xpos[a], data.site_xpos[b]
+        for i in range(len(self.sites)):
+            path = self._path(data, i)
+            start, end = path[0], path[-1]
+            if len(path) > 2:  # routed through via nodes or wrapped around rods: its real path
+                width = self.width if tension[i] > 0 else 0.5 * self.width
+                for p, q in itertools.pairwise(path):
+                    add_connector(scene, _CAPSULE, width, p, q, colors[i])
+                continue
             if tension[i] > 0 or np.linalg.norm(end - start) >= rest_length[i]:
                 add_connector(scene, _CAPSULE, self.width, start, end, colors[i])
                 continue
@@ -182,6 +193,14 @@ class CableArtist:
             for k in range(0, self.segments, 2):
                 add_connector(scene, _CAPSULE, 0.5 * self.width, curve[k], curve[k + 1],
                               colors[i])
+
+    def _path(self, data: mujoco.MjData, i: int) -> np.ndarray:
+        """(k, 3) the points cable i runs through now: anchors, via sites, wrap tangent points."""
+        t = self.tendons[i]
+        adr, num = data.ten_wrapadr[t], data.ten_wrapnum[t]
+        if num < 2:
+            return np.stack([data.site_xpos[self.sites[i, 0]], data.site_xpos[self.sites[i, 1]]])
+        return data.wrap_xpos.reshape(-1, 3)[adr:adr + num]
 
 
 def hide_model_tendons(option: mujoco.MjvOption) -> None:
