@@ -111,8 +111,35 @@ def bench_batch(trials: int = 64, duration: float = 10.0, repeats: int = 3,
                              for m in ("batch", "rollout")},
         "peak_rss_MiB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "gait_build_cpu_s_per_trial": build_cpu / trials,
+        "batch_process_peak_MiB": batch_memory_mib(trials, duration),
         "real_time_factor_2_threads": trials * duration / figures["batch_2"]["wall_best_s"],
     }
+
+
+_MEMORY_PROBE = """
+import resource, sys
+import numpy as np
+from tensim.bench_batch import _problem
+from tensim.sim import Trial, run_batch
+trials, duration = int(sys.argv[1]), float(sys.argv[2])
+problem = _problem(duration)
+compiled = problem.compiled()
+points = np.random.default_rng(0).random((trials, problem.dimension))
+controllers = [problem.controller(u).build(compiled.model.opt.timestep) for u in points]
+run_batch(compiled, [Trial(c) for c in controllers], duration, threads=2)
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+"""
+
+
+def batch_memory_mib(trials: int, duration: float) -> float:
+    """Peak resident memory [MiB] of a fresh process that runs one batch on 2 threads
+    (Python, tensim, MuJoCo and the recorded channels of every trial included)."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", _MEMORY_PROBE, str(trials), str(duration)],
+                         check=True, capture_output=True, text=True).stdout
+    return float(out.split()[-1])
 
 
 def format_batch(report: dict[str, Any]) -> str:
@@ -130,7 +157,8 @@ def format_batch(report: dict[str, Any]) -> str:
                  f"of this process {report['peak_rss_MiB']:.0f} MiB (rollout's outputs "
                  f"included)")
     lines.append(f"  building a trial's CPG gait (before the batch, not timed above): "
-                 f"{report['gait_build_cpu_s_per_trial'] * 1e3:.0f} ms of CPU")
+                 f"{report['gait_build_cpu_s_per_trial'] * 1e3:.0f} ms of CPU; a process "
+                 f"that runs just the batch peaks at {report['batch_process_peak_MiB']:.0f} MiB")
     return "\n".join(lines)
 
 
