@@ -31,7 +31,7 @@ def test_locomotion_reports_distance_and_direction(dx, dy, label, angle) -> None
     assert report["direction"] == label
     assert report["direction_deg"] == pytest.approx(angle, abs=0.01)
     assert report["planar_displacement_m"] == pytest.approx(np.hypot(dx, dy), abs=1e-6)
-    assert report["sideways_displacement_m"] == pytest.approx(dy, abs=1e-6)
+    assert report["world_dy_m"] == pytest.approx(dy, abs=1e-6)
     assert report["average_speed_m_per_s"] == pytest.approx(np.hypot(dx, dy) / 4.0, abs=1e-6)
 
 
@@ -68,7 +68,8 @@ def test_drag_force_is_coulomb_friction_of_the_whole_weight() -> None:
 
 
 def test_drag_rejects_a_window_past_the_end() -> None:
-    with pytest.raises(ValueError, match="averaging window"):
+    # the message says which durations work: more than settle + steady_from
+    with pytest.raises(ValueError, match="must be more than 4 s"):
         DragSettings(duration=3.0, settle=2.0, steady_from=2.0)
 
 

@@ -27,8 +27,9 @@ def _backend() -> str:
     try:
         return _gl.select_backend()
     except _gl.OffscreenUnavailable as err:
-        pytest.skip(f"no offscreen OpenGL backend on this machine ({err}); CI installs "
-                    "libegl-mesa0 and libosmesa6 so these tests run there")
+        pytest.skip(f"no offscreen OpenGL backend on this machine ({err}); to run these "
+                    "tests: sudo apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 "
+                    "(as .ci/run does; see the README)")
 
 
 def _falling_rod() -> Structure:
@@ -74,7 +75,8 @@ def test_select_backend_falls_back_in_order_and_explains_failure(monkeypatch) ->
 def test_a_broken_egl_falls_back_to_osmesa_for_real() -> None:
     """EGL with no vendor library fails; the choice, made in a fresh process, is then OSMesa."""
     if _gl.probe("osmesa") is not None:
-        pytest.skip("OSMesa is not installed here (Debian: libosmesa6)")
+        pytest.skip("OSMesa is not installed here; to run this test: sudo apt-get install "
+                    "libosmesa6 (as .ci/run does; see the README)")
     env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY",
                                                             "WAYLAND_DISPLAY")}
     env["__EGL_VENDOR_LIBRARY_FILENAMES"] = os.devnull  # glvnd finds no EGL driver

@@ -101,7 +101,8 @@ def _chromium() -> str:
         path = shutil.which(name)
         if path:
             return path
-    pytest.skip("no Chromium here (Debian: apt-get install chromium); CI installs it")
+    pytest.skip("no Chromium here; to run this test: sudo apt-get install chromium (as .ci/run "
+                "does; see the README)")
 
 
 def test_report_renders_in_a_headless_browser_with_its_images(run_folder: Path,

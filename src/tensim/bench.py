@@ -1,15 +1,18 @@
 """Speed benchmark: simulated seconds per wall second, controlled loop vs MuJoCo alone.
 
 For each case the full tensim loop (cable law, motors, controller, recording at 100 Hz,
-stability checks) runs from a settled state; then MuJoCo alone replays exactly the same
-cable forces with ``mujoco.rollout`` on the robot with the law taken out (each cable a plain
-force input, no callback, no Python per step), which is the engine's limit for that
-trajectory. Both run single-threaded.
+stability checks) runs from a settled state, and MuJoCo alone replays exactly the same cable
+forces with ``mujoco.rollout`` on the robot with the law taken out (each cable a plain force
+input, no callback, no Python per step), which is the engine's limit for that trajectory.
+Both run single-threaded and take turns (tensim, engine, tensim, ...), so a load on a shared
+machine slows both alike; each run's CPU time is measured beside its wall time, and the ratio
+comes from the best CPU times.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import statistics
 import time
 from collections.abc import Callable
 
@@ -33,42 +36,84 @@ SETTLE_S = 1.0
 
 
 @dataclasses.dataclass(frozen=True)
+class Timing:
+    """Repeated timings of one loop, per physics step [us].
+
+    Attributes:
+        cpu: CPU time of this process per step, one entry per run [us].
+        wall: wall-clock time per step, one entry per run [us].
+    """
+
+    cpu: tuple[float, ...]
+    wall: tuple[float, ...]
+
+    def best(self, kind: str = "cpu") -> float:
+        """The fastest run [us per step]."""
+        return min(getattr(self, kind))
+
+    def median(self, kind: str = "cpu") -> float:
+        """The median run [us per step]."""
+        return statistics.median(getattr(self, kind))
+
+
+@dataclasses.dataclass(frozen=True)
 class BenchCase:
-    """One benchmark figure set.
+    """One benchmark figure set; the tensim loop and MuJoCo alone ran interleaved.
 
     Attributes:
         name: case name.
-        real_time_factor: tensim loop, simulated s per wall s.
-        engine_alone_real_time_factor: MuJoCo alone on the same inputs.
-        us_per_step: tensim loop cost per physics step [us].
-        engine_us_per_step: MuJoCo alone per step [us].
+        dt: physics step [s].
+        tensim: the full tensim loop's timings.
+        engine: MuJoCo alone's timings on the same inputs.
     """
 
     name: str
-    real_time_factor: float
-    engine_alone_real_time_factor: float
-    us_per_step: float
-    engine_us_per_step: float
+    dt: float
+    tensim: Timing
+    engine: Timing
 
     @property
     def ratio(self) -> float:
-        """tensim rate / engine-alone rate."""
-        return self.real_time_factor / self.engine_alone_real_time_factor
+        """tensim rate / engine-alone rate, from the best CPU times (1: no overhead)."""
+        return self.engine.best() / self.tensim.best()
+
+    def figures(self) -> dict[str, float]:
+        """JSON-ready figures: best and median CPU and wall time per step, real-time factors
+        from the best CPU time, and the ratio."""
+        out: dict[str, float] = {}
+        for who, timing in (("", self.tensim), ("engine_", self.engine)):
+            for kind in ("cpu", "wall"):
+                out[f"{who}{kind}_us_per_step_best"] = round(timing.best(kind), 3)
+                out[f"{who}{kind}_us_per_step_median"] = round(timing.median(kind), 3)
+            out[f"{who}real_time_factor"] = round(self.dt * 1e6 / timing.best(), 2)
+        return {**out, "ratio_to_engine": round(self.ratio, 4)}
 
 
-def _best(fn: Callable[[], float], repeats: int) -> float:
-    return min(fn() for _ in range(repeats))
+def _interleaved(loops: dict[str, Callable[[], None]], repeats: int, steps: int
+                 ) -> dict[str, Timing]:
+    """Runs each loop ``repeats`` times in turn (A B A B ...), so load on a shared machine
+    falls on all of them alike; CPU and wall time per step of each run [us]."""
+    cpu: dict[str, list[float]] = {name: [] for name in loops}
+    wall: dict[str, list[float]] = {name: [] for name in loops}
+    for _ in range(repeats):
+        for name, loop in loops.items():
+            c0, w0 = time.process_time(), time.perf_counter()
+            loop()
+            cpu[name].append((time.process_time() - c0) / steps * 1e6)
+            wall[name].append((time.perf_counter() - w0) / steps * 1e6)
+    return {name: Timing(tuple(cpu[name]), tuple(wall[name])) for name in loops}
 
 
 def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
                 controlled: bool = True, controller_file: str | None = None,
                 terrain: Terrain | None = None) -> BenchCase:
-    """Benchmarks preset ``name`` for ``duration`` simulated seconds (best of ``repeats``).
+    """Benchmarks preset ``name`` for ``duration`` simulated seconds, ``repeats`` times,
+    tensim and MuJoCo alone interleaved.
 
     Args:
         name: the preset.
         duration: simulated time per run [s].
-        repeats: runs; the best counts.
+        repeats: runs of each loop.
         controlled: drive the cables with the preset's impedance controller.
         controller_file: drive them with this controller file's gait instead (its V* table
             is computed before the timed loop, as in any simulation).
@@ -87,11 +132,9 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
         state = sim.get_state()
         n_steps = round(duration / sim.dt)
 
-        def loop() -> float:
+        def loop() -> None:
             sim.set_state(state)
-            t0 = time.perf_counter()
             sim.run(duration)
-            return time.perf_counter() - t0
 
         # the cable forces of this run, for the engine-alone replay
         sim.set_state(state)
@@ -99,20 +142,16 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
         for k in range(n_steps):
             sim.step(1)
             forces[0, k] = sim.data.actuator_force[:compiled.n_cables]
-        wall = _best(loop, repeats)
-    engine, start, warmstart = engine_alone(compiled, state)
-    data = mujoco.MjData(engine)
+        engine, start, warmstart = engine_alone(compiled, state)
+        data = mujoco.MjData(engine)
 
-    def engine_run() -> float:
-        t0 = time.perf_counter()
-        rollout.rollout(engine, data, start, forces, initial_warmstart=warmstart)
-        return time.perf_counter() - t0
+        def engine_run() -> None:
+            rollout.rollout(engine, data, start, forces, initial_warmstart=warmstart)
 
-    engine_wall = _best(engine_run, repeats)
+        timings = _interleaved({"tensim": loop, "engine": engine_run}, repeats, n_steps)
     label = f" ({controller_file})" if controller_file else "" if controlled else " (passive)"
     label += f" on {type(terrain).__name__.lower()}" if terrain else ""
-    return BenchCase(f"{name}{label}", duration / wall,
-                     duration / engine_wall, wall / n_steps * 1e6, engine_wall / n_steps * 1e6)
+    return BenchCase(f"{name}{label}", m.opt.timestep, timings["tensim"], timings["engine"])
 
 
 def engine_alone(compiled: CompiledModel, state: np.ndarray
@@ -149,5 +188,6 @@ def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, object
     return {
         "compiled_callback": compiled_available(),
         "duration_s": duration,
-        "cases": [{**dataclasses.asdict(c), "ratio_to_engine": c.ratio} for c in cases],
+        "repeats": repeats,
+        "cases": [{"name": c.name, **c.figures()} for c in cases],
     }

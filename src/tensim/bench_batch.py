@@ -1,11 +1,12 @@
 """Batch benchmark: many Tetraspine3 CPG trials per call, against ``mujoco.rollout``.
 
-N trials of different CPG gaits (random points of the learning layout) run three ways, the
-runs interleaved and each timed in wall and process CPU time: through :func:`run_batch` on 1
-and 2 threads (gait build, stepping, recording and scoring-ready channels included), and as
-``mujoco.rollout`` replaying the same per-step ``ctrl`` on the same per-trial models on the
-same thread count (the cable law runs inside MuJoCo in both), which is the engine's batched
-limit for that work.
+N trials of different CPG gaits (random points of the learning layout, built once before the
+clock starts, as ``mujoco.rollout`` gets its controls ready-made) run two ways, interleaved and
+each timed in wall and process CPU time: through :func:`run_batch` on 1 and 2 threads
+(controllers set up, stepping, recording, channels), and as ``mujoco.rollout`` replaying the
+same per-step ``ctrl`` on the same per-trial models on the same thread count (the cable law
+runs inside MuJoCo in both), which is the engine's batched limit for that work. The gaits'
+build time is printed apart.
 """
 
 from __future__ import annotations
@@ -77,10 +78,14 @@ def bench_batch(trials: int = 64, duration: float = 10.0, repeats: int = 3,
     points = np.random.default_rng(seed).random((trials, problem.dimension))
     models, state, control, nstep = rollout_inputs(problem, points)
 
+    dt = compiled.model.opt.timestep
+    built = time.process_time()
+    controllers = [problem.controller(u).build(dt) for u in points]  # the CPG integrations
+    build_cpu = time.process_time() - built
+
     def batch(threads: int) -> None:
-        dt = compiled.model.opt.timestep
-        run_batch(compiled, [Trial(problem.controller(u).build(dt)) for u in points],
-                  duration, threads=threads, record_dt=problem.record_dt)
+        run_batch(compiled, [Trial(c) for c in controllers], duration, threads=threads,
+                  record_dt=problem.record_dt)
 
     def engine(threads: int) -> None:
         datas = [mujoco.MjData(models[0]) for _ in range(threads)]
@@ -105,8 +110,36 @@ def bench_batch(trials: int = 64, duration: float = 10.0, repeats: int = 3,
         "scaling_2_over_1": {m: figures[f"{m}_1"]["wall_best_s"] / figures[f"{m}_2"]["wall_best_s"]
                              for m in ("batch", "rollout")},
         "peak_rss_MiB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "gait_build_cpu_s_per_trial": build_cpu / trials,
+        "batch_process_peak_MiB": batch_memory_mib(trials, duration),
         "real_time_factor_2_threads": trials * duration / figures["batch_2"]["wall_best_s"],
     }
+
+
+_MEMORY_PROBE = """
+import resource, sys
+import numpy as np
+from tensim.bench_batch import _problem
+from tensim.sim import Trial, run_batch
+trials, duration = int(sys.argv[1]), float(sys.argv[2])
+problem = _problem(duration)
+compiled = problem.compiled()
+points = np.random.default_rng(0).random((trials, problem.dimension))
+controllers = [problem.controller(u).build(compiled.model.opt.timestep) for u in points]
+run_batch(compiled, [Trial(c) for c in controllers], duration, threads=2)
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+"""
+
+
+def batch_memory_mib(trials: int, duration: float) -> float:
+    """Peak resident memory [MiB] of a fresh process that runs one batch on 2 threads
+    (Python, tensim, MuJoCo and the recorded channels of every trial included)."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", _MEMORY_PROBE, str(trials), str(duration)],
+                         check=True, capture_output=True, text=True).stdout
+    return float(out.split()[-1])
 
 
 def format_batch(report: dict[str, Any]) -> str:
@@ -121,7 +154,11 @@ def format_batch(report: dict[str, Any]) -> str:
     s = report["scaling_2_over_1"]
     lines.append(f"  2 threads / 1: batch {s['batch']:.2f}x, rollout {s['rollout']:.2f}x; "
                  f"{report['real_time_factor_2_threads']:.0f}x real time in all; peak memory "
-                 f"of this process {report['peak_rss_MiB']:.0f} MiB")
+                 f"of this process {report['peak_rss_MiB']:.0f} MiB (rollout's outputs "
+                 f"included)")
+    lines.append(f"  building a trial's CPG gait (before the batch, not timed above): "
+                 f"{report['gait_build_cpu_s_per_trial'] * 1e3:.0f} ms of CPU; a process "
+                 f"that runs just the batch peaks at {report['batch_process_peak_MiB']:.0f} MiB")
     return "\n".join(lines)
 
 

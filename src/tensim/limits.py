@@ -10,12 +10,15 @@ from __future__ import annotations
 
 import math
 
+from tensim._input import MAX_NODES as MAX_YAML_VALUES
 from tensim._input import InputError
 
 MAX_STEPS = 100_000_000  # physics steps of one simulation (about an hour of compute)
 MAX_SAMPLES = 10_000_000  # recorded samples of one simulation or log
 MAX_TERRAIN_BOXES = 10_000  # boxes of one terrain (steps, blocks)
 MAX_GRID_CELLS = 4_000_000  # cells of one height field
+__all__ = ["MAX_GRID_CELLS", "MAX_SAMPLES", "MAX_STEPS", "MAX_TERRAIN_BOXES", "MAX_YAML_VALUES",
+           "check_count", "check_run"]
 
 
 def check_count(what: str, count: float, limit: int, *, force: bool = False,

@@ -24,14 +24,23 @@ import platform
 import shutil
 import sys
 import tempfile
+import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tensim import __version__
 from tensim._files import check_writable, pid_alive, write_json, write_text
 from tensim._input import InputError
 from tensim.sim import SimulationResult, TimeSeries
+
+if TYPE_CHECKING:
+    from tensim.control import ControllerConfig
+    from tensim.model import WorldOptions
+    from tensim.structure import Structure
+
+STRUCTURE_FILE = "structure.yaml"  # the robot as it ran, in every simulation's folder
+CONTROLLER_FILE = "controller.yaml"  # its controller, where it had one
 
 PROGRESS_LOGGER = "tensim.progress"  # progress lines: to the run log only, never the console
 _MAX_LINES = 20_000
@@ -87,25 +96,92 @@ def _install() -> RunLog:
 RUN_LOG = _install()
 
 
+def prepare_outputs() -> threading.Thread | None:
+    """Starts the trial of an offscreen OpenGL backend for frame.png in a background thread.
+
+    Call it before simulating: the trial runs in a child process, so the thread only waits
+    (it holds no Python lock the simulation needs) and the trial overlaps the simulation
+    instead of following it. With a single usable core it would take that core from the
+    simulation (and skew its real-time factor), so then it does nothing and the report runs
+    the trial later. A failure is left for the report to meet and note. (Loading matplotlib
+    this way was tried and dropped: an import holds Python's lock and slowed the simulation,
+    and the real-time factor it reports, by as much as it saved.)
+    """
+    if len(os.sched_getaffinity(0)) < 2:
+        return None
+    from tensim.viz import _gl  # imported here: an import in the thread would hold the lock
+
+    def trial() -> None:
+        try:
+            _gl.select_backend()
+        except _gl.OffscreenUnavailable as err:
+            logging.getLogger(__name__).debug("no offscreen OpenGL backend: %s", err)
+
+    thread = threading.Thread(target=trial, name="tensim-gl-trial", daemon=True)
+    thread.start()
+    return thread
+
+
 def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = None) -> Path:
     """Writes ``tensim.log``, ``report.html`` and then ``summary.json`` into ``out``.
 
     Call it last, after the folder's figures and data files are written; ``series`` is the
     run's trajectory if it has one (else the report reads trajectory.parquet, if any).
     """
-    from tensim.viz.report import write_report
+    from tensim.viz.report import figure_names, write_report
 
     out.mkdir(parents=True, exist_ok=True)
     summary = {**summary, "tensim_version": __version__}
     RUN_LOG.write(out / "tensim.log")
     write_report(out, summary, series=series)
+    summary["figures"] = figure_names(out, summary)  # with those the report added
     write_json(out / "summary.json", summary)
     return out
 
 
-def write_run(out: Path, result: SimulationResult, summary: dict[str, Any]) -> Path:
-    """Writes ``trajectory.parquet``, then finishes the folder (:func:`finish_run`)."""
+def world_record(world: WorldOptions) -> dict[str, Any]:
+    """The world options as summary fields, enough to rebuild the run's world: ``dt_s``,
+    ``terrain`` (a ``--terrain`` string), ``contact_timeconst_s`` and the engine options."""
+    from tensim.terrain import format_terrain
+
+    return {"dt_s": world.timestep, "terrain": format_terrain(world.terrain),
+            "contact_timeconst_s": world.contact_timeconst, "midphase": world.midphase,
+            "self_collision": world.self_collision}
+
+
+def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
+              structure: Structure | None = None,
+              controller: ControllerConfig | None = None) -> Path:
+    """Writes ``trajectory.parquet``, the run's robot and controller, then finishes the folder
+    (:func:`finish_run`).
+
+    With the world fields of :func:`world_record` in the summary, the folder holds what it takes
+    to replay (``tensim render``) or rerun the run on the same robot and ground.
+
+    Args:
+        out: the run folder.
+        result: the finished simulation.
+        summary: its summary.
+        structure: the robot as it ran, written as ``structure.yaml`` (None: the preset the
+            summary's ``model`` names, if it names one).
+        controller: the controller it ran under, written as ``controller.yaml``.
+    """
+    from tensim.control import save_controller
+    from tensim.models import PRESETS
+    from tensim.structure import save_structure
+
     out.mkdir(parents=True, exist_ok=True)
+    files = [str(f) for f in summary.get("files", [])]
+    if structure is None and summary.get("model") in PRESETS:
+        structure = PRESETS[summary["model"]].build()
+    if structure is not None:
+        save_structure(structure, out / STRUCTURE_FILE)
+        files.append(STRUCTURE_FILE)
+    if controller is not None:
+        save_controller(controller, out / CONTROLLER_FILE)
+        files.append(CONTROLLER_FILE)
+    if files:
+        summary = {**summary, "files": list(dict.fromkeys(files))}
     result.trajectory.to_parquet(out / "trajectory.parquet")
     return finish_run(out, summary, result.trajectory)
 

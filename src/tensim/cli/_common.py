@@ -8,10 +8,11 @@ import math
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from tensim.model import WorldOptions
-from tensim.structure import Structure
+if TYPE_CHECKING:  # the CLI imports the library only when a command runs
+    from tensim.model import WorldOptions
+    from tensim.structure import Structure
 
 
 class Progress:
@@ -54,6 +55,10 @@ class Progress:
         elif finished or done - self._last_line >= total / 10:
             self._last_line = done
             print(line, file=sys.stderr, flush=True)
+
+    def note(self, text: str) -> None:
+        """Shows ``text`` after the bar (e.g. which of several runs is under way)."""
+        self.extra = text
 
     def line(self, done: float, total: float, elapsed: float) -> str:
         """The bar's text after ``elapsed`` seconds [s] with ``done`` of ``total`` done."""
@@ -119,6 +124,10 @@ def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None
     """Adds the options that describe the simulated world (physics step, ...)."""
     parser.add_argument("--dt", type=positive, default=dt, help="physics step [s]")
     add_terrain_option(parser, "flat, or the experiment's own")
+    parser.add_argument("--no-self-collision", action="store_true",
+                        help="the robot's bodies collide only with the ground, not with each "
+                             "other: faster, but wrong wherever its parts touch (see "
+                             "docs/speed.md)")
 
 
 def add_terrain_option(parser: argparse.ArgumentParser | argparse._ArgumentGroup,
@@ -137,11 +146,13 @@ def world_from_args(args: argparse.Namespace) -> WorldOptions:
     Raises:
         TerrainError: ``--terrain`` is not a valid terrain string.
     """
+    from tensim.model import WorldOptions
     from tensim.terrain import Flat, parse_terrain
 
     text = getattr(args, "terrain", None)
     return WorldOptions(timestep=args.dt,
-                        terrain=parse_terrain(text) if text is not None else Flat())
+                        terrain=parse_terrain(text) if text is not None else Flat(),
+                        self_collision=not getattr(args, "no_self_collision", False))
 
 
 def parse_point(text: str, what: str) -> tuple[float, float]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from tensim.cli._common import count, positive
 
@@ -12,7 +13,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="speed benchmark against MuJoCo alone")
     p.add_argument("--json", default=None, help="also write the figures to this JSON file")
     p.add_argument("--duration", type=positive, default=10.0, help="simulated time per case [s]")
-    p.add_argument("--repeats", type=count, default=3, help="best of this many runs")
+    p.add_argument("--repeats", type=count, default=5,
+                   help="runs of each loop, tensim and MuJoCo alone taking turns")
     p.add_argument("--learning", action="store_true", help="also learning throughput: "
                    "CMA-ES evaluations/s of Tetraspine3 CPG trials on 2 threads, against "
                    "mujoco.rollout and a process pool")
@@ -29,12 +31,7 @@ def run(args: argparse.Namespace) -> int:
 
     check_run(args.duration, 1e-3, 0.01, force=args.force)  # the cases' step and recording
     report = run_benchmarks(args.duration, args.repeats)
-    print(f"{'case':<34} {'tensim x real time':>19} {'MuJoCo alone':>13} {'ratio':>7} "
-          f"{'us/step':>8} {'engine us/step':>15}")
-    for case in report["cases"]:
-        print(f"{case['name']:<34} {case['real_time_factor']:>19.1f} "
-              f"{case['engine_alone_real_time_factor']:>13.1f} {case['ratio_to_engine']:>7.2f} "
-              f"{case['us_per_step']:>8.1f} {case['engine_us_per_step']:>15.1f}")
+    print(format_table(report["cases"], args.repeats))
     if args.learning:
         from tensim.learn.bench import bench_learning, format_learning
 
@@ -48,3 +45,18 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         write_json(Path(args.json), report)
     return 0
+
+
+def format_table(cases: list[dict[str, Any]], repeats: int) -> str:
+    """The benchmark table: CPU time per step best / median, wall best, real-time factors."""
+    lines = [f"us per physics step, {repeats} runs each, tensim and MuJoCo alone taking turns; "
+             "x real time and ratio from the best CPU time",
+             f"{'case':<48} {'tensim cpu best/median':>22} {'wall best':>9} "
+             f"{'engine cpu best/median':>22} {'wall best':>9} {'x real time':>12} {'ratio':>6}"]
+    for c in cases:
+        tensim, engine = (f"{c[f'{w}cpu_us_per_step_best']:>11.1f} / "
+                          f"{c[f'{w}cpu_us_per_step_median']:<8.1f} "
+                          f"{c[f'{w}wall_us_per_step_best']:>9.1f}" for w in ("", "engine_"))
+        lines.append(f"{c['name']:<48} {tensim} {engine} {c['real_time_factor']:>5.1f}/"
+                     f"{c['engine_real_time_factor']:<6.1f} {c['ratio_to_engine']:>6.2f}")
+    return "\n".join(lines)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -30,18 +29,22 @@ def _structure(args: argparse.Namespace) -> Structure | None:
 
 def _disturbance(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     from tensim.experiments import run_disturbance, write_disturbance
+    from tensim.experiments.disturbance import DURATION
 
     result, summary = run_disturbance(dt=args.dt, world=world_from_args(args),
+                                      duration=args.duration or DURATION,
                                       structure=_structure(args),
                                       progress=Progress("disturbance", args.quiet))
-    write_disturbance(out, result, summary)
+    write_disturbance(out, result, summary, _structure(args))
     return summary
 
 
 def _timestep(args: argparse.Namespace, out: Path) -> dict[str, Any]:
+    from tensim.experiments.disturbance import DURATION
     from tensim.experiments.timestep import run_timestep_study, write_timestep_study
 
-    summary = run_timestep_study(None if args.quiet else lambda m: print(m, file=sys.stderr))
+    bar = Progress("timestep study", args.quiet)
+    summary = run_timestep_study(bar.note, duration=args.duration or DURATION, progress=bar)
     write_timestep_study(out, summary)
     for hz, value in summary["max_change_percent"].items():
         print(f"  {hz:>5} Hz: worst cable's max-tension change {value:.2f} % vs 1000 Hz")
@@ -54,11 +57,12 @@ def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[
     def run(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         from tensim.experiments.gait import run_gait, write_gait
 
+        structure = _structure(args)
         result, summary, config = run_gait(
-            name, args.controller or default, structure=_structure(args),
+            name, args.controller or default, structure=structure,
             duration=args.duration, world=world_from_args(args),
             progress=Progress(name, args.quiet))
-        write_gait(out, result, summary, config)
+        write_gait(out, result, summary, config, structure)
         print(f"moved {summary['planar_displacement_m']:.3f} m toward "
               f"{summary['direction']} ({summary['direction_deg']:.0f} deg from +x)")
         if "body_sideways_m" in summary:
@@ -74,9 +78,10 @@ def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[
 def _drag(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     from tensim.experiments.drag import run_drag, write_drag
 
+    structure = _structure(args)
     result, summary = run_drag(world=world_from_args(args), duration=args.duration,
-                               structure=_structure(args), progress=Progress("drag", args.quiet))
-    write_drag(out, result, summary)
+                               structure=structure, progress=Progress("drag", args.quiet))
+    write_drag(out, result, summary, structure)
     print(f"steady drag force {summary['drag_force_N']:.3f} N "
           f"(mu m g = {summary['coulomb_force_N']:.3f} N); "
           f"effective friction {summary['effective_friction']:.4f}")
@@ -174,14 +179,15 @@ def run(args: argparse.Namespace) -> int:
     if args.target is not None and args.name != "goal":
         raise ValueError(f"--target is for the goal experiment, not {args.name!r}")
     from tensim.limits import check_run
-    from tensim.runs import replace_folder
+    from tensim.runs import prepare_outputs, replace_folder
 
     if args.duration is not None:
         check_run(args.duration, args.dt, force=args.force)
     out = Path(args.out or f"runs/{args.name}")
+    prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     with replace_folder(out) as stage:
         summary = EXPERIMENTS[args.name][1](args, stage)
-    if "duration_s" in summary:
+    if "duration_s" in summary and args.name != "timestep":
         print_summary(summary, out)
     else:
         print(f"wrote {out}/")

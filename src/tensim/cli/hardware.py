@@ -1,4 +1,5 @@
-"""``tensim calibrate-loadcell``, ``compare``, ``sysid`` and ``make-log``: the reality gap.
+"""``tensim calibrate-loadcell``, ``compare``, ``sysid``, ``make-log`` and ``check-log``: the
+reality gap.
 
 Calibrate the load cells (eq. 7), compare a hardware log with its replay in simulation, fit
 the model's uncertain parameters to logs, and write simulated logs for demos and tests.
@@ -10,6 +11,7 @@ import argparse
 import dataclasses
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tensim.cli._common import (
     Progress,
@@ -24,6 +26,9 @@ from tensim.cli._common import (
     world_from_args,
 )
 
+if TYPE_CHECKING:
+    from tensim.hardware import HardwareLog
+
 _DEFAULT_CONTROLLER = "tetraspine3_impedance"
 
 
@@ -32,6 +37,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     _register_compare(sub)
     _register_sysid(sub)
     _register_make_log(sub)
+    _register_check_log(sub)
 
 
 def _add_log_options(p: argparse.ArgumentParser) -> None:
@@ -42,6 +48,9 @@ def _add_log_options(p: argparse.ArgumentParser) -> None:
                         "log header's, else the paper's eq. 7)")
     p.add_argument("--skip", type=nonnegative, default=0.0,
                    help="leave the log's first seconds out of the error figures [s]")
+    p.add_argument("--settle", type=float, default=1.0,
+                   help="the 'after settling' max-tension figures start here [s] (the t = 0 "
+                        "sample is the build pretension, the same in both by construction)")
     add_world_options(p)
 
 
@@ -125,6 +134,7 @@ def _compare(args: argparse.Namespace) -> int:
     from tensim.sim import TimeSeries
 
     log = load_log(args.log, load_calibration(args.loadcell) if args.loadcell else None)
+    _warn_jumps(log)
     sensor, vstar_scale = load_measurement(args.sensor) if args.sensor else (None, 1.0)
     structure = load_model(args.model)
     check_items(log, structure)
@@ -137,9 +147,9 @@ def _compare(args: argparse.Namespace) -> int:
         simulated = replay(log, structure, config, world=world_from_args(args),
                            vstar_scale=vstar_scale, margin=args.max_offset,
                            progress=Progress("replay", args.quiet)).trajectory
-    offset = args.offset if args.offset is not None else (sensor.delay if sensor else None)
-    comparison = compare_tensions(log, simulated, sensor=sensor, offset=offset,
-                                  max_offset=args.max_offset, skip=args.skip)
+    comparison = compare_tensions(log, simulated, sensor=sensor, offset=args.offset,
+                                  max_offset=args.max_offset, skip=args.skip,
+                                  settle=args.settle)
     mocap = displacement_errors(log, simulated, compile_structure(
         structure, world_from_args(args)), comparison.offset_s) if log.cables("mocap_x") \
         else None
@@ -156,14 +166,28 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _warn_jumps(log: HardwareLog) -> None:
+    from tensim.hardware.checklog import unexplained_jumps
+
+    for time, cables in unexplained_jumps(log)[:5]:
+        print(f"warning: {log.source}: tensions jump at {time:g} s "
+              f"({', '.join(cables)}) where no logged load changes; a push the log does not "
+              "record? (load_N/<node>/<axis> columns or an '# experiment:' header)",
+              file=sys.stderr)
+
+
 def _print_comparison(s: dict) -> None:
     def f(key: str, spec: str, scale: float = 1.0) -> str:
         return "n/a" if s[key] is None else format(scale * s[key], spec)
 
     print(f"error on the max system tension {f('max_system_tension_error_percent', '+.2f')} % "
           f"(hardware {f('max_system_tension_hardware_N', '.2f')} N, simulation "
-          f"{f('max_system_tension_simulated_N', '.2f')} N); time offset "
-          f"{f('time_offset_s', '.1f', 1000)} ms")
+          f"{f('max_system_tension_simulated_N', '.2f')} N); after {s['settle_s']:g} s "
+          f"{f('max_settled_system_tension_error_percent', '+.2f')} %"
+          + ("" if s["load_window_s"] is None else
+             f"; under load ({s['load_window_s'][0]:g}-{s['load_window_s'][1]:g} s) "
+             f"{f('max_loaded_system_tension_error_percent', '+.2f')} %"))
+    print(f"time offset {f('time_offset_s', '.1f', 1000)} ms ({s['time_offset_from']})")
     print(f"RMSE {f('rmse_N', '.3f')} N, correlation {f('correlation', '.3f')}, pretension "
           f"offset {f('pretension_offset_N', '+.3f')} N, amplitude ratio "
           f"{f('amplitude_ratio', '.3f')}")
@@ -172,17 +196,31 @@ def _print_comparison(s: dict) -> None:
 # -- sysid --------------------------------------------------------------------------------------
 
 
-def _register_sysid(sub: argparse._SubParsersAction) -> None:
-    from tensim.hardware.parameters import DEFINITIONS
+# the names and units of tensim.hardware.parameters.DEFINITIONS, spelt out so that building the
+# parser imports no simulation code (tests check the two agree)
+SYSID_PARAMETERS = ("friction [-], stiffness [N/m], damping [N s/m], max_speed [m/s], "
+                    "mass_scale [-], vstar_scale [-], offset [N], gain [-], delay [s]")
 
-    names = ", ".join(f"{d.name} [{d.unit}]" for d in DEFINITIONS.values())
+
+def _register_sysid(sub: argparse._SubParsersAction) -> None:
+    names = SYSID_PARAMETERS
     p = sub.add_parser("sysid", help="fit model parameters to hardware logs",
                        description=f"Fits named parameters ({names}) to minimise the tension "
                        "error across the logs; writes the fitted structure, measurement.json, "
                        "report.html and summary.json.")
     p.add_argument("logs", nargs="+", help="hardware log CSVs")
-    p.add_argument("--params", required=True,
-                   help="comma-separated parameters to fit, e.g. stiffness,friction,offset,delay")
+    p.add_argument("--params", default="stiffness,friction,offset,delay",
+                   help="comma-separated parameters to fit (default: "
+                        "stiffness,friction,offset,delay)")
+    p.add_argument("--fit-window", default=None, metavar="A:B",
+                   help="fit on the samples from A to B seconds after each log's start "
+                        "(default: all)")
+    p.add_argument("--validate-window", default=None, metavar="C:D",
+                   help="judge the fit on these samples (default: the fit window); without "
+                        "--fit-window the fit uses the samples before C (after D if C is 0); "
+                        "a fit worse than the nominal model there is not saved")
+    p.add_argument("--force", action="store_true",
+                   help="save the fit even if it is worse than the nominal model")
     p.add_argument("--bounds", default=None, help="e.g. friction=0.02:0.3,stiffness=150:350")
     p.add_argument("--start", default=None, help="starting values, e.g. friction=0.1")
     _add_log_options(p)
@@ -205,33 +243,65 @@ def _sysid(args: argparse.Namespace) -> int:
     logs = [load_log(path, loadcell) for path in args.logs]
     structure = load_model(args.model)
     config = load_controller(args.controller, structure)
+    for log in logs:
+        _warn_jumps(log)
     names = [n.strip() for n in args.params.split(",") if n.strip()]
     progress = Progress("sysid", args.quiet, unit="sims", rate_label=" sims/s")
     result = identify(logs, structure, config, names, bounds=parse_bounds(args.bounds),
                       start=parse_assignments(args.start, "--start"),
                       world=world_from_args(args), progress=progress,
-                      settings=SysidSettings(max_simulations=args.max_sims,
-                                             diff_step=args.diff_step, skip=args.skip))
+                      settings=SysidSettings(
+                          max_simulations=args.max_sims, diff_step=args.diff_step,
+                          skip=args.skip, force=args.force,
+                          fit_window=_window(args.fit_window, "--fit-window"),
+                          validate_window=_window(args.validate_window, "--validate-window")))
     if not args.quiet and progress.tty:
         print(file=sys.stderr)  # end the progress bar's line if the budget was not used up
     info = {"logs": list(args.logs), "model": args.model, "controller": args.controller,
-            "dt_s": args.dt, "max_sims": args.max_sims, "diff_step": args.diff_step}
+            "dt_s": args.dt, "max_sims": args.max_sims, "diff_step": args.diff_step,
+            "fit_window": args.fit_window, "validate_window": args.validate_window}
     out = Path(args.out)
     with replace_folder(out) as stage:
         summary = write_sysid(stage, result, args.logs, info)
     print(f"wrote {out}/ (fitted_structure.yaml, measurement.json, report.html, summary.json)")
     print(f"{result.simulations} simulations; fitted vs nominal:")
     for name, p in summary["parameters"].items():
-        error = "" if p["stderr"] is None else f" ± {p['stderr']:.3g}"
+        error = "" if p["ci95"] is None else f" ± {p['ci95']:.3g}"
         print(f"  {name:<12} {p['fitted']:10.5g}{error} {p['unit']:<6} (nominal "
               f"{p['nominal']:.5g})")
-    print(f"RMSE {summary['rmse_before_N']:.3f} N -> {summary['rmse_after_N']:.3f} N; error on "
-          f"the max system tension {summary['max_system_tension_error_before_percent']:.2f} % "
-          f"-> {summary['max_system_tension_error_after_percent']:.2f} %")
-    print(f"use it: tensim simulate {out}/fitted_structure.yaml --controller {args.controller}; "
-          f"tensim compare LOG --model {out}/fitted_structure.yaml --sensor "
-          f"{out}/measurement.json")
+    print("  (±: 95 % interval; residuals correlated in time, see docs/hardware.md)")
+    v = summary["validation"]
+    where = "fit samples" if v["on_fit_data"] else f"validation samples {args.validate_window} s"
+    print(f"RMSE on the {where}: nominal {v['nominal_rmse_N']:.3f} N, fitted "
+          f"{v['fitted_rmse_N']:.3f} N")
+    print(f"|error| on the max system tension after settling (mean over the logs; compare "
+          f"prints it signed) "
+          f"{summary['max_settled_system_tension_error_before_percent']:.2f} % -> "
+          f"{summary['max_settled_system_tension_error_after_percent']:.2f} % (whole run "
+          f"{summary['max_system_tension_error_before_percent']:.2f} % -> "
+          f"{summary['max_system_tension_error_after_percent']:.2f} %; all samples)")
+    if result.kept_nominal:
+        print("the fit is WORSE than the nominal model there: the nominal model was written "
+              "instead (--force writes the fit)")
+        return 0
+    elif v["fitted_rmse_N"] > v["nominal_rmse_N"]:
+        print("the fit is worse than the nominal model there; written because of --force")
+    print(f"use it: tensim compare {args.logs[0]} --model {out}/fitted_structure.yaml "
+          f"--sensor {out}/measurement.json (replays the log's V* and loads)")
     return 0
+
+
+def _window(text: str | None, option: str) -> tuple[float, float] | None:
+    if text is None:
+        return None
+    low, sep, high = text.partition(":")
+    try:
+        window = (float(low), float(high))
+    except ValueError:
+        window = None
+    if not sep or window is None or not window[0] < window[1]:
+        raise ValueError(f"{option}: expected A:B seconds with A < B, got {text!r}")
+    return window
 
 
 # -- make-log -----------------------------------------------------------------------------------
@@ -259,6 +329,12 @@ def _register_make_log(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=natural, default=0, help="seed of the sensor noise")
     p.add_argument("--command-period", type=positive, default=0.01, help="V* period [s]")
     p.add_argument("--feedback-period", type=positive, default=0.2, help="feedback period [s]")
+    p.add_argument("--experiment", default=None, metavar="NAME",
+                   help="a built-in protocol whose loads act and are logged: disturbance "
+                        "(the paper's Fig. 3 push) or sine (no loads)")
+    p.add_argument("--experiment-params", default=None, metavar="K=V,...",
+                   help="its parameters, e.g. peak=22.56,start=30,rise=5,hold=5,fall=5 "
+                        "(the disturbance defaults)")
     add_world_options(p)
     p.add_argument("--out", required=True, help="output CSV")
     p.set_defaults(run=_make_log)
@@ -269,6 +345,7 @@ def _make_log(args: argparse.Namespace) -> int:
 
     from tensim.control import load_controller
     from tensim.hardware import PAPER_LOADCELL, SensorModel, simulated_log, write_log
+    from tensim.hardware.loads import experiment_params
     from tensim.hardware.parameters import parse_assignments
     from tensim.limits import check_run
 
@@ -284,11 +361,68 @@ def _make_log(args: argparse.Namespace) -> int:
                         command_period=args.command_period,
                         feedback_period=args.feedback_period,
                         mocap_nodes=[n.strip() for n in args.mocap.split(",") if n.strip()],
-                        world=world_from_args(args), progress=Progress("make-log", args.quiet))
+                        world=world_from_args(args), progress=Progress("make-log", args.quiet),
+                        experiment=None if args.experiment is None else (
+                            args.experiment, experiment_params(
+                                args.experiment, args.experiment_params, "--experiment-params")))
     log = dataclasses.replace(log, meta={**log.meta, "controller": args.controller,
                                          "seed": str(args.seed)})
     path = write_log(log, args.out)
     rows = log.series.time.size
     print(f"wrote {path}: {rows} rows ({args.duration} s), {len(log.series.channels)} columns; "
           f"parameters {log.meta['parameters']}; sensor {log.meta['sensor']}")
+    return 0
+
+
+# -- check-log ----------------------------------------------------------------------------------
+
+
+def _register_check_log(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("check-log", help="validate and summarise hardware logs (no simulation)",
+                       description="Reads and validates each log, then prints its duration, "
+                       "channels and rates, gaps, external loads, experiment, and tension "
+                       "jumps no logged load explains.")
+    p.add_argument("logs", nargs="+", help="hardware log CSVs")
+    p.add_argument("--model", default=None,
+                   help="also check the columns' cables and nodes against this preset or "
+                        "structure .yaml")
+    p.add_argument("--json", action="store_true", help="print the summaries as JSON")
+    p.set_defaults(run=_check_log)
+
+
+def _check_log(args: argparse.Namespace) -> int:
+    import json
+
+    from tensim.hardware import load_log
+    from tensim.hardware.checklog import summarize_log
+    from tensim.hardware.loads import loads_for
+    from tensim.hardware.logs import check_items
+
+    structure = load_model(args.model) if args.model else None
+    for path in args.logs:
+        log = load_log(path)  # validated; adc/ columns converted (header calibration, eq. 7)
+        if structure is not None:
+            check_items(log, structure)
+            loads_for(log, structure)
+        s = summarize_log(log)
+        if args.json:
+            print(json.dumps(s))
+            continue
+        print(f"{path}: {s['duration_s']:g} s, {s['rows']} rows")
+        for quantity, q in s["quantities"].items():
+            rate = "" if q["period_s"] is None else \
+                f" every {q['period_s']:g} s (largest gap {q['max_gap_s']:g} s)"
+            print(f"  {quantity}: {q['items']} items, {q['samples']} samples{rate}")
+        if s["experiment"]:
+            print(f"  experiment: {s['experiment']['name']} "
+                  f"({', '.join(f'{k}={v:g}' for k, v in s['experiment']['params'].items())})")
+        for node, peak in s["loads"].items():
+            print(f"  load on {node}: peak {peak:g} N")
+        if s["load_window_s"]:
+            print(f"  loads act {s['load_window_s'][0]:g}-{s['load_window_s'][1]:g} s "
+                  f"(from the {s['loads_from']})")
+        for jump in s["unexplained_jumps"][:5]:
+            print(f"  warning: tensions jump at {jump['time_s']:g} s "
+                  f"({', '.join(jump['cables'])}) where no logged load changes")
+        print("  valid" + (f" for {args.model}" if structure is not None else ""))
     return 0

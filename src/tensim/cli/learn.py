@@ -115,6 +115,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                      "--processes or --ray, worker processes; 0 runs trials one by one")
     run.add_argument("--processes", action="store_true",
                      help="one trial per task on a pool of worker processes instead")
+    run.add_argument("--backend", choices=("cpu", "warp"), default="cpu",
+                     help="cpu: MuJoCo's batch engine (default); warp: MuJoCo Warp, a whole "
+                     "generation per call on a GPU (pip install 'tensim[gpu]')")
     run.add_argument("--ray", action="store_true",
                      help="run trials on Ray (a local Ray is started unless --ray-address)")
     run.add_argument("--ray-address", metavar="ADDR",
@@ -198,8 +201,8 @@ def run_learn(args: argparse.Namespace) -> int:
         if given or args.out:
             raise ValueError(f"--resume takes the run's configuration from "
                              f"{args.resume}/config.json; drop {given or ['--out']} (only "
-                             "--evaluations, --workers, --processes, --ray and --ray-address "
-                             "may change)")
+                             "--evaluations, --workers, --processes, --backend, --ray and "
+                             "--ray-address may change)")
         out = Path(args.resume)
     else:
         for name, value in _DEFAULTS.items():
@@ -219,7 +222,8 @@ def run_learn(args: argparse.Namespace) -> int:
         result = resume(out, args.evaluations, progress=_LearningProgress(args.quiet, already),
                         executor=lambda p: make_executor(p, workers, ray=args.ray,
                                                          ray_address=args.ray_address,
-                                                         processes=args.processes))
+                                                         processes=args.processes,
+                                                         engine=args.backend))
     except KeyboardInterrupt:
         end = "\n" if sys.stderr.isatty() and not args.quiet else ""  # the progress bar's
         print(f"{end}tensim: interrupted; every finished evaluation is in "

@@ -14,6 +14,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+
     from tensim.control import shipped_controllers
     from tensim.models import PRESETS
 

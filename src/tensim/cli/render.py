@@ -44,7 +44,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--size", default="640x480", metavar="WxH",
                    help="frame size in pixels, even numbers (default 640x480)")
     p.add_argument("--max-tension", type=positive, default=None, metavar="N",
-                   help="tension drawn red [N] (default: the strongest motor's limit)")
+                   help="tension drawn red [N] (default: a recorded run's highest "
+                        "tension, or twice the pretension, rounded up to 1, 2 or 5 x 10^k N)")
     p.add_argument("--shadows", action="store_true",
                    help="draw shadows and reflections (slow without a GPU)")
     sim = p.add_argument_group("a fresh simulation (MODEL)")

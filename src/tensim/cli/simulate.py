@@ -36,10 +36,17 @@ def run(args: argparse.Namespace) -> int:
     from tensim.control.velocity_table import VelocityFileError
     from tensim.limits import check_run
     from tensim.model import compile_structure
-    from tensim.runs import check_run_folder, replace_folder, write_run
+    from tensim.runs import (
+        check_run_folder,
+        prepare_outputs,
+        replace_folder,
+        world_record,
+        write_run,
+    )
     from tensim.sim import simulate
     from tensim.viz import plot_cable_tensions, plot_path
 
+    prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     structure = load_model(args.model)
     config = resolve_controller(args.model, structure, args.controller)
     if args.velocity_input and config is None:
@@ -60,7 +67,8 @@ def run(args: argparse.Namespace) -> int:
     controller = config.build(compiled.model.opt.timestep) if config else None
     result = simulate(compiled, duration, controller=controller, record_dt=args.record_dt,
                       progress=Progress(args.model, args.quiet))
-    summary = {"model": args.model, "controller": args.controller, **result.summary()}
+    summary = {"model": args.model, "controller": _controller_label(args, config),
+               **result.summary(), **world_record(compiled.world)}
     out = Path(args.out)
     figures = ["path.png"]
     with replace_folder(out) as stage:
@@ -69,6 +77,15 @@ def run(args: argparse.Namespace) -> int:
                                 title=f"{args.model}: cable tensions")
             figures.insert(0, "tensions.png")
         plot_path(result.trajectory, stage / "path.png", compiled.index.bodies)
-        write_run(stage, result, {**summary, "figures": figures})
+        write_run(stage, result, {**summary, "figures": figures}, structure=structure,
+                  controller=config)
     print_summary(summary, out)
     return 0
+
+
+def _controller_label(args: argparse.Namespace, config: object) -> str:
+    """What drove the cables, for the summary (the file itself is saved as controller.yaml)."""
+    if config is None:
+        return "none (passive cables)"
+    label = args.controller or f"the {args.model} preset's impedance laws"
+    return f"{label}, V* from {args.velocity_input}" if args.velocity_input else label

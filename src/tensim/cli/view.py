@@ -21,11 +21,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "view", help="watch a simulation in real time in a window",
         description="Simulates MODEL under its controller at the fixed physics step, drawn at "
         "60 Hz in step with the wall clock, in MuJoCo's viewer. Cables are coloured by tension "
-        "(blue just taut, red at the motors' tension limit); slack ones are grey, dashed and "
+        "(blue just taut, red at twice the starting tension); slack ones are grey, dashed and "
         f"sagging. Keys: {KEY_HELP}. Needs a screen: elsewhere use `tensim render`.")
     p.add_argument("model", help="preset name or structure .yaml file")
     p.add_argument("--max-tension", type=positive, default=None, metavar="N",
-                   help="tension drawn red [N] (default: the strongest motor's limit)")
+                   help="tension drawn red [N] (default: twice the highest tension at the "
+                        "start, rounded up to 1, 2 or 5 x 10^k N)")
     add_world_options(p)
     add_controller_option(p)
     p.set_defaults(run=run)

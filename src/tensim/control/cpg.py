@@ -21,7 +21,6 @@ import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from tensim.control._common import check_driven, per_item, sample_times, write_target_velocity
 from tensim.control.impedance import ImpedanceController
@@ -262,6 +261,8 @@ def solve(network: CPGNetwork, duration: float, sample_dt: float,
         return bound - float(np.abs(y[n:2 * n]).max())
 
     amplitude_runaway.terminal = True  # type: ignore[attr-defined]
+    from scipy.integrate import solve_ivp  # ~0.3 s to import: only when a CPG is integrated
+
     try:
         sol = solve_ivp(_right_hand_side(network, settings), (0.0, max(duration, times[-1])), y0,
                         method=settings.method, t_eval=times, rtol=settings.rtol,

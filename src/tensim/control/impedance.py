@@ -46,7 +46,7 @@ class ImpedanceController:
     target_velocity: float = 0.0
 
     def configure(self, sim: CableSetup) -> None:
-        """Writes the gains into ``sim.drive`` (in place, as the callback reads them)."""
+        """Writes the gains into ``sim.drive`` (the model the simulation steps)."""
         drive = sim.drive
         for name, g in self.gains.items():
             i = sim.index.cable_id(name)

@@ -16,18 +16,19 @@ from typing import Any
 
 import numpy as np
 
+from tensim.control import ControllerConfig
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.models.tetraspine import node_name
-from tensim.runs import write_run
+from tensim.runs import world_record, write_run
 from tensim.sim import NodeLoad, SimulationResult, ramp_hold_release, simulate
 from tensim.structure import Structure
-from tensim.viz import plot_cable_tensions, plot_lengths
 
 PEAK_FORCE = 22.56  # N
 START, RISE, HOLD, FALL = 30.0, 5.0, 5.0, 5.0  # s
 DURATION = 60.0  # s
 RESTORING_SHARE = {1: 0.45, 2: 0.55}  # segment -> share of the force it takes back
+DEFAULT_CONTROLLER = "the preset's impedance laws (as tetraspine3_impedance: V* = 0)"
 BEFORE = (25.0, 30.0)  # s, window before the push
 DURING = (35.0, 40.0)  # s, the hold phase
 
@@ -61,14 +62,14 @@ def run_disturbance(dt: float = 1e-3, duration: float = DURATION, backend: str =
     result = simulate(compiled, duration, controller=model.controller(),
                       loads=disturbance_loads(), record_dt=record_period(dt), backend=backend,
                       progress=progress)
-    return result, summarize(result)
+    return result, {**summarize(result), **world_record(compiled.world)}
 
 
 def summarize(result: SimulationResult) -> dict[str, Any]:
     """Headline figures plus each cable's mean tension before and during the hold phase."""
     series = result.trajectory
     summary: dict[str, Any] = {"model": "tetraspine3", "experiment": "disturbance",
-                               **result.summary()}
+                               "controller": DEFAULT_CONTROLLER, **result.summary()}
     if series.time[-1] >= DURING[1]:
         before = series.between(*BEFORE).matrix("tension", result.cables).mean(axis=0)
         during = series.between(*DURING).matrix("tension", result.cables).mean(axis=0)
@@ -83,14 +84,24 @@ def _named(names: tuple[str, ...], values: np.ndarray) -> dict[str, float]:
     return {n: round(float(v), 4) for n, v in zip(names, values, strict=True)}
 
 
-def write_disturbance(out: Path, result: SimulationResult, summary: dict[str, Any]) -> Path:
-    """Writes the run folder: trajectory, tension and length figures, summary."""
+def write_disturbance(out: Path, result: SimulationResult, summary: dict[str, Any],
+                      structure: Structure | None = None) -> Path:
+    """Writes the run folder: trajectory, tension and length figures, the robot (``structure``,
+    None: the preset) and its controller, summary."""
+    from tensim.viz.plots import Span, plot_cable_tensions, plot_lengths
+
     order = [f"{kind}_{j}" for j in (1, 2) for kind in
              ("outer_top", "outer_left", "outer_right", "inner_top", "inner_left", "inner_right")]
+    spans = (Span(START, START + RISE + HOLD + FALL, "force ramps / holds", 0.10),
+             Span(*DURING, "hold (averaged)", 0.25),
+             Span(*BEFORE, "before (averaged)", 0.12, "tab:green"))
     plot_cable_tensions(result.trajectory, out / "tensions.png", cables=order, columns=3,
-                        shade=(START, START + RISE + HOLD + FALL),
-                        title="Tetraspine3 disturbance test: measured (black), commanded "
-                              "(dashed);\nshaded: external force on")
-    plot_lengths(result.trajectory, out / "lengths.png", cables=order, columns=3)
+                        spans=spans,
+                        title="Tetraspine3 disturbance test: measured tension (black), commanded "
+                              "(blue dashed);\norange: external force on, darker while held "
+                              f"({DURING[0]:g}-{DURING[1]:g} s); green: the window before")
+    plot_lengths(result.trajectory, out / "lengths.png", cables=order, columns=3,
+                 title="Tetraspine3 disturbance test: cable length and motor rest length")
     summary = {**summary, "figures": ["tensions.png", "lengths.png"]}
-    return write_run(out, result, summary)
+    config = ControllerConfig(preset("tetraspine3").controller(), model="tetraspine3")
+    return write_run(out, result, summary, structure=structure, controller=config)

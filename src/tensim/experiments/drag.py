@@ -26,11 +26,14 @@ import numpy as np
 
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
-from tensim.runs import write_run
-from tensim.sim import Simulation, SimulationResult
+from tensim.runs import world_record, write_run
+from tensim.sim import Simulation, SimulationResult, TimeSeries
 from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions
-from tensim.viz.plots import save_figure
+from tensim.viz.plots import save_figure, thin
+
+DEFAULT_CONTROLLER = "the preset's impedance laws (V* = 0)"
+TOW_CHANNEL = "tow_force/line"  # the tow line's force [N], recorded with the trajectory
 
 
 @dataclasses.dataclass(frozen=True)
@@ -69,8 +72,11 @@ class DragSettings:
             if not getattr(self, field) > 0:
                 raise ValueError(f"{field} must be > 0, got {getattr(self, field)}")
         if not self.settle + self.steady_from < self.duration:
-            raise ValueError(f"the averaging window starts at {self.settle + self.steady_from} "
-                             f"s, after the run ends ({self.duration} s)")
+            raise ValueError(f"duration {self.duration:g} s is too short for the drag test: it "
+                             f"must be more than {self.settle + self.steady_from:g} s (the tow "
+                             f"starts at {self.settle:g} s and the force is averaged from "
+                             f"{self.steady_from:g} s after that); the default is "
+                             f"{DragSettings.duration:g} s")
 
 
 class _Tow:
@@ -149,7 +155,8 @@ def run_drag(model: str = "tetraspine3", settings: DragSettings | None = None, *
     steady_speed = float(np.polyfit(times[window], com_x[window], 1)[0]) if window.sum() > 2 \
         else math.nan
     summary = {
-        "experiment": "drag", "model": model, **result.summary(),
+        "experiment": "drag", "model": model, "controller": DEFAULT_CONTROLLER,
+        **result.summary(),
         "drag_force_N": round(drag, 5),
         "drag_force_std_N": round(float(forces[window].std()), 5),
         "coulomb_force_N": round(friction * weight, 5),
@@ -158,18 +165,23 @@ def run_drag(model: str = "tetraspine3", settings: DragSettings | None = None, *
         "weight_N": round(weight, 5),
         "tow_speed_m_per_s": settings.speed,
         "com_speed_m_per_s": round(steady_speed, 5),
-        "settings": dataclasses.asdict(settings),
-        "time_s": times.tolist()[:: max(1, round(0.01 / settings.record_dt))],
-        "tow_force_N": forces.round(5).tolist()[:: max(1, round(0.01 / settings.record_dt))],
+        "settings": dataclasses.asdict(settings), **world_record(compiled.world),
     }
+    if times.size == trajectory.time.size and np.allclose(times, trajectory.time):
+        # the line force, sampled with everything else, goes into trajectory.parquet
+        trajectory = TimeSeries(trajectory.time, {**trajectory.channels, TOW_CHANNEL: forces})
+        result = dataclasses.replace(result, trajectory=trajectory)
     return result, summary
 
 
-def write_drag(out: Path, result: SimulationResult, summary: dict[str, Any]) -> Path:
-    """Writes the tow force over time, the cable tensions, trajectory and summary."""
+def write_drag(out: Path, result: SimulationResult, summary: dict[str, Any],
+               structure: Structure | None = None) -> Path:
+    """Writes the tow force over time, the cable tensions, trajectory (with the line force as
+    channel ``tow_force/line``), the robot (``structure``, None: the preset) and summary."""
     out.mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(figsize=(7, 3.2))
-    ax.plot(summary["time_s"], summary["tow_force_N"], color="black", lw=1.0, label="tow line")
+    series = result.trajectory
+    ax.plot(*thin(series.time, series[TOW_CHANNEL]), color="black", lw=1.0, label="tow line")
     ax.axhline(summary["coulomb_force_N"], color="tab:red", ls="--", lw=1.0,
                label=f"μ m g = {summary['coulomb_force_N']:.3f} N")
     s = summary["settings"]
@@ -184,5 +196,7 @@ def write_drag(out: Path, result: SimulationResult, summary: dict[str, Any]) -> 
     fig.tight_layout()
     save_figure(fig, out / "drag_force.png")
     plot_cable_tensions(result.trajectory, out / "tensions.png",
-                        title="Tetraspine3 drag test: cable tensions")
-    return write_run(out, result, {**summary, "figures": ["drag_force.png", "tensions.png"]})
+                        title="Tetraspine3 drag test: measured tension (black), commanded "
+                              "(blue dashed)")
+    return write_run(out, result, {**summary, "figures": ["drag_force.png", "tensions.png"]},
+                     structure=structure)

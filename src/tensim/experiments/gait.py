@@ -17,10 +17,9 @@ import numpy as np
 from tensim.control import ControllerConfig, VelocityTable, load_controller
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
-from tensim.runs import write_run
+from tensim.runs import world_record, write_run
 from tensim.sim import COM, SimulationResult, TimeSeries, simulate
 from tensim.structure import Structure
-from tensim.viz import plot_cable_tensions, plot_path, plot_velocity_input
 
 CABLE_ORDER = tuple(f"{kind}_{j}" for j in (1, 2) for kind in (
     "outer_top", "outer_left", "outer_right", "inner_top", "inner_left", "inner_right"))
@@ -38,8 +37,8 @@ def locomotion(series: TimeSeries, start: float = SETTLE_S, item: str = COM) -> 
         item: a recorded body name, or ``com``.
 
     Returns:
-        ``planar_displacement_m`` (x-y distance), ``forward_displacement_m`` (x),
-        ``sideways_displacement_m`` (y, + = the robot's left at the start), ``direction_deg``
+        ``planar_displacement_m`` (x-y distance), ``world_dx_m`` and ``world_dy_m`` (along the
+        world's x and y; +y is the robot's left at the start), ``direction_deg``
         (of the x-y displacement from +x, counter-clockwise), ``direction`` (the nearest of
         forward, left, backward, right) and ``average_speed_m_per_s``, all in the world
         frame; and ``body_forward_m``, ``body_sideways_m`` (+ = the robot's left) and
@@ -55,8 +54,8 @@ def locomotion(series: TimeSeries, start: float = SETTLE_S, item: str = COM) -> 
     distance = math.hypot(dx, dy)
     return {**_body_frame(series, k0, item),
             "planar_displacement_m": round(distance, 6),
-            "forward_displacement_m": round(dx, 6),
-            "sideways_displacement_m": round(dy, 6),
+            "world_dx_m": round(dx, 6),
+            "world_dy_m": round(dy, 6),
             "direction_deg": round(angle, 2),
             "direction": label,
             "average_speed_m_per_s": round(distance / span, 6) if span > 0 else 0.0,
@@ -126,13 +125,16 @@ def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tet
         "controller": controller if isinstance(controller, str) else "(in memory)",
         "gait": type(config.gait).__name__,
         "command_period_s": config.command_period,
-        **result.summary(), **locomotion(result.trajectory)}
+        **result.summary(), **world_record(compiled.world), **locomotion(result.trajectory)}
     return result, summary, config
 
 
 def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
-               config: ControllerConfig) -> Path:
-    """Writes tensions (Fig. 4/5 style), V* inputs, path, trajectory and summary."""
+               config: ControllerConfig, structure: Structure | None = None) -> Path:
+    """Writes tensions (Fig. 4/5 style), V* inputs, path, trajectory, the robot (``structure``,
+    None: the preset) and controller, and the summary."""
+    from tensim.viz.plots import plot_cable_tensions, plot_path, plot_velocity_input
+
     cables = [c for c in CABLE_ORDER if c in result.cables] or list(result.cables)
     name = summary.get("experiment", "gait")
     plot_cable_tensions(result.trajectory, out / "tensions.png", cables=cables, columns=3,
@@ -147,4 +149,5 @@ def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
               [*(b for b in result.trajectory.items("pos_x") if b != COM), COM],
               title=f"moved {summary['planar_displacement_m']:.3f} m, "
                     f"{summary['direction']}")
-    return write_run(out, result, {**summary, "figures": figures})
+    return write_run(out, result, {**summary, "figures": figures}, structure=structure,
+                     controller=config)

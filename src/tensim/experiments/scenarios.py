@@ -17,12 +17,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tensim.control import ControllerConfig, load_controller, save_controller
+from tensim.control import ControllerConfig, load_controller
 from tensim.control.wave import SpineWave
 from tensim.experiments.gait import locomotion
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
-from tensim.runs import write_run
+from tensim.runs import world_record, write_run
 from tensim.sim import COM, SimulationResult, TimeSeries, simulate
 from tensim.terrain import Terrain, format_terrain
 from tensim.viz import plot_cable_tensions, plot_path
@@ -81,6 +81,7 @@ def run_scenario(name: str, config: ControllerConfig, terrain: Terrain, *,
     summary: dict[str, Any] = {
         "experiment": name, "model": model, "terrain": format_terrain(terrain),
         "controller": config.description or "(in memory)", **result.summary(),
+        **world_record(compiled.world),
         **locomotion(result.trajectory),
         "height_reached_m": round(max(rise.values()), 4),
         "segment_rise_m": {b: round(v, 4) for b, v in rise.items()}}
@@ -115,10 +116,8 @@ def write_scenario(out: Path, result: SimulationResult, summary: dict[str, Any],
     plot_path(series, out / "path.png", [bodies[0], bodies[-1], COM],
               title=f"moved {summary['planar_displacement_m']:.2f} m, {summary['direction']}")
     plot_side_view(series, terrain, out / "side_view.png")
-    save_controller(config, out / "controller.yaml")
     figures = ["tensions.png", "path.png", "side_view.png", *extra_figures]
-    return write_run(out, result, {**summary, "figures": figures,
-                                   "files": ["controller.yaml"]})
+    return write_run(out, result, {**summary, "figures": figures}, controller=config)
 
 
 def _shown_cables(cables: tuple[str, ...]) -> list[str] | None:

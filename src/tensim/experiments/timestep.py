@@ -17,7 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tensim.experiments.disturbance import run_disturbance
+from tensim.experiments.disturbance import DURATION, run_disturbance
 from tensim.model import WorldOptions
 from tensim.runs import finish_run
 from tensim.viz.plots import save_figure
@@ -31,16 +31,37 @@ def _percent_change(values: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return 100.0 * (values - reference) / reference
 
 
-def run_timestep_study(progress: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """Runs the study and returns its summary (JSON-ready)."""
+def run_timestep_study(announce: Callable[[str], None] | None = None, *,
+                       duration: float = DURATION,
+                       progress: Callable[[float, float], None] | None = None
+                       ) -> dict[str, Any]:
+    """Runs the study and returns its summary (JSON-ready).
+
+    Args:
+        announce: called with a line naming each run as it starts.
+        duration: simulated time of each of the five disturbance runs [s].
+        progress: called as progress(done_s, total_s) over all five runs' simulated time.
+    """
+    runs = len(RATES_HZ) + len(CONTACT_TIMECONSTS_S) - 1
+    done = [0.0]
+
+    def run(**kwargs: Any) -> tuple[Any, dict[str, Any]]:
+        def each(t: float, _: float) -> None:
+            if progress:
+                progress(done[0] + t, runs * duration)
+
+        outcome = run_disturbance(duration=duration, progress=each, **kwargs)
+        done[0] += duration
+        return outcome
+
     peaks: dict[str, np.ndarray] = {}
     cables: tuple[str, ...] = ()
     rtf: dict[str, float] = {}
     reference_summary: dict[str, Any] = {}
     for hz in RATES_HZ:
-        if progress:
-            progress(f"disturbance test at {hz} Hz")
-        result, summary = run_disturbance(dt=1.0 / hz)
+        if announce:
+            announce(f"disturbance test at {hz} Hz")
+        result, summary = run(dt=1.0 / hz)
         peaks[str(hz)], cables, rtf[str(hz)] = result.peak_tension, result.cables, \
             result.real_time_factor
         if hz == REFERENCE_HZ:
@@ -50,9 +71,9 @@ def run_timestep_study(progress: Callable[[str], None] | None = None) -> dict[st
         if tc == WorldOptions().contact_timeconst:
             contact[str(tc)] = peaks[str(REFERENCE_HZ)]
             continue
-        if progress:
-            progress(f"disturbance test with contact time constant {tc} s")
-        result, _ = run_disturbance(world=WorldOptions(contact_timeconst=tc))
+        if announce:
+            announce(f"disturbance test with contact time constant {tc} s")
+        result, _ = run(world=WorldOptions(contact_timeconst=tc))
         contact[str(tc)] = result.peak_tension
     reference = peaks[str(REFERENCE_HZ)]
     per_cable = {hz: _percent_change(p, reference) for hz, p in peaks.items()

@@ -3,11 +3,18 @@ system identification (paper sections III-V).
 
 ``read_log``/``load_log`` read and validate the CSV schema of :mod:`tensim.hardware.logs`;
 ``fit_loadcell`` fits eq. (7); ``SensorModel`` makes simulated tensions look logged;
-``replay`` simulates a log's inputs; ``compare_tensions`` aligns and scores; ``identify`` fits
-named physical and measurement parameters.
+``replay`` simulates a log's inputs and loads; ``compare_tensions`` aligns and scores;
+``identify`` fits named physical and measurement parameters and validates the fit.
 """
 
-from tensim.hardware.compare import CableErrors, Comparison, compare_tensions, estimate_offset
+from tensim.hardware.compare import (
+    Alignment,
+    CableErrors,
+    Comparison,
+    align,
+    compare_tensions,
+    estimate_offset,
+)
 from tensim.hardware.loadcell import (
     PAPER_LOADCELL,
     CalibrationFit,
@@ -19,17 +26,20 @@ from tensim.hardware.loadcell import (
     read_pairs,
     save_calibration,
 )
+from tensim.hardware.loads import EXPERIMENTS, load_window, replay_loads
 from tensim.hardware.logs import QUANTITIES, HardwareLog, LogError, read_log, write_log
 from tensim.hardware.parameters import DEFINITIONS, SysidSpace, apply_physical
 from tensim.hardware.replay import replay, replay_config
 from tensim.hardware.sensor import SensorModel
 from tensim.hardware.synthetic import node_positions, simulated_log
-from tensim.hardware.sysid import SysidResult, SysidSettings, identify
+from tensim.hardware.sysid import SysidError, SysidResult, SysidSettings, identify
 
 __all__ = [
     "DEFINITIONS",
+    "EXPERIMENTS",
     "PAPER_LOADCELL",
     "QUANTITIES",
+    "Alignment",
     "CableErrors",
     "CalibrationFit",
     "Comparison",
@@ -37,9 +47,11 @@ __all__ = [
     "LoadCell",
     "LogError",
     "SensorModel",
+    "SysidError",
     "SysidResult",
     "SysidSettings",
     "SysidSpace",
+    "align",
     "apply_physical",
     "compare_tensions",
     "convert_log",
@@ -48,11 +60,13 @@ __all__ = [
     "identify",
     "load_calibration",
     "load_log",
+    "load_window",
     "node_positions",
     "read_log",
     "read_pairs",
     "replay",
     "replay_config",
+    "replay_loads",
     "save_calibration",
     "simulated_log",
     "write_log",

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from tensim.hardware.loads import load_window, replay_loads
 from tensim.hardware.logs import HardwareLog
 from tensim.hardware.replay import node_positions
 from tensim.hardware.sensor import SensorModel, interpolate
@@ -21,6 +22,7 @@ from tensim.model import CompiledModel
 from tensim.sim import TimeSeries
 
 MAX_LAGS = 10_000  # most time lags one offset estimate tries
+SETTLE_S = 1.0  # s, default start of the "after settling" maxima
 
 
 @dataclasses.dataclass(frozen=True)
@@ -74,6 +76,10 @@ class Comparison:
         offset_s: the readings lag the simulation by this much: sample k is compared with the
             simulation at time[k] - offset_s [s].
         setpoint: (S, n) logged commanded tension [N], if the log has it.
+        alignment: how ``offset_s`` was found (estimated, refused as ill-posed, or given).
+        settle_s: the "after settling" maxima leave out samples before this time [s]
+            (the t = 0 sample is the build pretension, identical in both by construction).
+        load_window: (start, end) of the logged external loads [s] (None: no loads).
     """
 
     cables: tuple[str, ...]
@@ -82,6 +88,9 @@ class Comparison:
     simulated: np.ndarray
     offset_s: float
     setpoint: np.ndarray | None = None
+    alignment: str = "given"
+    settle_s: float = SETTLE_S
+    load_window: tuple[float, float] | None = None
 
     def cable_errors(self) -> dict[str, CableErrors]:
         """Cable name -> its errors."""
@@ -101,20 +110,54 @@ class Comparison:
         return dataclasses.replace(pooled, correlation=shape.correlation,
                                    amplitude_ratio=shape.amplitude_ratio)
 
+    def maxima(self, start: float = -np.inf, end: float = np.inf) -> dict[str, float | None]:
+        """Maximum system tension, logged and simulated, and its error, over samples with
+        start <= time <= end: ``hardware_N``, ``simulated_N``, ``error_percent``."""
+        rows = (self.time >= start) & (self.time <= end)
+        e = _errors(self.hardware[rows].ravel(), self.simulated[rows].ravel())
+        return {"hardware_N": _round(e.max_hardware_N), "simulated_N": _round(e.max_simulated_N),
+                "error_percent": _round(e.max_error_percent)}
+
+    def cable_maxima(self, start: float = -np.inf, end: float = np.inf
+                     ) -> dict[str, float | None]:
+        """Per cable, the error on its maximum tension over start <= time <= end [%]."""
+        rows = (self.time >= start) & (self.time <= end)
+        return {c: _round(_errors(self.hardware[rows, k], self.simulated[rows, k])
+                          .max_error_percent) for k, c in enumerate(self.cables)}
+
     def summary(self) -> dict[str, Any]:
-        """JSON-ready figures, the maximum-system-tension error first."""
+        """JSON-ready figures, the maximum-system-tension error first.
+
+        Three maxima: over the whole run (``max_system_tension_*``, the paper's figure, which
+        includes the t = 0 build pretension), after settling (``max_settled_system_tension_*``,
+        from ``settle_s``) and, for a log with loads, inside the load window
+        (``max_loaded_system_tension_*``).
+        """
         system = self.system_errors()
+        settled = self.maxima(self.settle_s)
+        loaded = self.maxima(*self.load_window) if self.load_window else None
+        settled_cables = self.cable_maxima(self.settle_s)
         return {
             "max_system_tension_error_percent": _round(system.max_error_percent),
             "max_system_tension_hardware_N": _round(system.max_hardware_N),
             "max_system_tension_simulated_N": _round(system.max_simulated_N),
+            "max_settled_system_tension_error_percent": settled["error_percent"],
+            "max_settled_system_tension_hardware_N": settled["hardware_N"],
+            "max_settled_system_tension_simulated_N": settled["simulated_N"],
+            "settle_s": self.settle_s,
+            "max_loaded_system_tension_error_percent": loaded and loaded["error_percent"],
+            "max_loaded_system_tension_hardware_N": loaded and loaded["hardware_N"],
+            "max_loaded_system_tension_simulated_N": loaded and loaded["simulated_N"],
+            "load_window_s": list(self.load_window) if self.load_window else None,
             "rmse_N": _round(system.rmse_N),
             "correlation": _round(system.correlation),
             "pretension_offset_N": _round(system.pretension_offset_N),
             "amplitude_ratio": _round(system.amplitude_ratio),
             "time_offset_s": _round(self.offset_s),
+            "time_offset_from": self.alignment,
             "samples": int(np.isfinite(self.hardware).sum()),
-            "cables": {c: {k: _round(v) for k, v in dataclasses.asdict(e).items()}
+            "cables": {c: {**{k: _round(v) for k, v in dataclasses.asdict(e).items()},
+                           "max_settled_error_percent": settled_cables[c]}
                        for c, e in self.cable_errors().items()},
         }
 
@@ -131,15 +174,33 @@ def _round(value: float) -> float | None:
     return None if not np.isfinite(value) else round(float(value), 6)
 
 
-def estimate_offset(time: np.ndarray, hardware: np.ndarray, sim_time: np.ndarray,
-                    simulated: np.ndarray, max_offset: float = 0.5, step: float = 0.005
-                    ) -> float:
-    """The lag of the logged tensions behind the simulated ones, by cross-correlation.
+@dataclasses.dataclass(frozen=True)
+class Alignment:
+    """A time-offset estimate and whether the signal supports it.
+
+    Attributes:
+        offset_s: the lag of the log behind the simulation [s] (0 when ill-posed).
+        well_posed: whether the cross-correlation has a sharp peak inside the search range.
+        note: why it was refused, or how it was found.
+    """
+
+    offset_s: float
+    well_posed: bool
+    note: str
+
+
+def align(time: np.ndarray, hardware: np.ndarray, sim_time: np.ndarray, simulated: np.ndarray,
+          max_offset: float = 0.5, step: float = 0.005, max_width: float = 0.1) -> Alignment:
+    """The lag of the logged tensions behind the simulated ones, by cross-correlation, or a
+    refusal where the signal does not determine it.
 
     For each candidate lag the mean-removed cable tensions are correlated with the simulation
     shifted by it, summed over cables (the inner and outer cables oscillate in opposite phase,
     so the sum of tensions would cancel); the best lag is refined by a parabola through the
-    peak.
+    peak. The estimate is ill-posed (offset 0) when the best lag is at the search bound, or
+    when the lags scoring within 0.01 of the best span more than ``max_width``: a step/hold
+    test or a slow ramp correlates almost equally well at any lag (a 1 Hz gait spans 35-70 ms,
+    a 1 s push ramp 110 ms or more).
 
     Args:
         time: (S,) log sample times [s].
@@ -148,9 +209,7 @@ def estimate_offset(time: np.ndarray, hardware: np.ndarray, sim_time: np.ndarray
         simulated: (T, n) simulated tensions [N].
         max_offset: largest lag tried, either way [s]; keep it below half a gait period.
         step: lag grid spacing [s].
-
-    Returns:
-        The lag [s]: reading k matches the simulation at time[k] - lag.
+        max_width: widest near-best span of lags that still counts as a sharp peak [s].
     """
     check_count(f"time lags tried up to +-{max_offset:g} s every {step:g} s",
                 2 * max_offset / step + 1, MAX_LAGS, forceable=False)
@@ -158,12 +217,26 @@ def estimate_offset(time: np.ndarray, hardware: np.ndarray, sim_time: np.ndarray
     scores = np.array([_score(hardware, interpolate(sim_time, simulated, time - lag))
                        for lag in lags])
     k = int(np.nanargmax(scores))
-    if 0 < k < lags.size - 1:
-        a, b, c = scores[k - 1: k + 2]
-        curvature = a - 2 * b + c
-        if curvature < 0:
-            return float(lags[k] + step * 0.5 * (a - c) / curvature)
-    return float(lags[k])
+    near = lags[scores >= scores[k] - 0.01]
+    width = float(near.max() - near.min())
+    if k in (0, lags.size - 1):
+        return Alignment(0.0, False, f"ill-posed: the best lag is at the search bound "
+                         f"({lags[k] * 1000:+.0f} ms); offset 0 used")
+    if width > max_width:
+        return Alignment(0.0, False, f"ill-posed: lags over {width * 1000:.0f} ms correlate "
+                         f"within 0.01 of the best (a step/hold signal); offset 0 used")
+    a, b, c = scores[k - 1: k + 2]
+    curvature = a - 2 * b + c
+    best = lags[k] + step * 0.5 * (a - c) / curvature if curvature < 0 else lags[k]
+    return Alignment(float(best), True, f"cross-correlation peak (width {width * 1000:.0f} ms)")
+
+
+def estimate_offset(time: np.ndarray, hardware: np.ndarray, sim_time: np.ndarray,
+                    simulated: np.ndarray, max_offset: float = 0.5, step: float = 0.005
+                    ) -> float:
+    """The lag [s] of :func:`align` (0 where it is ill-posed): reading k matches the
+    simulation at time[k] - lag."""
+    return align(time, hardware, sim_time, simulated, max_offset, step).offset_s
 
 
 def _score(hardware: np.ndarray, shifted: np.ndarray) -> float:
@@ -175,7 +248,8 @@ def _score(hardware: np.ndarray, shifted: np.ndarray) -> float:
 
 def compare_tensions(log: HardwareLog, simulated: TimeSeries, *,
                      sensor: SensorModel | None = None, offset: float | None = None,
-                     max_offset: float = 0.5, skip: float = 0.0) -> Comparison:
+                     max_offset: float = 0.5, skip: float = 0.0,
+                     settle: float = SETTLE_S) -> Comparison:
     """Compares a log's tensions with a simulation of it (simulation time 0 = log start).
 
     Args:
@@ -186,6 +260,7 @@ def compare_tensions(log: HardwareLog, simulated: TimeSeries, *,
             when a sensor is given, else estimates it (:func:`estimate_offset`).
         max_offset: largest lag the estimate tries [s].
         skip: leave out the log's first seconds (e.g. a settling transient) [s].
+        settle: start of the "after settling" maxima [s].
 
     Raises:
         KeyError: a logged cable the simulation lacks.
@@ -195,13 +270,17 @@ def compare_tensions(log: HardwareLog, simulated: TimeSeries, *,
     rows = ~np.isnan(values).all(axis=1) & (log.series.time - log.start >= skip)
     time, hardware = log.series.time[rows] - log.start, values[rows]
     true = simulated.matrix("tension", cables)
-    if offset is None:
-        offset = sensor.delay if sensor is not None else estimate_offset(
-            time, hardware, simulated.time, true, max_offset)
+    how = "given"
+    if offset is None and sensor is not None:
+        offset, how = sensor.delay, "sensor delay"
+    elif offset is None:
+        found = align(time, hardware, simulated.time, true, max_offset)
+        offset, how = found.offset_s, found.note
     reading = dataclasses.replace(sensor or SensorModel(), delay=offset)
     predicted = reading.expected(simulated.time, true, time)
     return Comparison(cables, time, hardware, predicted, float(offset),
-                      _logged(log, "setpoint", cables, rows))
+                      _logged(log, "setpoint", cables, rows), how, settle,
+                      load_window(replay_loads(log)))
 
 
 def _logged(log: HardwareLog, quantity: str, cables: tuple[str, ...], rows: np.ndarray

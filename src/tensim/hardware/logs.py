@@ -67,7 +67,10 @@ QUANTITIES: dict[str, Quantity] = {
     "mocap_x_m": Quantity("mocap_x", "node", "m", "motion-capture x of a node"),
     "mocap_y_m": Quantity("mocap_y", "node", "m", "motion-capture y of a node"),
     "mocap_z_m": Quantity("mocap_z", "node", "m", "motion-capture z of a node"),
+    "load_N": Quantity("load", "node/axis", "N",
+                       "external force on a node, world x, y or z (linear between samples)"),
 }
+AXES = ("x", "y", "z")
 _BY_CHANNEL = {q.channel: name for name, q in QUANTITIES.items()}
 
 
@@ -177,6 +180,9 @@ def _header(path: Path, line: int, names: list[str]) -> list[str]:
         if quantity not in QUANTITIES or not item:
             raise LogError(f"{path}: line {line}, column {number} ({name!r}): expected "
                            f"'<quantity>/<item>' with quantity one of {list(QUANTITIES)}")
+        if QUANTITIES[quantity].item == "node/axis" and item.rpartition("/")[2] not in AXES:
+            raise LogError(f"{path}: line {line}, column {number} ({name!r}): expected "
+                           f"'{quantity}/<node>/<axis>' with axis one of {list(AXES)}")
         channel = f"{QUANTITIES[quantity].channel}/{item}"
         if channel in channels:
             raise LogError(f"{path}: line {line}, column {number} ({name!r}): duplicate column")
@@ -286,6 +292,8 @@ def check_items(log: HardwareLog, structure: Structure) -> None:
     for channel in log.series.channels:
         quantity, _, item = channel.partition("/")
         kind = QUANTITIES[_BY_CHANNEL[quantity]].item
+        if kind == "node/axis":
+            item, kind = item.rpartition("/")[0], "node"
         known = cables if kind == "cable" else nodes
         if item not in known:
             raise LogError(f"{log.source}: column {column_name(channel)!r}: {structure.name!r} "

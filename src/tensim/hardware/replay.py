@@ -9,6 +9,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tensim.control import ControllerConfig, VelocityTable
+from tensim.hardware.loads import loads_for
 from tensim.hardware.logs import HardwareLog, check_items
 from tensim.limits import check_run
 from tensim.model import CompiledModel, WorldOptions, compile_structure
@@ -37,7 +38,8 @@ def replay_config(log: HardwareLog, config: ControllerConfig, *, vstar_scale: fl
 def replay(log: HardwareLog, structure: Structure, config: ControllerConfig, *,
            world: WorldOptions | None = None, vstar_scale: float = 1.0, margin: float = 0.5,
            progress: Callable[[float, float], None] | None = None) -> SimulationResult:
-    """Simulates the log's inputs on ``structure`` (simulation time 0 = the log's first row).
+    """Simulates the log's inputs on ``structure`` (simulation time 0 = the log's first row):
+    its V* (or ``config``'s gait) and its external loads (columns or header experiment).
 
     Args:
         log: the hardware log.
@@ -64,7 +66,7 @@ def replay(log: HardwareLog, structure: Structure, config: ControllerConfig, *,
             progress(done, total)
 
     result = simulate(compiled, duration, controller=played.build(compiled.model.opt.timestep),
-                      progress=report)
+                      loads=loads_for(log, structure), progress=report)
     if progress is not None and reported[0] < duration:
         progress(duration, duration)  # the last partial second: finish the bar
     return result

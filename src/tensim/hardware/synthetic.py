@@ -14,7 +14,8 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from tensim.control import ControllerConfig, VelocityTable
-from tensim.hardware.logs import HardwareLog
+from tensim.hardware.loads import EXPERIMENTS, format_params
+from tensim.hardware.logs import AXES, HardwareLog
 from tensim.hardware.parameters import apply_physical
 from tensim.hardware.replay import node_positions
 from tensim.hardware.sensor import SensorModel
@@ -29,6 +30,7 @@ def simulated_log(structure: Structure, config: ControllerConfig, duration: floa
                   command_period: float = 0.01, feedback_period: float = 0.2,
                   adc: bool = False, mocap_nodes: Sequence[str] = (),
                   world: WorldOptions | None = None,
+                  experiment: tuple[str, Mapping[str, float]] | None = None,
                   progress: Callable[[float, float], None] | None = None) -> HardwareLog:
     """Simulates ``config`` on ``structure`` and logs it at the robot's rates.
 
@@ -45,6 +47,9 @@ def simulated_log(structure: Structure, config: ControllerConfig, duration: floa
         adc: log raw ``adc/`` counts through ``sensor.loadcell`` instead of ``tension_N/``.
         mocap_nodes: nodes whose positions are logged (motion capture).
         world: world options.
+        experiment: a built-in protocol (:data:`~tensim.hardware.loads.EXPERIMENTS`) and its
+            parameters: its loads act on the "hardware", are logged as ``load_N/`` columns on
+            every command row, and the header names it.
         progress: called as progress(done_s, total_s).
 
     Raises:
@@ -64,13 +69,17 @@ def simulated_log(structure: Structure, config: ControllerConfig, duration: floa
     table = config.gait.velocity_table(duration, command_period) if config.gait else None
     played = config if table is None else config.with_gait(VelocityTable(
         table.cables, table.period, table.values * parameters.get("vstar_scale", 1.0)))
+    loads = EXPERIMENTS[experiment[0]].loads(experiment[1]) if experiment else ()
     result = simulate(compiled, duration, controller=played.build(compiled.model.opt.timestep),
-                      progress=progress)
+                      loads=loads, progress=progress)
     channels = _feedback(result.trajectory, compiled, times, every, sensor, rng, adc,
                          mocap_nodes)
     if table is not None:
         for k, cable in enumerate(table.cables):
             channels[f"vstar/{cable}"] = table.values[: times.size, k] + 0.0  # no -0.0
+    for load in loads:
+        for a, axis in enumerate(AXES):
+            channels[f"load/{load.node}/{axis}"] = load.forces_at(times)[:, a] + 0.0
     meta = {"model": structure.name, "synthetic": "simulated by tensim",
             "parameters": ", ".join(f"{k}={v:g}" for k, v in parameters.items()) or "nominal",
             "sensor": ", ".join(f"{k}={v}" for k, v in sensor.to_dict().items()
@@ -78,7 +87,10 @@ def simulated_log(structure: Structure, config: ControllerConfig, duration: floa
             "command_period_s": f"{command_period:g}", "feedback_period_s": f"{feedback_period:g}"}
     if adc and sensor.loadcell is not None:
         meta["loadcell"] = f"{sensor.loadcell.gain!r} * ADC + {sensor.loadcell.offset!r}"
-    order = sorted(channels, key=lambda n: n.split("/")[0] != "vstar")
+    if experiment:
+        meta["experiment"] = experiment[0]
+        meta["experiment_params"] = format_params(experiment[1])
+    order = sorted(channels, key=lambda n: n.split("/")[0] not in ("vstar", "load"))
     return HardwareLog(TimeSeries(times, {n: channels[n] for n in order}), "<simulated>", meta)
 
 

@@ -6,7 +6,9 @@ measurement parameters only reshape the simulated signals, so the optimizer's fi
 differences over them reuse a cached simulation. The optimizer is scipy's bounded
 trust-region least squares on the unit cube of the bounds, with a finite-difference step large
 enough to step over the small, irregular changes that contact and motor limits cause; the
-uncertainty comes from the Jacobian at the solution. A Jacobian's perturbed models (each a
+uncertainty comes from the Jacobian and the residuals at the solution, over time blocks
+(:mod:`tensim.hardware.uncertainty`). A fit is judged on validation samples and is replaced by
+the nominal model when it is worse there. A Jacobian's perturbed models (each a
 recompiled structure) are simulated together, one batch per log, on the batch engine's threads.
 (MuJoCo's ``mujoco.sysid`` toolbox makes the same physical/measurement split; tensim keeps its
 own driver because its physical parameters change the structure description and recompile.)
@@ -25,15 +27,23 @@ from scipy import optimize
 
 from tensim.control import ControllerConfig
 from tensim.hardware.compare import Comparison, compare_tensions
+from tensim.hardware.loads import loads_for
 from tensim.hardware.logs import HardwareLog, check_items
 from tensim.hardware.parameters import SysidSpace, apply_measurement, apply_physical
 from tensim.hardware.replay import replay_config
 from tensim.hardware.sensor import SensorModel
+from tensim.hardware.uncertainty import block_stderr, interval_factor, naive_stderr
 from tensim.model import WorldOptions, compile_structure
 from tensim.sim import SimulationError, TimeSeries, Trial, run_batch
 from tensim.structure import Structure
 
 _CACHE_SIZE = 16
+DEFAULT_PARAMS = ("stiffness", "friction", "offset", "delay")
+BLOCKS = 5  # time blocks per log for the standard errors
+
+
+class SysidError(ValueError):
+    """A fit the logs cannot support: an uninformed parameter, or windows outside a log."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,6 +57,12 @@ class SysidSettings:
         margin: simulated time past each log's end [s].
         skip: leave each log's first seconds out of the residual [s].
         threads: threads of the batch engine that runs the perturbed models (0: every core).
+        fit_window: (start, end) of the samples the fit uses, from each log's start [s]
+            (None: all after ``skip``, or with a validation window, the samples before it, or
+            after it if it starts at 0).
+        validate_window: (start, end) of the samples that judge the fit [s] (None: the fit
+            window; then the verdict is on the fitted data).
+        force: keep a fit that is worse than the nominal model on the validation samples.
     """
 
     max_simulations: int = 60
@@ -55,6 +71,16 @@ class SysidSettings:
     margin: float = 0.5
     skip: float = 0.0
     threads: int = 0
+    fit_window: tuple[float, float] | None = None
+    validate_window: tuple[float, float] | None = None
+    force: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("fit_window", "validate_window"):
+            window = getattr(self, name)
+            if window is not None and not (len(window) == 2 and window[0] < window[1]):
+                raise ValueError(f"{name}: expected (start, end) with start < end [s], "
+                                 f"got {window!r}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,7 +90,11 @@ class SysidResult:
     Attributes:
         space: the fitted parameters (names, bounds, starting values).
         fitted: (n,) fitted values.
-        stderr: (n,) standard errors from the Jacobian at the solution (inf: not determined).
+        stderr: (n,) standard errors: the larger of the time-block error
+            (:func:`~tensim.hardware.uncertainty.block_stderr`) and ``naive_stderr``
+            (inf: not determined).
+        naive_stderr: (n,) the textbook s^2 (J^T J)^-1 errors, which assume independent
+            residuals (kept for comparison; too small on autocorrelated residuals).
         before, after: per log, the comparison with the nominal model (time offset
             estimated) and with the fitted one.
         structure: the fitted structure.
@@ -72,11 +102,16 @@ class SysidResult:
         vstar_scale: the fitted (or nominal) V* scale.
         simulations: simulations run.
         optimizer: scipy's result (x in unit coordinates).
+        validation: RMSE [N] on the validation samples of the nominal and the fitted model,
+            and the windows (``nominal_rmse_N``, ``fitted_rmse_N``, ...).
+        kept_nominal: the fit was worse than nominal on the validation samples, so
+            ``structure``, ``sensor`` and ``vstar_scale`` are the nominal ones.
     """
 
     space: SysidSpace
     fitted: np.ndarray
     stderr: np.ndarray
+    naive_stderr: np.ndarray
     before: tuple[Comparison, ...]
     after: tuple[Comparison, ...]
     structure: Structure
@@ -84,6 +119,8 @@ class SysidResult:
     vstar_scale: float
     simulations: int
     optimizer: optimize.OptimizeResult
+    validation: dict[str, Any] = dataclasses.field(default_factory=dict)
+    kept_nominal: bool = False
 
     def parameters(self) -> dict[str, dict[str, Any]]:
         """name -> nominal, start, fitted, stderr, 95 % interval half-width, bounds, unit."""
@@ -96,7 +133,9 @@ class SysidResult:
                            "nominal": float(self.space.structure_values()[k]),
                            "start": p.bounds.nominal, "fitted": float(self.fitted[k]),
                            "stderr": _finite(self.stderr[k]),
-                           "ci95": _finite(1.96 * self.stderr[k]),
+                           "ci95": _finite(interval_factor(BLOCKS, len(self.before))
+                                           * self.stderr[k]),
+                           "naive_stderr": _finite(self.naive_stderr[k]),
                            "bounds": [p.bounds.low, p.bounds.high]}
         return out
 
@@ -105,6 +144,7 @@ class SysidResult:
         before = [c.summary() for c in self.before]
         after = [c.summary() for c in self.after]
         return {"parameters": self.parameters(), "simulations": self.simulations,
+                "validation": self.validation, "kept_nominal": self.kept_nominal,
                 "optimizer": {"status": int(self.optimizer.status),
                               "message": str(self.optimizer.message),
                               "cost": float(self.optimizer.cost)},
@@ -114,6 +154,10 @@ class SysidResult:
                     before, "max_system_tension_error_percent", absolute=True),
                 "max_system_tension_error_after_percent": _mean_of(
                     after, "max_system_tension_error_percent", absolute=True),
+                "max_settled_system_tension_error_before_percent": _mean_of(
+                    before, "max_settled_system_tension_error_percent", absolute=True),
+                "max_settled_system_tension_error_after_percent": _mean_of(
+                    after, "max_settled_system_tension_error_percent", absolute=True),
                 "logs": [{"before": b, "after": a} for b, a in zip(before, after, strict=True)]}
 
 
@@ -124,6 +168,14 @@ def _finite(value: float) -> float | None:
 def _mean_of(summaries: list[dict[str, Any]], key: str, absolute: bool = False) -> float | None:
     values = [abs(s[key]) if absolute else s[key] for s in summaries if s[key] is not None]
     return round(float(np.mean(values)), 6) if values else None
+
+
+def _keep(c: Comparison, window: tuple[float, float] | None) -> np.ndarray:
+    """(S, n) the logged samples inside ``window`` [s] (None: all)."""
+    keep = np.isfinite(c.hardware)
+    if window is not None:
+        keep &= ((c.time >= window[0]) & (c.time <= window[1]))[:, None]
+    return keep
 
 
 class _Problem:
@@ -173,11 +225,13 @@ class _Problem:
         out: list[list[TimeSeries]] = [[] for _ in values]
         for log in self.logs:
             check_items(log, compiled[0].structure)
+            loads = loads_for(log, compiled[0].structure)
             trials = [Trial(replay_config(log, self.config, vstar_scale=n.get("vstar_scale", 1.0),
                                           margin=self.settings.margin
-                                          ).build(c.model.opt.timestep), compiled=c)
+                                          ).build(c.model.opt.timestep), loads=loads,
+                            compiled=c)
                       for n, c in zip(named, compiled, strict=True)]
-            results = run_batch(compiled[0], trials, log.duration + self.settings.margin,
+            results = run_batch(compiled[0], trials, self.horizon(log) + self.settings.margin,
                                 threads=self.settings.threads or os.cpu_count() or 1)
             for k, trial in enumerate(results):
                 if trial.result is None:
@@ -190,6 +244,13 @@ class _Problem:
                 self.progress(self.simulations, self.settings.max_simulations)
         return out
 
+    def horizon(self, log: HardwareLog) -> float:
+        """How much of ``log`` to simulate: up to the last window's end [s]."""
+        fit, validate = self.settings.fit_window, self.settings.validate_window
+        if fit is None:
+            return log.duration
+        return min(log.duration, max(fit[1], validate[1] if validate else fit[1]))
+
     def comparisons(self, values: np.ndarray) -> list[Comparison]:
         """Per log, the logged tensions against the simulated readings for ``values``."""
         named = self.space.as_dict(values)
@@ -200,13 +261,23 @@ class _Problem:
                 for i, (log, run) in enumerate(zip(self.logs, self.simulate(values),
                                                    strict=True))]
 
-    def residuals(self, unit: np.ndarray) -> np.ndarray:
-        """Simulated minus logged tension [N] at every logged sample, all logs."""
+    def residuals(self, unit: np.ndarray, window: tuple[float, float] | None = None
+                  ) -> np.ndarray:
+        """Simulated minus logged tension [N] at every logged sample in ``window`` (default:
+        the fit window), all logs; ordered by log, then time, then cable."""
+        window = window or self.settings.fit_window
         parts = []
         for c in self.comparisons(self.space.from_unit(unit)):
-            keep = np.isfinite(c.hardware)
-            parts.append((c.simulated - c.hardware)[keep])
+            parts.append((c.simulated - c.hardware)[_keep(c, window)])
         return np.concatenate(parts)
+
+    def sample_rows(self, unit: np.ndarray) -> np.ndarray:
+        """For each entry of :meth:`residuals`, a label of its (log, sample time) row."""
+        labels = []
+        for i, c in enumerate(self.comparisons(self.space.from_unit(unit))):
+            rows = np.broadcast_to(np.arange(c.time.size)[:, None], c.hardware.shape)
+            labels.append(i * 1_000_000_000 + rows[_keep(c, self.settings.fit_window)])
+        return np.concatenate(labels)
 
     def jacobian(self, unit: np.ndarray) -> np.ndarray:
         """Forward differences with a fixed step of ``diff_step`` of each bound range.
@@ -227,15 +298,24 @@ class _Problem:
         base = self.residuals(unit)
         columns = [(self.residuals(moved) - base) / step
                    for moved, step in zip(points, steps, strict=True)]
-        return np.stack(columns, axis=1)
+        jac = np.stack(columns, axis=1)
+        flat = [p.name for p, col in zip(self.space.parameters, jac.T, strict=True)
+                if not np.any(col)]
+        if flat:
+            raise SysidError(f"the logs do not inform {flat}: changing them leaves every "
+                             "simulated reading unchanged (an ill-posed fit); leave them out "
+                             "of the parameters")
+        return jac
 
 
 def identify(logs: Sequence[HardwareLog], structure: Structure, config: ControllerConfig,
-             names: Sequence[str], *, bounds: Mapping[str, tuple[float, float]] | None = None,
+             names: Sequence[str] = DEFAULT_PARAMS, *,
+             bounds: Mapping[str, tuple[float, float]] | None = None,
              start: Mapping[str, float] | None = None, sensor: SensorModel | None = None,
              world: WorldOptions | None = None, settings: SysidSettings | None = None,
              progress: Callable[[float, float], None] | None = None) -> SysidResult:
-    """Fits the named parameters to one or more logs.
+    """Fits the named parameters to one or more logs, and keeps the nominal model unless the
+    fit is better on the validation samples (or ``settings.force``).
 
     Args:
         logs: hardware logs with tensions in N (convert ADC first).
@@ -244,19 +324,22 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
         names: parameters to fit (:data:`~tensim.hardware.parameters.DEFINITIONS`).
         bounds: name -> (low, high), replacing the defaults.
         start: name -> starting value (default: nominal; ``delay`` starts at the
-            cross-correlation estimate).
+            cross-correlation estimate where that is well posed).
         sensor: the fixed part of the measurement model (e.g. a known offset).
         world: world options.
-        settings: budgets and steps.
+        settings: budgets, steps and windows.
         progress: called as progress(simulations_done, budget).
 
     Raises:
         KeyError: an unknown parameter name.
         ValueError: bad bounds or start, or no logs.
+        SysidError: a parameter the logs cannot inform (``vstar_scale`` without V*, or one
+            that leaves every reading unchanged), or a window with no samples of some log.
     """
     if not logs:
         raise ValueError("system identification needs at least one log")
-    settings = settings or SysidSettings()
+    settings = _hold_out(settings or SysidSettings())
+    _check_informed(logs, names, settings)
     start = dict(start or {})
     nominal = SysidSpace.build(structure, names, bounds=bounds)
     problem = _Problem(nominal, logs, config, sensor or SensorModel(), world, settings, progress)
@@ -272,11 +355,63 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
         problem.residuals, space.to_unit(space.start), jac=problem.jacobian, bounds=(0.0, 1.0),
         method="trf", x_scale=1.0, max_nfev=max(3, settings.max_simulations // (physical + 1)))
     fitted = space.snap(space.from_unit(fit.x))  # the values the last runs simulated
-    named = space.as_dict(fitted)
-    return SysidResult(space, fitted, _stderr(fit, space), tuple(before),
+    jac = problem.jacobian(space.to_unit(fitted))
+    residual = problem.residuals(space.to_unit(fitted))
+    scale = space.high - space.low
+    naive = naive_stderr(jac, residual) * scale
+    stderr = np.maximum(block_stderr(jac, residual, problem.sample_rows(space.to_unit(fitted)),
+                                     BLOCKS) * scale, naive)
+    validation = _validation(problem, nominal, space, fitted, before)
+    kept = validation["fitted_rmse_N"] > validation["nominal_rmse_N"] and not settings.force
+    named = nominal.as_dict(nominal.structure_values()) if kept else space.as_dict(fitted)
+    return SysidResult(space, fitted, stderr, naive, tuple(before),
                        tuple(problem.comparisons(fitted)), apply_physical(structure, named),
                        apply_measurement(problem.sensor, named), named.get("vstar_scale", 1.0),
-                       problem.simulations, fit)
+                       problem.simulations, fit, validation, kept)
+
+
+def _hold_out(settings: SysidSettings) -> SysidSettings:
+    """With a validation window and no fit window, fit on the samples before it (or after it,
+    when it starts at 0): validation samples are never fitted unless asked for."""
+    validate = settings.validate_window
+    if validate is None or settings.fit_window is not None:
+        return settings
+    fit = (0.0, validate[0]) if validate[0] > 0 else (validate[1], np.inf)
+    return dataclasses.replace(settings, fit_window=fit)
+
+
+def _check_informed(logs: Sequence[HardwareLog], names: Sequence[str],
+                    settings: SysidSettings) -> None:
+    """Refuses parameters and windows the logs cannot inform (before any simulation)."""
+    if "vstar_scale" in names:
+        without = [log.source for log in logs if not log.cables("vstar")]
+        if without:
+            raise SysidError(f"vstar_scale scales the logged V*, but {without} log no V* "
+                             "('vstar_mps/<cable>' columns); leave vstar_scale out")
+    for label, window in (("--fit-window", settings.fit_window),
+                          ("--validate-window", settings.validate_window)):
+        for log in logs:
+            if window is None:
+                continue
+            times, _ = log.samples("tension")
+            inside = (times >= max(window[0], settings.skip)) & (times <= window[1])
+            if not inside.any():
+                raise SysidError(f"{log.source}: {label} {window[0]:g}:{window[1]:g} s holds "
+                                 f"no tension sample; the log's samples span "
+                                 f"{times[0]:g}-{times[-1]:g} s from its start")
+
+
+def _validation(problem: _Problem, nominal: SysidSpace, space: SysidSpace,
+                fitted: np.ndarray, before: Sequence[Comparison]) -> dict[str, Any]:
+    """RMSE of the nominal and the fitted model on the validation samples [N]."""
+    window = problem.settings.validate_window or problem.settings.fit_window
+    nominal_residual = np.concatenate([(c.simulated - c.hardware)[_keep(c, window)]
+                                       for c in before])
+    fitted_residual = problem.residuals(space.to_unit(fitted), window)
+    return {"window_s": list(window) if window else "all samples",
+            "on_fit_data": problem.settings.validate_window is None,
+            "nominal_rmse_N": round(float(np.sqrt(np.mean(nominal_residual**2))), 6),
+            "fitted_rmse_N": round(float(np.sqrt(np.mean(fitted_residual**2))), 6)}
 
 
 def _nominal_comparisons(problem: _Problem, space: SysidSpace) -> list[Comparison]:
@@ -285,19 +420,3 @@ def _nominal_comparisons(problem: _Problem, space: SysidSpace) -> list[Compariso
     return [compare_tensions(log, run, max_offset=problem.settings.max_offset,
                              skip=problem.settings.skip)
             for log, run in zip(problem.logs, runs, strict=True)]
-
-
-def _stderr(fit: optimize.OptimizeResult, space: SysidSpace) -> np.ndarray:
-    """Standard errors: s^2 (J^T J)^-1 with s^2 = RSS / (m - n), mapped back from unit scale."""
-    jac = np.atleast_2d(fit.jac)
-    m, n = jac.shape
-    if m <= n:
-        return np.full(n, np.inf)
-    s2 = 2.0 * fit.cost / (m - n)
-    hessian = jac.T @ jac
-    try:
-        covariance = s2 * np.linalg.inv(hessian)
-    except np.linalg.LinAlgError:
-        return np.full(n, np.inf)
-    variance = np.diag(covariance)
-    return np.where(variance >= 0, np.sqrt(np.abs(variance)), np.inf) * (space.high - space.low)

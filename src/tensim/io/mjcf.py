@@ -23,7 +23,7 @@ from tensim._files import write_text
 from tensim.model import CompiledModel, compile_spec, without_cable_law
 
 _COMMENT = ("Written by tensim from structure {name!r}. Each cable is a spatial tendon plus a "
-            "tendon actuator (ctrl = -tension [N]); tensim computes the tension in a callback. "
+            "tendon actuator (ctrl = -tension [N]); tensim computes the tension in its cable law. "
             "{springs}")
 _SPRINGS = ("The tendon springs (stiffness, damping, springlength dead band [0, rest length]) "
             "stand in for the tension-only cable law, with the build-time rest lengths.")

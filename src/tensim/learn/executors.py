@@ -84,12 +84,15 @@ class ThreadBatchExecutor:
 
     A problem with ``evaluate_batch`` (a simulated gait) runs up to ``batch_size`` trials per
     call of the batch engine, its trials spread over ``workers`` threads; others run inline.
+    With ``engine="warp"`` a call is one MuJoCo Warp batch (one world per trial; a GPU holds
+    thousands, so the default batch size is a whole generation).
     """
 
-    backend = "threads"
-
-    def __init__(self, problem: Problem, workers: int, batch_size: int = 32):
-        self.problem, self.workers, self.batch_size = problem, max(1, workers), batch_size
+    def __init__(self, problem: Problem, workers: int, batch_size: int | None = None,
+                 engine: str = "cpu"):
+        self.problem, self.workers, self.engine = problem, max(1, workers), engine
+        self.batch_size = batch_size or (32 if engine == "cpu" else 4096)
+        self.backend = "threads" if engine == "cpu" else "warp"
 
     def run(self, tasks: Sequence[Task]) -> Iterator[Evaluation]:
         """Evaluates the tasks, a batch at a time."""
@@ -103,7 +106,7 @@ class ThreadBatchExecutor:
             start = time.perf_counter()
             try:
                 outcomes = evaluate([np.asarray(u, dtype=float) for _, u in chunk],
-                                    self.workers)
+                                    self.workers, self.engine)
             except Exception as err:  # the whole batch failed: try its trials one by one
                 log.warning("batch of %d trials failed (%s); running them one at a time",
                             len(chunk), err)
@@ -321,7 +324,8 @@ class RayExecutor:
 
 
 def make_executor(problem: Problem, workers: int, *, ray: bool = False,
-                  ray_address: str | None = None, processes: bool = False) -> Executor:
+                  ray_address: str | None = None, processes: bool = False,
+                  engine: str = "cpu") -> Executor:
     """The executor for the command line's choice.
 
     Args:
@@ -331,7 +335,12 @@ def make_executor(problem: Problem, workers: int, *, ray: bool = False,
         ray: run on Ray (a local one unless ``ray_address`` is given).
         ray_address: address of a running Ray cluster (implies ``ray``).
         processes: one trial per task on a local process pool instead of batches on threads.
+        engine: ``"cpu"`` or ``"warp"`` (MuJoCo Warp batches, ``tensim[gpu]``).
     """
+    if engine == "warp":
+        if ray or ray_address or processes:
+            raise ValueError("--backend warp runs in this process: drop --ray and --processes")
+        return ThreadBatchExecutor(problem, max(1, workers), engine="warp")
     if ray or ray_address:
         return RayExecutor(problem, ray_address, max(1, workers))
     if workers == 0:

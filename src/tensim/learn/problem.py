@@ -270,9 +270,11 @@ class TrialProblem:
             return Outcome(self.penalty, UNSTABLE, f"unstable: {err}")
         return self._score(TrialResult(result))
 
-    def evaluate_batch(self, units: Sequence[np.ndarray], threads: int) -> list[Outcome]:
+    def evaluate_batch(self, units: Sequence[np.ndarray], threads: int,
+                       backend: str = "cpu") -> list[Outcome]:
         """Simulates the trials of ``units`` as one batch on ``threads`` threads and scores
-        them; each outcome equals :meth:`evaluate`'s for the same point."""
+        them; on the ``"cpu"`` backend each outcome equals :meth:`evaluate`'s for the same
+        point (``"warp"``: one MuJoCo Warp world per trial, to float32 tolerance)."""
         compiled = self.compiled()
         outcomes: list[Outcome | None] = [None] * len(units)
         trials: list[Trial] = []
@@ -287,7 +289,7 @@ class TrialProblem:
             where.append(i)
         if trials:
             results = run_batch(compiled, trials, self.duration_s, threads=threads,
-                                record_dt=self.record_dt)
+                                record_dt=self.record_dt, backend=backend)
             k = len(self.physics)
             for j, i in enumerate(where):
                 outcomes[i] = self._combine([self._score(t) for t in results[j * k:(j + 1) * k]])

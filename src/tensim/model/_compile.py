@@ -17,7 +17,7 @@ import math
 import mujoco
 import numpy as np
 
-from tensim.structure import Cable, Structure, mass_properties
+from tensim.structure import Cable, Rod, Structure, mass_properties
 from tensim.structure._mass import MassProperties
 from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain
 
@@ -50,6 +50,13 @@ class WorldOptions:
             keep it >= 2 timesteps).
         terrain: the ground (``tensim.terrain``; flat by default); the robot is lifted onto it
             where it is higher than z = 0 under the robot. Needs ``ground``.
+        midphase: use MuJoCo's bounding-volume midphase in collision detection. Off by default:
+            with a few geoms per body it costs more than it saves, and the contacts it finds
+            are the same (the disturbance test runs bit-identical, 1.1x faster; docs/speed.md).
+        self_collision: the robot's rigid bodies collide with each other (MuJoCo's default).
+            ``False`` keeps only contacts with the ground: faster (1.2x for Tetraspine3, whose
+            neighbouring segments' capsules are tested every step and never touch in the
+            disturbance test), but it changes the physics wherever the robot's parts do touch.
     """
 
     timestep: float = 1e-3
@@ -59,6 +66,8 @@ class WorldOptions:
     thin_body: str = "regularize"
     contact_timeconst: float = 0.02
     terrain: Terrain = dataclasses.field(default_factory=Flat)
+    midphase: bool = False
+    self_collision: bool = True
 
     def __post_init__(self) -> None:
         if not 0 < self.timestep <= 0.05:
@@ -199,6 +208,10 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     spec.option.timestep = world.timestep
     spec.option.gravity = list(world.gravity)
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    if not world.midphase:
+        spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
+    # without self-collision a robot geom only meets geoms whose contype has bit 1 (the ground)
+    robot_contype = 1 if world.self_collision else 0
     spec.compiler.autolimits = True
     spec.worldbody.add_light(pos=[0, 0, 5], dir=[0, 0, -1])
     if world.ground:
@@ -230,6 +243,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
             body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                           fromto=np.concatenate(ends).tolist(), size=[rod.radius, 0, 0],
                           friction=[rod.friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
+                          contype=robot_contype, conaffinity=1,
                           solref=[world.contact_timeconst,
                                   _restitution_dampratio(rod.restitution)],
                           rgba=[0.25, 0.25, 0.3, 1])
@@ -242,7 +256,8 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
                 body.add_geom(name=f"mass_{node}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
                               pos=node_local[node].tolist(), size=[masses[node].radius, 0, 0],
                               friction=[friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
-                              contype=0 if covered else 1, conaffinity=0 if covered else 1,
+                              contype=0 if covered else robot_contype,
+                              conaffinity=0 if covered else 1,
                               solref=[world.contact_timeconst, 1.0],
                               rgba=[0.7, 0.45, 0.2, 1])
     for anchor in structure.nodes:
@@ -255,12 +270,16 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
         # anchor site, a site at each via node (MuJoCo pulls each along both spans), anchor site
         sites = [f"{cable.name}_0", *(f"{cable.name}_via{k}" for k in range(len(cable.via))),
                  f"{cable.name}_1"]
-        for site, node, point in zip(sites, cable.path, structure.cable_points(cable),
-                                     strict=True):
+        for k, (site, node, point) in enumerate(zip(sites, cable.path,
+                                                    structure.cable_points(cable), strict=True)):
             body = bodies[node_body[node]]
             local = point - (structure.position(node) - node_local[node])
             body.add_site(name=site, pos=local.tolist(), size=[0.002, 0, 0])
             tendon.wrap_site(site)
+            if k == 0:  # between the anchors: the rods the cable wraps around, in order
+                for rod in cable.wrap:
+                    tendon.wrap_geom(_wrap_geom(spec, bodies, rods[rod], node_body,
+                                                node_local), "")
     for cable in structure.cables:  # cable actuators first: ids 0..n_cables-1
         _add_cable_actuator(spec, cable, structure.rest_length(cable))
     _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
@@ -312,6 +331,18 @@ def without_cable_law(compiled: CompiledModel) -> mujoco.MjSpec:
 def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
     """Compiles a spec (see :func:`_compile_spec`)."""
     return _compile_spec(spec)
+
+
+def _wrap_geom(spec: mujoco.MjSpec, bodies: dict[str, mujoco.MjsBody], rod: Rod,
+               node_body: dict[str, str], node_local: dict[str, np.ndarray]) -> str:
+    """The invisible, contact-free cylinder of ``rod`` that cables wrap around (made once)."""
+    name = f"wrap_{rod.name}"
+    if spec.geom(name) is None:
+        ends = [node_local[n] for n in rod.nodes]
+        bodies[node_body[rod.nodes[0]]].add_geom(
+            name=name, type=mujoco.mjtGeom.mjGEOM_CYLINDER, fromto=np.concatenate(ends).tolist(),
+            size=[rod.radius, 0, 0], contype=0, conaffinity=0, group=5, rgba=[0, 0, 0, 0])
+    return name
 
 
 def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -> None:

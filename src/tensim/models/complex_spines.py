@@ -25,7 +25,6 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from tensim.structure import Cable, Motor, Node, Rod, Structure
 
@@ -136,6 +135,8 @@ def tetrahedral_complex(n_segments: int = 6) -> Structure:
 
 def _octa_vertebra(i: int) -> dict[str, np.ndarray]:
     """Vertebra i's nodes: built in the toolkit's frame with its turns, then mapped to ours."""
+    from scipy.spatial.transform import Rotation  # ~0.2 s to import: only for this preset
+
     centre = np.array([0.0, 0.0, -_OCTA_SPACING * i])
     turn = (Rotation.from_rotvec([math.pi / 4, 0.0, 0.0]) if i % 2 == 1
             else Rotation.from_rotvec([0.0, -math.pi / 4, 0.0]))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import itertools
 import math
 import time as _time
 from collections.abc import Callable, Sequence
@@ -36,6 +37,7 @@ from tensim.sim._simulation import (
 MAX_SAMPLES = 50_000_000  # trials x samples x channels a batch may hold in memory
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _BLOCK_STEPS = 2_000  # physics steps of inputs computed at once
+_MAX_STEP_CALLS = 3  # runs of constant inputs in a record stepped one Batch.step call each
 _RECORD = ("ten_length", "ten_velocity", "xpos", "xquat", "subtree_com", "act", "ctrl", "qvel",
            "actuator_force")
 
@@ -122,7 +124,8 @@ class _TrialSetup:
 def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float, *,
               threads: int = 1, record_dt: float = 0.01,
               limits: StabilityLimits | None = None,
-              progress: Callable[[float, float], None] | None = None) -> list[TrialResult]:
+              progress: Callable[[float, float], None] | None = None,
+              backend: str = "cpu", device: str | None = None) -> list[TrialResult]:
     """Runs ``trials`` of ``compiled`` for ``duration`` seconds each, ``threads`` at a time.
 
     Each trial is recorded like :func:`~tensim.sim.simulate` (same channels, same
@@ -137,9 +140,14 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         record_dt: recording period [s]; a whole number of physics steps.
         limits: the stability bounds.
         progress: called as progress(done_s, total_s) about every simulated second.
+        backend: ``"cpu"`` (MuJoCo's batch engine, bit-identical to single runs) or
+            ``"warp"`` (MuJoCo Warp, one world per trial, float32; ``tensim[gpu]``).
+        device: the Warp device for ``backend="warp"`` (None: a GPU if there is one).
 
     Raises:
-        ValueError: no trials, a bad duration or record_dt, or a batch too large to hold.
+        ValueError: no trials, a bad duration, record_dt or backend, or a batch too large to
+            hold.
+        ImportError: ``backend="warp"`` without MuJoCo Warp installed.
     """
     if not trials:
         raise ValueError("a batch needs at least one trial")
@@ -147,7 +155,8 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         raise ValueError(f"duration must be a finite number of seconds > 0, got {duration}")
     if threads < 1:
         raise ValueError(f"threads must be >= 1, got {threads}")
-    _law.install("compiled")
+    if backend not in ("cpu", "warp"):
+        raise ValueError(f"backend must be 'cpu' or 'warp', got {backend!r}")
     nodes = tuple(dict.fromkeys(ld.node for t in trials for ld in t.loads))
     compiled = compiled.with_load_nodes(nodes)
     dt = float(compiled.model.opt.timestep)
@@ -158,6 +167,13 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         raise ValueError(f"a batch of {len(trials)} trials x {n_samples + 1} samples would hold "
                          f"{size:.3g} recorded values (limit {MAX_SAMPLES:.0e}); run fewer "
                          "trials per batch or record less often (record_dt)")
+    if backend == "warp":
+        from tensim.sim._warp_batch import run_batch_warp
+
+        return run_batch_warp(compiled, trials, duration, record_steps=record_steps,
+                              n_samples=n_samples, limits=limits or StabilityLimits(),
+                              progress=progress, device=device)
+    _law.install("compiled")
     runner = _BatchRun(compiled, trials, threads, record_steps, limits or StabilityLimits())
     started = _time.perf_counter()
     runner.run(n_samples, duration, progress)
@@ -332,10 +348,10 @@ class _BatchRun:
 class _Block:
     """The inputs of a block of steps for the live trials, stepped a record at a time.
 
-    A record whose inputs stay constant for every trial is one ``Batch.step`` call (the
-    common case: commands change on their own period); otherwise ``Batch.rollout`` sets each
-    step's inputs. Trials MuJoCo raises on are marked failed (MuJoCo leaves them as they were
-    and runs the others to the end).
+    A record's runs of constant inputs (the common case: commands change on their own period)
+    are one ``Batch.step`` call each; where the inputs change more often, ``Batch.rollout``
+    sets each step's inputs. Trials MuJoCo raises on are marked failed (MuJoCo leaves them as
+    they were and runs the others to the end).
     """
 
     def __init__(self, run: _BatchRun, nstep: int):
@@ -351,14 +367,16 @@ class _Block:
         run, a = self.run, self.at
         rows = self.control[np.searchsorted(self.ids, live), a:a + nstep]
         self.at += nstep
+        cuts = [0, *(np.flatnonzero(self.change[a:a + nstep - 1]) + 1).tolist(), nstep]
         try:
-            if self.change[a:a + nstep - 1].any():
+            if len(cuts) > _MAX_STEP_CALLS + 1:  # inputs change often: set them step by step
                 out = run._buffers(live.size, nstep)
                 run.batch.rollout(nstep, rows, record=_RECORD, ids=live, out=out)
                 fields = {name: v[:, -1] for name, v in out.items()}
-            else:
-                run._bound["ctrl"][live] = rows[:, 0]  # a view of the state rows
-                run.batch.step(live, nstep)
+            else:  # a few runs of constant inputs: one Batch.step each
+                for start, stop in itertools.pairwise(cuts):
+                    run._bound["ctrl"][live] = rows[:, start]  # a view of the state rows
+                    run.batch.step(live, stop - start)
                 fields = {name: field[live] for name, field in run._bound.items()}
         except mjbatch.SimulationError as exc:
             run._fail(exc.ids)

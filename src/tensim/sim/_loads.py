@@ -33,7 +33,7 @@ class NodeLoad:
         object.__setattr__(self, "forces", forces)
 
     def force_at(self, t: float) -> np.ndarray:
-        """(3,) the force at time t [N], rounded exactly as the compiled callback computes it."""
+        """(3,) the force at time t [N], each row of :meth:`forces_at` the same."""
         times, forces = self.times, self.forces
         if t <= times[0]:
             return forces[0].copy()

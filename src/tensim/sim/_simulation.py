@@ -377,7 +377,7 @@ def simulate(compiled: CompiledModel, duration: float, *, controller: Controller
         controller: sets up the cable drive; None keeps every rest length where it is.
         loads: external node forces.
         record_dt: recording period [s].
-        backend: cable callback, ``"auto"``, ``"compiled"`` or ``"python"``.
+        backend: the cable law, ``"auto"``, ``"compiled"`` or ``"python"``.
         progress: called as progress(done_s, total_s) about every simulated second.
 
     Raises:

@@ -223,6 +223,10 @@ class Cable:
         motor: the motor's limits.
         tags: labels used to select cables.
         via: intermediate nodes the cable passes through, from ``nodes[0]`` to ``nodes[1]``.
+        wrap: rods the cable wraps around between its ends, in order: it follows the shortest
+            path over each (MuJoCo's cylinder wrapping) and the law acts on that length.
+            Needs ``rest_length`` (the wrapped build length is not known before compiling)
+            and no ``via`` nodes.
     """
 
     name: str
@@ -235,6 +239,7 @@ class Cable:
     motor: Motor = dataclasses.field(default_factory=Motor)
     tags: tuple[str, ...] = ()
     via: tuple[str, ...] = ()
+    wrap: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         item = f"cable {self.name!r}"
@@ -270,6 +275,17 @@ class Cable:
             raise StructureError("via must be a list of node names, got a single string",
                                  item=item)
         object.__setattr__(self, "via", _names(self.via, item, "via"))
+        if isinstance(self.wrap, str):
+            raise StructureError("wrap must be a list of rod names, got a single string",
+                                 item=item)
+        object.__setattr__(self, "wrap", _names(self.wrap, item, "wrap"))
+        if self.wrap:
+            _check(not self.via, item, "a cable either wraps around rods or runs through via "
+                   "nodes, not both")
+            _check(self.rest_length is not None, item, "a cable that wraps around rods needs "
+                   "rest_length [m] (its wrapped build length is only known once compiled)")
+            _check(len(set(self.wrap)) == len(self.wrap), item,
+                   f"wrap names a rod twice: {list(self.wrap)}")
         path = self.path
         for a, b in itertools.pairwise(path):
             _check(a != b, item, f"node {a!r} follows itself on the cable's path {list(path)}")

@@ -83,6 +83,14 @@ class Structure:
 
     def _check_cable(self, cable: Cable) -> None:
         item = f"cable {cable.name!r}"
+        rods = {r.name: r for r in self.rods}
+        for name in cable.wrap:
+            if name not in rods:
+                raise StructureError(f"wraps around unknown rod {name!r}; rods: {sorted(rods)}",
+                                     item=item)
+            if set(rods[name].nodes) & set(cable.nodes):
+                raise StructureError(f"wraps around rod {name!r}, on which it is anchored",
+                                     item=item)
         for a, b in itertools.pairwise(cable.path):
             if self.distance(a, b) <= 0:
                 what = "its two nodes coincide" if not cable.via else f"{a!r} and {b!r} coincide"

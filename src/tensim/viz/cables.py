@@ -11,11 +11,12 @@ tendon drawing is switched off so each cable is drawn once.
 from __future__ import annotations
 
 import dataclasses
+import itertools
+import math
 
 import matplotlib
 import mujoco
 import numpy as np
-from scipy.optimize import brentq
 
 from tensim.model import CompiledModel
 from tensim.viz._scene import add_connector
@@ -44,9 +45,24 @@ class TensionColors:
 
     @classmethod
     def for_model(cls, compiled: CompiledModel) -> TensionColors:
-        """Scaled to the strongest motor's tension limit (its cables cannot get much tauter)."""
+        """For a run not yet simulated: twice the highest tension at the start (the
+        pretension), rounded up to 1, 2 or 5 x 10^k N, and no more than the strongest motor's
+        tension limit; 50 N for a structure with no tension at the start.
+        """
+        data = mujoco.MjData(compiled.model)
+        mujoco.mj_fwdPosition(compiled.model, data)
+        length = data.ten_length[compiled.index.tendon]
+        start = compiled.stiffness * np.maximum(0.0, length - compiled.rest_length)
+        top = nice_ceiling(2 * float(start.max(initial=0.0))) if start.size else 50.0
         limits = compiled.max_tension[np.isfinite(compiled.max_tension)]
-        return cls(float(limits.max()) if limits.size else 50.0)
+        return cls(min(top or 50.0, float(limits.max())) if limits.size else top or 50.0)
+
+    @classmethod
+    def for_run(cls, tension: np.ndarray) -> TensionColors:
+        """Scaled to a recorded run: its highest tension [N], rounded up to 1, 2 or 5 x 10^k N
+        (50 N when no cable was ever taut)."""
+        top = float(np.nanmax(tension, initial=0.0))
+        return cls(nice_ceiling(top) if top > 0 else 50.0)
 
     def rgba(self, tension: np.ndarray) -> np.ndarray:
         """(n, 4) colours for (n,) tensions [N]: grey where slack (tension <= 0)."""
@@ -68,6 +84,15 @@ class TensionColors:
                 "grey dashed: slack")
 
 
+def nice_ceiling(value: float) -> float:
+    """The smallest of 1, 2, 2.5, 5 x 10^k at or above ``value`` (> 0); 0 for 0."""
+    if value <= 0:
+        return 0.0
+    decade = 10.0 ** math.floor(math.log10(value))
+    return next(step * decade for step in (1.0, 2.0, 2.5, 5.0, 10.0)
+                if step * decade >= value * (1 - 1e-12))
+
+
 def sag_depth(span: np.ndarray, length: np.ndarray) -> np.ndarray:
     """Depth of a parabola of arc length ``length`` hung over ``span`` [m] (0 where taut).
 
@@ -75,6 +100,8 @@ def sag_depth(span: np.ndarray, length: np.ndarray) -> np.ndarray:
     L = sqrt(x² + 16 h²) / 2 + x² / (8 h) asinh(4 h / x); it grows with h, so each depth is
     the root of L(h) = length.
     """
+    from scipy.optimize import brentq  # ~0.3 s to import: only once a cable hangs slack
+
     span, length = np.broadcast_arrays(np.asarray(span, float), np.asarray(length, float))
     depth = np.zeros(span.shape)
     for i in np.flatnonzero(length > span * (1 + 1e-9)):
@@ -130,11 +157,15 @@ class CableArtist:
         self.sites = np.array([[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, f"{c}_{end}")
                                 for end in (0, 1)] for c in compiled.index.cables],
                               dtype=int).reshape(-1, 2)
+        self.tendons = np.asarray(compiled.index.tendon, dtype=int)
+        # a routed or wrapped cable: one piece per span (each wrap adds up to 2 points)
+        spans = [len(c.via) + 2 * len(c.wrap) + 1 for c in compiled.structure.cables]
+        self._most = sum(max(s, self.segments // 2 + 1) for s in spans)
 
     @property
     def max_geoms(self) -> int:
         """The most geoms one :meth:`draw` adds."""
-        return len(self.sites) * (self.segments // 2 + 1)
+        return self._most
 
     def draw(self, scene: mujoco.MjvScene, data: mujoco.MjData, tension: np.ndarray,
              rest_length: np.ndarray) -> None:
@@ -147,8 +178,14 @@ class CableArtist:
             rest_length: (n_cables,) motor rest lengths [m]: a slack cable's length.
         """
         colors = self.colors.rgba(tension)
-        for i, (a, b) in enumerate(self.sites):
-            start, end = data.site_xpos[a], data.site_xpos[b]
+        for i in range(len(self.sites)):
+            path = self._path(data, i)
+            start, end = path[0], path[-1]
+            if len(path) > 2:  # routed through via nodes or wrapped around rods: its real path
+                width = self.width if tension[i] > 0 else 0.5 * self.width
+                for p, q in itertools.pairwise(path):
+                    add_connector(scene, _CAPSULE, width, p, q, colors[i])
+                continue
             if tension[i] > 0 or np.linalg.norm(end - start) >= rest_length[i]:
                 add_connector(scene, _CAPSULE, self.width, start, end, colors[i])
                 continue
@@ -156,6 +193,14 @@ class CableArtist:
             for k in range(0, self.segments, 2):
                 add_connector(scene, _CAPSULE, 0.5 * self.width, curve[k], curve[k + 1],
                               colors[i])
+
+    def _path(self, data: mujoco.MjData, i: int) -> np.ndarray:
+        """(k, 3) the points cable i runs through now: anchors, via sites, wrap tangent points."""
+        t = self.tendons[i]
+        adr, num = data.ten_wrapadr[t], data.ten_wrapnum[t]
+        if num < 2:
+            return np.stack([data.site_xpos[self.sites[i, 0]], data.site_xpos[self.sites[i, 1]]])
+        return data.wrap_xpos.reshape(-1, 3)[adr:adr + num]
 
 
 def hide_model_tendons(option: mujoco.MjvOption) -> None:

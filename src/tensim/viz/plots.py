@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -10,6 +11,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
@@ -17,16 +19,60 @@ from tensim._files import atomic_path
 from tensim.control.velocity_table import VelocityTable
 from tensim.sim import TimeSeries
 
+# A panel is about 500 pixels wide at the saved resolution: a line with more samples than
+# this draws the same picture from the minimum and maximum of each group of samples.
+MAX_POINTS = 1200
+SETTLE_S = 0.2  # the y axis ignores commanded tensions before this: the start-up transient [s]
+
+
+@dataclasses.dataclass(frozen=True)
+class Span:
+    """A shaded time span of a tension plot: ``start`` to ``stop`` [s], named in the legend."""
+
+    start: float
+    stop: float
+    label: str
+    alpha: float = 0.12
+    color: str = "tab:orange"
+
+
+def thin(x: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS
+         ) -> tuple[np.ndarray, np.ndarray]:
+    """``(x, y)`` reduced to at most about ``max_points`` samples that draw the same line.
+
+    The samples are cut into groups; each keeps its smallest and largest ``y`` in time order
+    (plus the first and last sample), so every peak and trough of the line survives.
+    """
+    n = y.size
+    if n <= max_points:
+        return x, y
+    size = math.ceil(2 * n / max_points)
+    whole = n - n % size
+    groups = y[:whole].reshape(-1, size)
+    base = np.arange(0, whole, size)
+    keep = np.concatenate([[0], base + np.nanargmin(groups, axis=1),
+                           base + np.nanargmax(groups, axis=1), np.arange(whole, n), [n - 1]])
+    keep = np.unique(keep)
+    return x[keep], y[keep]
+
 
 def _cable_panels(cables: Sequence[str], columns: int, ylabel: str, height: float,
-                  draw: Callable[[Axes, str], None]) -> Figure:
-    """A grid with one panel per cable, drawn by ``draw(ax, cable)``, labelled and tidied."""
+                  draw: Callable[[Axes, str], None], title: str = "") -> Figure:
+    """A grid with one panel per cable, drawn by ``draw(ax, cable)``, labelled and laid out.
+
+    The margins are fixed in inches (no automatic layout pass, which cost a second a figure).
+    """
     rows = math.ceil(len(cables) / columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, height * rows), sharex=True,
+    header = 0.85 if "\n" in title else 0.65 if title else 0.35  # title and panel titles [in]
+    width, fig_height = 4.2 * columns, height * rows + header
+    fig, axes = plt.subplots(rows, columns, figsize=(width, fig_height), sharex=True,
                              squeeze=False)
+    fig.subplots_adjust(left=0.62 / width, right=1 - 0.15 / width, bottom=0.5 / fig_height,
+                        top=1 - header / fig_height,
+                        wspace=0.75 / 4.2, hspace=0.55 / height)
     for ax, name in zip(axes.flat, cables, strict=False):
         draw(ax, name)
-        ax.set_title(name, fontsize=9)
+        ax.set_title(name, fontsize=9, pad=3, y=1.0)  # a fixed y skips a costly layout pass
         ax.set_ylabel(ylabel, fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
@@ -34,14 +80,30 @@ def _cable_panels(cables: Sequence[str], columns: int, ylabel: str, height: floa
         ax.set_visible(False)
     for ax in axes[-1]:
         ax.set_xlabel("time [s]", fontsize=8)
-    axes.flat[0].legend(fontsize=7, loc="best")
+    if axes.flat[0].get_legend_handles_labels()[0]:
+        axes.flat[0].legend(fontsize=7, loc="best")
+    if title:
+        fig.suptitle(title, fontsize=11)
     return fig
+
+
+def _commanded(series: TimeSeries, name: str) -> np.ndarray | None:
+    """The cable's commanded tension T_set, or None where it had no impedance law (NaN)."""
+    channel = f"setpoint/{name}"
+    if channel not in series.channels:
+        return None
+    values = series[channel]
+    return values if np.isfinite(values).any() else None
 
 
 def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
                         title: str = "", columns: int = 3,
-                        shade: tuple[float, float] | None = None) -> Path:
+                        spans: Sequence[Span] = ()) -> Path:
     """One panel per cable: measured (load-cell) tension, and the commanded tension T_set.
+
+    The measured line is drawn over the commanded one. The y axis spans the measured tension
+    and the commanded one after :data:`SETTLE_S` (the first steps' setpoints, while the robot
+    settles, can be several times larger and are clipped).
 
     Args:
         series: a recorded run.
@@ -49,37 +111,44 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
         cables: which cables, in panel order (all by default).
         title: figure title.
         columns: panels per row.
-        shade: (start, stop) time span to shade, e.g. when an external force acts [s].
+        spans: time spans to shade, e.g. when an external force acts.
     """
+    t = series.time
+    later = t >= min(SETTLE_S, float(t[-1]))
 
     def draw(ax: Axes, name: str) -> None:
-        ax.plot(series.time, series[f"tension/{name}"], color="black", lw=1.0, label="measured")
-        setpoint = f"setpoint/{name}"
-        if setpoint in series.channels:
-            ax.plot(series.time, series[setpoint], color="tab:blue", lw=0.8, ls="--",
-                    label="commanded")
-        if shade is not None:
-            ax.axvspan(*shade, color="tab:orange", alpha=0.12, lw=0)
+        measured = series[f"tension/{name}"]
+        commanded = _commanded(series, name)
+        low, high = float(np.nanmin(measured)), float(np.nanmax(measured))
+        if commanded is not None:
+            ax.plot(*thin(t, commanded), color="tab:blue", lw=1.2, alpha=0.7, ls="--",
+                    label="commanded", zorder=2)
+            low = min(low, float(np.nanmin(commanded[later])))
+            high = max(high, float(np.nanmax(commanded[later])))
+        ax.plot(*thin(t, measured), color="black", lw=0.8, label="measured", zorder=3)
+        for span in spans:
+            ax.axvspan(span.start, span.stop, color=span.color, alpha=span.alpha, lw=0,
+                       label=span.label)
+        margin = 0.05 * (high - low) or 0.5
+        ax.set_ylim(low - margin, high + margin)
 
     fig = _cable_panels(list(cables or series.items("tension")), columns, "tension [N]", 2.4,
-                        draw)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
+                        draw, title)
     return save_figure(fig, path)
 
 
 def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
-                 columns: int = 3) -> Path:
+                 columns: int = 3, title: str = "Cable length and motor rest length") -> Path:
     """One panel per cable: anchor-to-anchor length and motor rest length [m]."""
+    t = series.time
 
     def draw(ax: Axes, name: str) -> None:
-        ax.plot(series.time, series[f"length/{name}"], color="black", lw=1.0, label="length")
-        ax.plot(series.time, series[f"rest_length/{name}"], color="tab:red", lw=0.8,
+        ax.plot(*thin(t, series[f"rest_length/{name}"]), color="tab:red", lw=0.8,
                 label="rest length")
+        ax.plot(*thin(t, series[f"length/{name}"]), color="black", lw=0.8, label="length")
 
-    fig = _cable_panels(list(cables or series.items("length")), columns, "[m]", 2.2, draw)
-    fig.tight_layout()
+    fig = _cable_panels(list(cables or series.items("length")), columns, "length [m]", 2.2,
+                        draw, title)
     return save_figure(fig, path)
 
 
@@ -97,13 +166,15 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str], title: str =
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.17, right=0.96, bottom=0.11, top=0.93)  # room for the labels
     return save_figure(fig, path)
 
 
 def plot_velocity_input(table: VelocityTable, path: Path, *,
                         cables: Sequence[str] | None = None, columns: int = 3,
-                        until: float | None = None) -> Path:
+                        until: float | None = None,
+                        title: str = "Target cable velocity V* sent to each impedance "
+                                     "controller") -> Path:
     """One panel per cable: the target velocity V* it was commanded (held between samples)."""
     stop = table.values.shape[0] if until is None else min(
         table.values.shape[0], int(until / table.period + 1e-9) + 1)
@@ -115,8 +186,7 @@ def plot_velocity_input(table: VelocityTable, path: Path, *,
         ax.axhline(0.0, color="black", lw=0.5)
 
     chosen = [c for c in (cables or table.cables) if c in table.cables]
-    fig = _cable_panels(chosen, columns, "V* [mm/s]", 2.0, draw)
-    fig.tight_layout()
+    fig = _cable_panels(chosen, columns, "V* [mm/s]", 2.0, draw, title)
     return save_figure(fig, path)
 
 

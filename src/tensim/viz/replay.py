@@ -2,9 +2,10 @@
 
 A run folder's ``trajectory.parquet`` holds each rigid body's position and orientation
 (``pos_x/<body>`` ... ``quat_z/<body>``, MuJoCo body names) and each cable's tension and rest
-length; ``summary.json`` names the model. A recorded pose is written into the free joints'
-``qpos`` and MuJoCo's position stage (``mj_fwdPosition``: kinematics, centre of mass, tendon
-paths) places everything for drawing.
+length; ``structure.yaml`` is the robot as it ran (older folders: the model ``summary.json``
+names) and ``summary.json`` holds its world (time step, terrain, contact and engine options).
+A recorded pose is written into the free joints' ``qpos`` and MuJoCo's position stage
+(``mj_fwdPosition``: kinematics, centre of mass, tendon paths) places everything for drawing.
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ import numpy as np
 
 from tensim._input import InputError, load_json, read_text
 from tensim.model import CompiledModel, WorldOptions, compile_structure
+from tensim.runs import STRUCTURE_FILE
 from tensim.sim import TimeSeries
-from tensim.structure import Structure
+from tensim.structure import Structure, load_structure
 
 _POSE = ("pos_x", "pos_y", "pos_z", "quat_w", "quat_x", "quat_y", "quat_z")
 
@@ -114,7 +116,9 @@ def recorded_run(folder: Path, summary: dict[str, Any], series: TimeSeries) -> R
     if not isinstance(name, str):
         raise RunFolderError(f"{folder / 'summary.json'}: field 'model' (the preset or structure "
                              "file the run used) is missing")
-    compiled = compile_structure(model_structure(name, folder), _world(summary, folder))
+    recorded = folder / STRUCTURE_FILE
+    structure = load_structure(recorded) if recorded.is_file() else model_structure(name, folder)
+    compiled = compile_structure(structure, _world(summary, folder))
     missing = [f"{q}/{body}" for body in compiled.index.bodies for q in _POSE
                if f"{q}/{body}" not in series.channels]
     if missing:
@@ -125,14 +129,24 @@ def recorded_run(folder: Path, summary: dict[str, Any], series: TimeSeries) -> R
 
 
 def _world(summary: dict[str, Any], folder: Path) -> WorldOptions:
-    """The run's world: its physics step and, where the summary names one, its terrain.
+    """The run's world from the summary's fields (:func:`tensim.runs.world_record`); fields a
+    summary lacks (folders written before they were recorded) keep their defaults.
 
     Raises:
-        RunFolderError: the summary's terrain cannot be parsed.
+        RunFolderError: a field cannot be read back.
     """
     from tensim.terrain import TerrainError, parse_terrain
 
-    world = WorldOptions(timestep=float(summary.get("dt_s", WorldOptions().timestep)))
+    defaults = WorldOptions()
+    try:
+        world = WorldOptions(
+            timestep=float(summary.get("dt_s", defaults.timestep)),
+            contact_timeconst=float(summary.get("contact_timeconst_s",
+                                                defaults.contact_timeconst)),
+            midphase=bool(summary.get("midphase", defaults.midphase)),
+            self_collision=bool(summary.get("self_collision", defaults.self_collision)))
+    except (TypeError, ValueError) as err:
+        raise RunFolderError(f"{folder / 'summary.json'}: {err}") from err
     text = summary.get("terrain")
     if not isinstance(text, str) or not text:
         return world

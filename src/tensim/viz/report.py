@@ -98,6 +98,12 @@ def _figures(out: Path, summary: dict[str, Any], series: TimeSeries | None) -> l
             plot_lengths(series, out / "lengths.png")
         if series.items("pos_x") and not (out / "path.png").exists():
             plot_path(series, out / "path.png", series.items("pos_x"))
+    return figure_names(out, summary)
+
+
+def figure_names(out: Path, summary: dict[str, Any]) -> list[str]:
+    """The folder's figures in page order: the summary's ``figures`` first, then the standard
+    ones, then any others (the rendered frame.png is not among them)."""
     listed = [str(f) for f in summary.get("figures", []) if isinstance(f, str)]
     standard = ["tensions.png", "lengths.png", "path.png"]
     others = sorted(p.name for p in out.glob("*.png") if p.name != "frame.png")
@@ -111,6 +117,7 @@ def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
     import matplotlib.pyplot as plt
 
     from tensim.viz._gl import OffscreenUnavailable
+    from tensim.viz.cables import TensionColors
     from tensim.viz.render import OffscreenRenderer
     from tensim.viz.replay import PoseReplay, RunFolderError, recorded_run
 
@@ -118,7 +125,8 @@ def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
         backend.result()
         replay = PoseReplay(recorded_run(out, summary, series))
         k = replay.time.size - 1
-        with OffscreenRenderer(replay.compiled) as renderer:
+        colors = TensionColors.for_run(replay.tension)
+        with OffscreenRenderer(replay.compiled, colors=colors) as renderer:
             image = renderer.render(replay.place(k), replay.tension[k], replay.rest_length[k],
                                     f"t = {replay.time[k]:.2f} s")
     except (OffscreenUnavailable, RunFolderError) as err:

@@ -38,7 +38,8 @@ class VideoSettings:
         view: the camera.
         shadows: shadows and reflections (slow with software OpenGL).
         crf: x264 quality, 0 (lossless) to 51; 23 is FFmpeg's default.
-        colors: the tension colour map (None: scaled to the strongest motor).
+        colors: the tension colour map (None: scaled to the run's highest tension, or for a
+            fresh simulation to twice the pretension; see :class:`TensionColors`).
     """
 
     fps: int = 60
@@ -180,7 +181,10 @@ def render_run(run: RecordedRun, path: Path, settings: VideoSettings | None = No
         OffscreenUnavailable: no offscreen OpenGL backend works here.
     """
     settings = settings or VideoSettings()
+    replay = PoseReplay(run)
+    if settings.colors is None:  # the colour scale spans the run's own tensions
+        settings = dataclasses.replace(settings, colors=TensionColors.for_run(replay.tension))
     with settings.renderer(run.compiled) as renderer:
-        frames = replay_frames(PoseReplay(run), renderer, settings.fps, span, progress)
+        frames = replay_frames(replay, renderer, settings.fps, span, progress)
         count = write_video(frames, path, settings.fps, settings.crf)
         return VideoResult(Path(path), count, settings.fps, renderer.backend)

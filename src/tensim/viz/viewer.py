@@ -63,6 +63,8 @@ class ViewerSession:
     def __init__(self, compiled: CompiledModel, *, controller: Controller | None = None,
                  loads: Sequence[NodeLoad] = (), colors: TensionColors | None = None,
                  pacer: Pacer | None = None):
+        # the model with the loads' force inputs, so the window's data matches the simulation's
+        compiled = compiled.with_load_nodes(tuple(ld.node for ld in loads))
         self.compiled, self.controller, self.loads = compiled, controller, tuple(loads)
         self.model = compiled.model
         self.artist = CableArtist(compiled, colors)
@@ -85,7 +87,7 @@ class ViewerSession:
         self.sim = self._start()
 
     def close(self) -> None:
-        """Detaches the simulation's cable callback."""
+        """Closes the simulation."""
         self.sim.close()
 
     def frame(self, window: Window) -> int:
@@ -103,7 +105,7 @@ class ViewerSession:
             self.artist.draw(scene, self.data, drive.tension, drive.rest)
         window.set_texts(self.texts())
         window.sync()  # the viewer writes the mouse push (or zeros) into self.data.xfrc_applied
-        # the push acts until the next frame; the cable callback rewrites its load bodies' rows
+        # the push acts until the next frame (scheduled node loads are ctrl inputs, apart)
         self.sim.data.xfrc_applied[:] = self.data.xfrc_applied
         return steps
 

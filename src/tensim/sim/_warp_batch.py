@@ -1,0 +1,243 @@
+"""Batches on MuJoCo Warp: one world per trial, on a GPU or on Warp's CPU device.
+
+The same trials as :func:`tensim.sim.run_batch`: each world gets its trial's law parameters
+and friction as per-world model fields, its commands through ``ctrl``, and is recorded into the
+same channels. The cable law runs as a Warp kernel in MuJoCo Warp's step
+(:mod:`tensim.sim._warp_law`). MuJoCo Warp computes in float32 and its constraint solver is
+its own, so a world agrees with the CPU engine to a tolerance, not bit for bit (see
+``docs/gpu.md``). Not yet here: per-trial compiled models and mass scaling (they need MuJoCo
+Warp's ``set_const`` per world), and CUDA graph capture of the record loop.
+"""
+
+from __future__ import annotations
+
+import copy
+import time as _time
+from collections.abc import Callable, Sequence
+
+import mujoco
+import numpy as np
+
+from tensim.model import BUILD_KEY, CompiledModel
+from tensim.sim._batch import (
+    PhysicsScale,
+    Trial,
+    TrialResult,
+    _check_state,
+    _scale,
+    _TrialSetup,
+)
+from tensim.sim._drive import CableDrive, InputPlan
+from tensim.sim._samples import SampleBuffers, sample_channels
+from tensim.sim._simulation import SimulationResult, StabilityLimits, diagnose
+
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+_PER_WORLD = ("actuator_dynprm", "actuator_biasprm", "geom_friction")
+
+
+def warp_available() -> bool:
+    """Whether MuJoCo Warp (the ``tensim[gpu]`` extra) is installed."""
+    try:
+        import warp
+
+        warp.config.quiet = True  # before MuJoCo Warp initialises Warp: no banner
+        import mujoco_warp  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def run_batch_warp(compiled: CompiledModel, trials: Sequence[Trial], duration: float, *,
+                   record_steps: int, n_samples: int, limits: StabilityLimits,
+                   progress: Callable[[float, float], None] | None = None,
+                   device: str | None = None, njmax: int = 256, nconmax: int = 64
+                   ) -> list[TrialResult]:
+    """:func:`tensim.sim.run_batch` with ``backend="warp"`` (see there; ``compiled`` already
+    has every trial's load nodes).
+
+    Args:
+        device: the Warp device (None: Warp's default, a GPU when there is one).
+        njmax, nconmax: constraint rows and contacts MuJoCo Warp allocates per world.
+
+    Raises:
+        ImportError: MuJoCo Warp is not installed.
+        ValueError: a trial the Warp backend cannot run (its own compiled model, a mass
+            scale, a mix of fresh and restored initial states).
+    """
+    if not warp_available():
+        raise ImportError("the warp backend needs MuJoCo Warp: pip install 'tensim[gpu]'")
+    import warp as wp
+
+    for i, trial in enumerate(trials):
+        if trial.compiled is not None and trial.compiled is not compiled:
+            raise ValueError(f"trial {i}: per-trial compiled models are not supported on the "
+                             "warp backend; use PhysicsScale multipliers")
+        if trial.physics.mass != PhysicsScale().mass:
+            raise ValueError(f"trial {i}: mass scaling is not supported on the warp backend")
+    restored = {t.initial_state is not None for t in trials}
+    if len(restored) > 1:
+        raise ValueError("on the warp backend either every trial or none has an initial state")
+    with wp.ScopedDevice(device):
+        run = _WarpRun(compiled, trials, record_steps, limits, njmax, nconmax)
+        started = _time.perf_counter()
+        run.run(n_samples, duration, progress, fresh=not restored.pop())
+        wall = _time.perf_counter() - started
+    return run.results(duration, wall)
+
+
+class _WarpRun:
+    """The state of one Warp batch."""
+
+    def __init__(self, compiled: CompiledModel, trials: Sequence[Trial], record_steps: int,
+                 limits: StabilityLimits, njmax: int, nconmax: int):
+        import mujoco_warp as mjw
+
+        from tensim.sim._warp_law import install_warp_law, warp_host_model
+
+        self.compiled, self.trials, self.limits = compiled, trials, limits
+        self.record_steps, self.dt = record_steps, float(compiled.model.opt.timestep)
+        n = len(trials)
+        self.error: list[str | None] = [None] * n
+        self.models = [copy.copy(compiled.model) for _ in trials]
+        self.plans = [self._setup(i, t) for i, t in enumerate(trials)]
+        host = warp_host_model(compiled.model)
+        data = mujoco.MjData(host)
+        mujoco.mj_resetDataKeyframe(host, data, host.key(BUILD_KEY).id)
+        self.m = mjw.put_model(host, batch_sizes=dict.fromkeys(_PER_WORLD, n))
+        for name in _PER_WORLD:
+            getattr(self.m, name).assign(np.stack([getattr(m, name) for m in self.models]))
+        install_warp_law(self.m)
+        self.d = mjw.put_data(host, data, nworld=n, nconmax=nconmax, njmax=njmax)
+        self._restore(host, trials)
+        self._step = mjw.step
+        self.samples = SampleBuffers.empty(compiled, 0, (n,))
+        self.count = np.zeros(n, dtype=int)
+        self.steps = np.zeros(n, dtype=np.int64)
+
+    def _setup(self, i: int, trial: Trial) -> InputPlan | None:
+        model, n = self.models[i], self.compiled.n_cables
+        drive = CableDrive(self.compiled, model)
+        try:
+            _scale(self.compiled, model, trial.physics)
+            if trial.controller is not None:
+                trial.controller.configure(_TrialSetup(self.compiled, drive, self.dt))
+            bad = ~np.isfinite(model.actuator_dynprm[:n]).all(axis=1) | \
+                ~np.isfinite(model.actuator_biasprm[:n]).all(axis=1)
+            if bad.any():
+                cable = self.compiled.index.cables[int(np.argmax(bad))]
+                raise ValueError(f"cable {cable!r} has non-finite law parameters")
+            if trial.initial_state is not None:
+                _check_state(model, trial.initial_state)
+            return InputPlan(drive, trial.loads, self.compiled)
+        except (ValueError, KeyError, TypeError) as exc:
+            self.error[i] = f"trial {i}: {exc}"
+            # a failed trial's world still steps (worlds cannot be left out): keep it harmless
+            self.models[i] = copy.copy(self.compiled.model)
+            return None
+
+    def _restore(self, host: mujoco.MjModel, trials: Sequence[Trial]) -> None:
+        """Each world's initial state (the build keyframe, or the trial's own)."""
+        fields = ("qpos", "qvel", "act", "qacc_warmstart")
+        rows: dict[str, list[np.ndarray]] = {f: [] for f in fields}
+        times = []
+        data = mujoco.MjData(host)
+        for trial in trials:
+            mujoco.mj_resetDataKeyframe(host, data, host.key(BUILD_KEY).id)
+            if trial.initial_state is not None and trial.initial_state.shape == (
+                    mujoco.mj_stateSize(host, _STATE),):
+                mujoco.mj_setState(host, data, trial.initial_state, _STATE)
+            for f in fields:
+                rows[f].append(getattr(data, f).copy())
+            times.append(data.time)
+        for f in fields:
+            getattr(self.d, f).assign(np.stack(rows[f]))
+        self.d.time.assign(np.array(times))
+        self.steps = np.rint(np.array(times) / self.dt).astype(np.int64)
+
+    # -- stepping ----------------------------------------------------------------------------
+
+    def _control(self, first: np.ndarray, count: int) -> np.ndarray:
+        """(n, count, nu) every world's inputs; failed trials hold zeros."""
+        out = np.zeros((len(self.trials), count, self.compiled.model.nu))
+        for i, plan in enumerate(self.plans):
+            if plan is not None:
+                out[i] = plan.control(int(first[i]), count)
+        return out
+
+    def _advance(self, control: np.ndarray) -> None:
+        """Steps every world through ``control``'s rows, one ``mjw.step`` per step."""
+        import warp as wp
+
+        ctrl = self.d.ctrl
+        for k in range(control.shape[1]):
+            if k == 0 or (control[:, k] != control[:, k - 1]).any():
+                ctrl.assign(control[:, k])
+            self._step(self.m, self.d)
+        wp.synchronize()
+        self.steps += control.shape[1]
+
+    def run(self, n_samples: int, duration: float,
+            progress: Callable[[float, float], None] | None, fresh: bool) -> None:
+        self.samples = SampleBuffers.empty(self.compiled, n_samples + 1, (len(self.trials),))
+        if fresh:
+            self._advance(self._control(self.steps, 1))  # the motor update at t = 0
+        else:
+            import mujoco_warp as mjw
+
+            mjw.forward(self.m, self.d)
+        self._take()
+        every = max(1, round(1.0 / (self.record_steps * self.dt)))
+        for k in range(n_samples):
+            self._advance(self._control(self.steps, self.record_steps))
+            self._take()
+            self._check()
+            if progress is not None and (k + 1) % every == 0:
+                progress((k + 1) * self.record_steps * self.dt, duration)
+
+    def _take(self) -> None:
+        d, s, index, n = self.d, self.samples, self.compiled.index, self.compiled.n_cables
+        live = np.array([e is None for e in self.error])
+        k = self.count[live]
+        fields = {name: getattr(d, name).numpy()[live] for name in
+                  ("ten_length", "ten_velocity", "act", "ctrl", "xpos", "xquat", "subtree_com")}
+        ids = np.flatnonzero(live)
+        s.time[ids, k] = (self.steps[live] - 1) * self.dt
+        s.length[ids, k] = fields["ten_length"][:, index.tendon]
+        s.velocity[ids, k] = fields["ten_velocity"][:, index.tendon]
+        s.rest[ids, k] = fields["act"][:, 0:2 * n:2]
+        s.command[ids, k] = fields["ctrl"][:, :n]
+        s.pos[ids, k, :-1] = fields["xpos"][:, index.body]
+        s.pos[ids, k, -1] = fields["subtree_com"][:, 0]
+        s.quat[ids, k] = fields["xquat"][:, index.body]
+        self.count[live] += 1
+
+    def _check(self) -> None:
+        n = self.compiled.n_cables
+        qvel, force = self.d.qvel.numpy(), self.d.actuator_force.numpy()
+        speed = np.nan_to_num(np.abs(qvel), nan=np.inf).max(axis=1)
+        pull = np.nan_to_num(-force[:, :n], nan=np.inf).max(axis=1, initial=0.0)
+        for i in np.flatnonzero(~((speed < self.limits.max_speed)
+                                  & (pull < self.limits.max_tension))):
+            if self.error[i] is not None:
+                continue
+            d = mujoco.MjData(self.compiled.model)
+            d.qvel[:], d.actuator_force[:] = qvel[i], force[i]
+            time = float(self.samples.time[i, self.count[i] - 1])
+            self.error[i] = f"trial {i}: " + diagnose(self.compiled.model, d,
+                                                      self.compiled.index, self.limits, time,
+                                                      False)
+
+    def results(self, duration: float, wall: float) -> list[TrialResult]:
+        n, index = self.compiled.n_cables, self.compiled.index
+        peak = self.d.act.numpy()[:, 1:2 * n:2].astype(float)
+        out = []
+        for i, model in enumerate(self.models):
+            if self.error[i] is not None:
+                out.append(TrialResult(None, self.error[i]))
+                continue
+            series = sample_channels(self.samples.trial(i).head(int(self.count[i])), index,
+                                     model.actuator_dynprm[:n], model.actuator_biasprm[:n])
+            out.append(TrialResult(SimulationResult(series, peak[i].copy(),
+                                                    wall / len(self.models), duration,
+                                                    self.dt, index.cables)))
+        return out

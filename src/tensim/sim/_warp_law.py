@@ -1,0 +1,130 @@
+"""The cable law as a Warp kernel for MuJoCo Warp (the optional ``tensim[gpu]`` extra).
+
+MuJoCo Warp calls a model's ``act_dyn`` callback once per step for all worlds, after its own
+actuator stage; :func:`install_warp_law` sets it to launch :func:`cable_law` over worlds x
+actuators. The kernel is the law of ``_cable.c`` and :mod:`tensim.sim._laws`, operation for
+operation, on the same layout (rest length and peak tension in ``act``, the command in
+``ctrl``, the parameters in ``actuator_dynprm``/``actuator_biasprm``, per world where MuJoCo
+Warp holds them per world), so a batch moves between the CPU engine and the GPU unchanged. It
+writes the motor rates into ``act_dot`` and the cable force into ``actuator_force``
+(MuJoCo Warp leaves user actuators at zero force for this callback to fill). MuJoCo Warp
+computes in float32.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import mujoco
+import warp as wp
+from mujoco_warp._src.types import vec10  # the type of MuJoCo Warp's actuator parameters
+
+from tensim.model import CABLE_MARKER
+
+_MARKER = wp.constant(float(CABLE_MARKER))
+_IMPEDANCE = wp.constant(1.0)
+
+
+@wp.kernel(module="unique", enable_backward=False)
+def cable_law(
+    opt_timestep: wp.array(dtype=float),
+    actuator_dynprm: wp.array2d(dtype=vec10),
+    actuator_biasprm: wp.array2d(dtype=vec10),
+    actuator_actadr: wp.array(dtype=int),
+    actuator_actnum: wp.array(dtype=int),
+    actuator_ctrladr: wp.array(dtype=int),
+    actuator_trnid: wp.array(dtype=wp.vec2i),
+    ten_length: wp.array2d(dtype=float),
+    ten_velocity: wp.array2d(dtype=float),
+    act: wp.array2d(dtype=float),
+    ctrl: wp.array2d(dtype=float),
+    act_dot: wp.array2d(dtype=float),
+    actuator_force: wp.array2d(dtype=float),
+):
+    """One cable of one world: motor step, peak, and the tension-only force (eq. 1-3)."""
+    world, i = wp.tid()
+    p = actuator_dynprm[world % actuator_dynprm.shape[0], i]
+    if p[0] != _MARKER or actuator_actnum[i] != 2:
+        return
+    b = actuator_biasprm[world % actuator_biasprm.shape[0], i]
+    dt = opt_timestep[world % opt_timestep.shape[0]]
+    tendon = actuator_trnid[i][0]
+    adr = actuator_actadr[i]
+    x = ten_length[world, tendon]
+    v = ten_velocity[world, tendon]
+    k = b[0]
+    rest = act[world, adr]
+    command = ctrl[world, actuator_ctrladr[i]]
+    target = command
+    if p[1] == _IMPEDANCE:
+        # impedance law (eq. 3): the rest length that turns the measured tension into T_set
+        stretch = x - rest
+        measured = 0.0
+        if stretch > 0.0:
+            measured = k * stretch
+        setpoint = wp.max(0.0, p[6] + p[7] * (x - p[9]) + p[8] * (v - command))
+        target = rest - (setpoint - measured) / k
+    # motor: at most max_speed, never reeling in past max_tension or below the floors
+    reach = p[2] * dt
+    step = wp.min(wp.max(target - rest, -reach), reach)
+    new = rest + step
+    if step < 0.0:
+        new = wp.max(new, wp.min(rest, x - p[3] / k))
+        if x <= p[5]:
+            new = rest
+    new = wp.max(new, p[4])
+    rate = (new - rest) / dt
+    act_dot[world, adr] = rate
+    # cable (eq. 1-2) from the rest length after this step, as Euler integration stores it
+    stretch = x - (rest + rate * dt)
+    spring = 0.0
+    applied = 0.0
+    if stretch > 0.0:
+        spring = k * stretch
+        applied = wp.max(spring + b[1] * v, 0.0)
+    peak = act[world, adr + 1]
+    act_dot[world, adr + 1] = (wp.max(peak, spring) - peak) / dt
+    actuator_force[world, i] = -applied
+
+
+def _launch(m: Any, d: Any) -> None:
+    wp.launch(cable_law, dim=(d.nworld, m.nactuator),
+              inputs=[m.opt.timestep, m.actuator_dynprm, m.actuator_biasprm, m.actuator_actadr,
+                      m.actuator_actnum, m.actuator_ctrladr, m.actuator_trnid, d.ten_length,
+                      d.ten_velocity, d.act, d.ctrl],
+              outputs=[d.act_dot, d.actuator_force])
+
+
+def warp_host_model(model: mujoco.MjModel) -> mujoco.MjModel:
+    """A copy of a tensim model for ``mujoco_warp.put_model``.
+
+    MuJoCo Warp leaves the activations of user-dynamics actuators to the user, where MuJoCo
+    integrates them (act += act_dot dt); declaring the cable actuators integrators makes MuJoCo
+    Warp integrate them the same way, from the rates :func:`cable_law` writes over the
+    integrator's own. MuJoCo Warp needs the midphase, which MuJoCo may skip bit-identically.
+    """
+    host = copy.copy(model)
+    cables = _law_actuators(host)
+    host.actuator_dyntype[cables] = mujoco.mjtDyn.mjDYN_INTEGRATOR
+    host.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_MIDPHASE)
+    return host
+
+
+def _law_actuators(model: mujoco.MjModel) -> Any:
+    import numpy as np
+
+    return np.flatnonzero((model.actuator_dynprm[:, 0] == CABLE_MARKER)
+                          & (model.actuator_actnum == 2))
+
+
+def install_warp_law(m: Any) -> None:
+    """Makes the MuJoCo Warp model ``m`` run the cable law in every step.
+
+    Raises:
+        ValueError: ``m`` already runs another actuator-dynamics callback.
+    """
+    if m.callback.act_dyn not in (None, _launch):
+        raise ValueError("this MuJoCo Warp model already has an act_dyn callback; tensim's "
+                         "cable law would replace it")
+    m.callback.act_dyn = _launch

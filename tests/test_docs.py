@@ -1,0 +1,41 @@
+"""The documented command transcripts: found, parsed, matched; a cheap one run for real.
+
+``python tools/check_docs.py`` runs them all (minutes); this keeps its machinery honest.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+_spec = importlib.util.spec_from_file_location("check_docs", ROOT / "tools" / "check_docs.py")
+check_docs = importlib.util.module_from_spec(_spec)
+sys.modules["check_docs"] = check_docs
+_spec.loader.exec_module(check_docs)
+
+
+def test_the_pages_transcripts_are_found_with_their_commands():
+    found = {t.command.split(" --out")[0]: t for t in check_docs.transcripts()}
+    assert "tensim --quiet experiment timestep" in found  # docs/speed.md
+    assert "tensim --quiet experiment drag" in found  # README.md
+    timestep = found["tensim --quiet experiment timestep"]
+    assert timestep.page == "docs/speed.md"
+    assert any("4000 Hz" in line for line in timestep.expected)
+    # a command continued with a backslash is one command
+    assert any(t.command.startswith("tensim compare examples/hardware/sine_log.csv --model")
+               for t in found.values())
+
+
+def test_an_ellipsis_matches_any_lines_and_nothing_else_does():
+    assert check_docs.matches(("a", "...", "z"), ["a", "b", "c", "z"])
+    assert check_docs.matches(("a", "...", "z"), ["a", "z"])
+    assert check_docs.matches(("a", "..."), ["a"])
+    assert not check_docs.matches(("a", "z"), ["a", "b", "z"])
+    assert not check_docs.matches(("0.82 %",), ["0.76 %"])  # a drifted figure
+
+
+def test_the_load_cell_transcript_matches_what_the_command_prints():
+    (calibration,) = [t for t in check_docs.transcripts() if "calibrate-loadcell" in t.command]
+    assert check_docs.check(calibration) == []

@@ -1,0 +1,59 @@
+"""A run folder records what it takes to replay and rerun it: robot, controller, ground, step."""
+
+from __future__ import annotations
+
+import json
+
+from tensim.cli import main
+from tensim.control import load_controller
+from tensim.models import preset
+from tensim.structure import load_structure
+from tensim.terrain import Hills, Slope, parse_terrain
+from tensim.viz.replay import load_run
+
+
+def test_simulate_on_a_terrain_replays_on_that_terrain(tmp_path):
+    out = tmp_path / "run"
+    assert main(["--quiet", "simulate", "prism3", "--terrain", "hills:height=0.05",
+                 "--duration", "0.1", "--dt", "0.002", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert parse_terrain(summary["terrain"]) == Hills(height=0.05)
+    assert summary["controller"] == "none (passive cables)"
+    assert summary["dt_s"] == 0.002 and summary["self_collision"] is True
+    run = load_run(out)
+    assert run.compiled.world.terrain == Hills(height=0.05)
+    assert run.compiled.model.opt.timestep == 0.002
+    # the robot as built (compiling lifts it onto the hills, in the run as in the replay)
+    assert load_structure(out / "structure.yaml") == preset("prism3").build()
+    assert {"tensions.png", "lengths.png", "path.png"} <= set(summary["figures"])
+
+
+def test_a_gait_run_keeps_its_controller_robot_and_world_options(tmp_path):
+    out = tmp_path / "cpg"
+    assert main(["--quiet", "experiment", "cpg", "--terrain", "slope:angle=2",
+                 "--no-self-collision", "--duration", "0.2", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert {"structure.yaml", "controller.yaml"} <= set(summary["files"])
+    run = load_run(out)
+    assert run.compiled.world.terrain == Slope(angle=2.0)
+    assert run.compiled.world.self_collision is False
+    config = load_controller(out / "controller.yaml", run.compiled.structure)
+    assert config.gait is not None and config.model == "tetraspine3"
+
+
+def test_the_disturbance_summary_names_the_controller_that_ran(tmp_path):
+    out = tmp_path / "d"
+    assert main(["--quiet", "experiment", "disturbance", "--duration", "0.1",
+                 "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert "impedance" in summary["controller"] and summary["terrain"] == "flat"
+    assert (out / "controller.yaml").is_file()
+
+
+def test_the_timestep_study_runs_as_long_as_asked(tmp_path):
+    out = tmp_path / "ts"
+    assert main(["--quiet", "experiment", "timestep", "--duration", "0.2",
+                 "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["duration_s"] == 0.2
+    assert set(summary["max_change_percent"]) == {"250", "4000"}

@@ -1,0 +1,39 @@
+"""Start-up stays light: building the command line loads no plotting or scientific stack.
+
+The figures (``tensim --help`` in about a quarter second) come from ``benchmarks/startup.py``;
+here only what is imported is checked, which is what makes them fast.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+from tensim.cli.hardware import SYSID_PARAMETERS
+
+_PROBE = """
+import sys
+import tensim.cli
+tensim.cli.build_parser()
+print(" ".join(sorted({m.split(".")[0] for m in sys.modules})))
+"""
+
+
+def test_building_the_parser_imports_neither_scipy_nor_matplotlib():
+    out = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True,
+                         check=True).stdout.split()
+    # each of these costs 0.1-0.5 s to import; a command loads them only when it runs
+    assert not {"scipy", "matplotlib", "ray", "cma", "av", "OpenGL"} & set(out)
+
+
+def test_import_tensim_does_not_load_scipy():
+    probe = "import sys, tensim; print('scipy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "False"
+
+
+def test_the_sysid_help_lists_every_parameter_with_its_unit():
+    from tensim.hardware.parameters import DEFINITIONS
+
+    assert SYSID_PARAMETERS == ", ".join(f"{d.name} [{d.unit}]" for d in DEFINITIONS.values())

@@ -1,0 +1,68 @@
+"""The MuJoCo Warp back-end, on Warp's CPU device, against the CPU engine.
+
+MuJoCo Warp computes in float32 and has its own constraint solver, so a world agrees with the
+CPU engine to a tolerance. float32 alone moves a cable's tension by about k x (rounding of
+lengths near 0.2 m, ~1.5e-8 m) = 1.5e-5 N; what dominates is the contact solver: its forces
+differ slightly, the bodies drift apart by ~1e-5 m in 1 s, and a 1000 N/m cable turns that into
+~0.1 N. Measured over 1 s: 0.19 N (push) and 0.08 N (CPG gait) at most on 30 N tensions, peak
+tensions within 0.08 N, the centre of mass within 2e-5 m. The tolerances below are about five
+times those figures: loose enough for rounding and solver details, tight enough that a wrong
+sign, a missed motor limit or a shifted V* row (several newtons) fails.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco_warp", reason="MuJoCo Warp (pip install 'tensim[gpu]') is not "
+                    "installed")
+
+from tensim.control import load_controller
+from tensim.model import compile_structure
+from tensim.models import preset
+from tensim.sim import PhysicsScale, Trial, ramp_hold_release, run_batch
+
+DURATION = 1.0  # s: MuJoCo Warp on the CPU device takes ~7 ms a step
+
+
+def test_warp_worlds_agree_with_the_cpu_engine():
+    p = preset("tetraspine3")
+    structure = p.build()
+    compiled = compile_structure(structure)
+    gait = load_controller("tetraspine3_cpg", structure).with_duration(DURATION).build(
+        compiled.model.opt.timestep)
+    push = ramp_hold_release("s2_tip", (0.0, 1.0, 0.5), 8.0, 0.2, 0.3, 0.4, 0.1)
+    trials = [Trial(p.controller(), loads=(push,)), Trial(gait),
+              Trial(gait, physics=PhysicsScale(stiffness=1.1, friction=2.0))]
+    warp = run_batch(compiled, trials, DURATION, backend="warp", device="cpu")
+    cpu = run_batch(compiled, trials, DURATION)
+    for w, c in zip(warp, cpu, strict=True):
+        assert w.ok and c.ok, (w.error, c.error)
+        a, b = c.result.trajectory, w.result.trajectory
+        np.testing.assert_array_equal(a.time, b.time)
+        assert np.abs(a.matrix("tension") - b.matrix("tension")).max() < 1.0
+        assert np.abs(a.matrix("rest_length") - b.matrix("rest_length")).max() < 1e-3
+        np.testing.assert_allclose(w.result.peak_tension, c.result.peak_tension, atol=0.5)
+        for axis in "xyz":
+            assert np.abs(a[f"pos_{axis}/com"] - b[f"pos_{axis}/com"]).max() < 1e-3
+    # the per-world parameters took effect: the stiffer robot's tensions differ from the gait's
+    stiff, nominal = warp[2].result.trajectory, warp[1].result.trajectory
+    assert np.abs(stiff.matrix("tension") - nominal.matrix("tension")).max() > 1.0
+
+
+def test_learning_evaluates_a_generation_on_warp():
+    from tensim.learn.executors import ThreadBatchExecutor
+    from tensim.learn.families import default_base
+    from tensim.learn.problem import TrialProblem
+
+    structure = preset("tetraspine3").build()
+    problem = TrialProblem(structure, default_base("tetraspine3", "cpg", structure), "cpg", 0.5)
+    points = np.random.default_rng(1).random((3, problem.dimension))
+    tasks = list(enumerate(points))
+    cpu = sorted(ThreadBatchExecutor(problem, 1).run(tasks), key=lambda e: e.index)
+    warp = sorted(ThreadBatchExecutor(problem, 1, engine="warp").run(tasks),
+                  key=lambda e: e.index)
+    for a, b in zip(cpu, warp, strict=True):
+        assert b.status == "ok", b.reason
+        assert b.score == pytest.approx(a.score, abs=2e-4)  # metres walked in 0.5 s

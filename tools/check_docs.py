@@ -1,0 +1,130 @@
+"""Runs the command transcripts in README.md and docs/*.md and checks their printed figures.
+
+A transcript is a fenced code block whose first line starts with ``$ ``: each ``$ `` line
+(continued by a trailing backslash) is a command, the lines after it are what it prints on
+standard output. A line ``...`` stands for any number of lines (wall times and other figures
+that vary between machines). Every figure a page quotes comes from one of these transcripts,
+so running this script (CI does) shows any figure that has drifted.
+
+Each transcript runs in a fresh temporary folder that sees the repository's ``examples/``, so
+``--out runs/...`` never touches the working tree.
+
+Usage: python tools/check_docs.py [--only TEXT] [--list]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import difflib
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PAGES = ("README.md", "docs/*.md")
+_FENCE = re.compile(r"^```[^\n]*\n(.*?)^```", re.M | re.S)
+
+
+@dataclasses.dataclass(frozen=True)
+class Transcript:
+    """A documented command and the output the page shows for it."""
+
+    page: str
+    line: int
+    command: str
+    expected: tuple[str, ...]
+
+
+def transcripts(root: Path = ROOT) -> list[Transcript]:
+    """Every transcript of the pages, in page order."""
+    found = []
+    for pattern in PAGES:
+        for path in sorted(root.glob(pattern)):
+            text = path.read_text()
+            for block in _FENCE.finditer(text):
+                if block.group(1).startswith("$ "):
+                    line = text.count("\n", 0, block.start(1)) + 1
+                    found += _split(path.relative_to(root).as_posix(), line, block.group(1))
+    return found
+
+
+def _split(page: str, first: int, body: str) -> list[Transcript]:
+    """The commands of one block, each with the output lines that follow it."""
+    result: list[Transcript] = []
+    lines = body.rstrip("\n").split("\n")
+    k = 0
+    while k < len(lines):
+        start, command = k, lines[k][2:]
+        while command.endswith("\\"):
+            k += 1
+            command = command[:-1].rstrip() + " " + lines[k].strip()
+        k += 1
+        output = []
+        while k < len(lines) and not lines[k].startswith("$ "):
+            output.append(lines[k].rstrip())
+            k += 1
+        result.append(Transcript(page, first + start, command, tuple(output)))
+    return result
+
+
+def matches(expected: tuple[str, ...], actual: list[str]) -> bool:
+    """Whether ``actual`` lines match ``expected`` (``...`` matches any run of lines)."""
+    if not expected:
+        return not actual
+    if expected[0] == "...":
+        return any(matches(expected[1:], actual[i:]) for i in range(len(actual) + 1))
+    return bool(actual) and actual[0].rstrip() == expected[0] and \
+        matches(expected[1:], actual[1:])
+
+
+def run(transcript: Transcript, folder: Path) -> list[str]:
+    """The command's standard output lines, run in ``folder`` with this Python's ``tensim``."""
+    bin_dir = str(Path(sys.executable).parent)
+    env = {**os.environ, "PATH": bin_dir + os.pathsep + os.environ.get("PATH", "")}
+    done = subprocess.run(transcript.command, shell=True, cwd=folder, env=env, text=True,
+                          capture_output=True, check=False)
+    if done.returncode != 0:
+        return [f"(exit status {done.returncode}) {done.stderr.strip()}"]
+    return done.stdout.rstrip("\n").split("\n") if done.stdout.strip() else []
+
+
+def check(transcript: Transcript) -> list[str]:
+    """Runs one transcript; the differences as unified-diff lines (empty: it matches)."""
+    with tempfile.TemporaryDirectory(prefix="tensim-docs-") as tmp:
+        folder = Path(tmp)
+        (folder / "examples").symlink_to(ROOT / "examples")
+        actual = run(transcript, folder)
+    if matches(transcript.expected, actual):
+        return []
+    return list(difflib.unified_diff(list(transcript.expected), actual, "documented",
+                                     "printed", lineterm=""))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--only", default=None, help="only commands containing this text")
+    parser.add_argument("--list", action="store_true", help="list the transcripts and stop")
+    args = parser.parse_args()
+    chosen = [t for t in transcripts() if args.only is None or args.only in t.command]
+    failed = 0
+    for t in chosen:
+        where = f"{t.page}:{t.line}: {t.command}"
+        if args.list:
+            print(where)
+            continue
+        diff = check(t)
+        print(("ok    " if not diff else "DRIFT ") + where, flush=True)
+        if diff:
+            failed += 1
+            print("\n".join("      " + d for d in diff))
+    if not args.list:
+        print(f"{len(chosen) - failed} of {len(chosen)} transcripts match")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
