@@ -14,6 +14,7 @@ from tensim import InputError
 from tensim._input import load_yaml
 from tensim.cli import main
 from tensim.control import ControllerFileError, load_controller, load_velocity_table
+from tensim.control.files import check_table_columns
 from tensim.hardware import read_log, read_pairs
 from tensim.hardware.loadcell import load_calibration
 from tensim.io import import_ntrt
@@ -195,7 +196,9 @@ def test_a_velocity_table_missing_a_driven_cable_is_refused(tmp_path):
     path = _file(tmp_path, "time_s " + " ".join(names) + "\n0 " + " ".join(["0"] * 11) + "\n"
                  "0.01 " + " ".join(["0"] * 11) + "\n", "v.txt")
     with pytest.raises(ValueError, match="no column for \\['inner_top_2'\\]"):
-        config.with_gait(load_velocity_table(path))
+        check_table_columns(load_velocity_table(path), config.impedance)
+    assert main(["--quiet", "simulate", "tetraspine3", "--controller", "tetraspine3_impedance",
+                 "--velocity-input", str(path), "--out", str(tmp_path / "run")]) == 2
 
 
 @pytest.mark.parametrize(("body", "words"), [

@@ -99,14 +99,14 @@ def test_bad_load_columns_are_refused(tmp_path, robot):
     path.write_text("time_s,tension_N/inner_top_1,load_N/s0_tip/w\n0,20,1\n")
     with pytest.raises(LogError, match=r"column 3 .*axis one of \['x', 'y', 'z'\]"):
         read_log(path)
-    path.write_text("time_s,tension_N/inner_top_1,load_N/nowhere/x\n0,20,1\n")
+    path.write_text("time_s,tension_N/inner_top_1,load_N/nowhere/x\n0,20,1\n0.1,20,1\n")
     with pytest.raises(LogError, match=r"'load_N/nowhere/x'.*no node 'nowhere'"):
         check_items(read_log(path), robot)
     path.write_text("time_s,tension_N/inner_top_1,load_N/s0_tip/x,load_N/s0_tip/y\n"
                     "0,20,1,1\n0.1,20,2,\n")
     with pytest.raises(LogError, match=r"node 's0_tip': expected every axis sampled"):
         column_loads(read_log(path))
-    path.write_text("time_s,tension_N/inner_top_1,load_N/s0_tip/x\n0,20,\n")
+    path.write_text("time_s,tension_N/inner_top_1,load_N/s0_tip/x\n0,20,\n0.1,20,\n")
     with pytest.raises(LogError, match=r"node 's0_tip': no sample"):
         column_loads(read_log(path))
 

@@ -33,6 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from tensim.control import load_velocity_table, resolve_controller
+    from tensim.control.files import check_table_columns
     from tensim.control.velocity_table import VelocityFileError
     from tensim.limits import check_run
     from tensim.model import compile_structure
@@ -54,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
     if args.velocity_input:
         table = load_velocity_table(args.velocity_input)
         try:
+            check_table_columns(table, config.impedance)
             config = config.with_gait(table)
         except ValueError as err:  # the table does not fit the controller
             raise VelocityFileError(f"{args.velocity_input}: {err}") from None

@@ -125,12 +125,7 @@ class ControllerConfig:
             if missing:
                 raise ValueError(f"gait cables {missing} have no impedance gains, so their V* "
                                  "would have no effect")
-            if isinstance(self.gait, VelocityTable):
-                absent = [c for c in self.impedance.gains if c not in self.gait.cables]
-                if absent:
-                    raise ValueError(f"the V* table has no column for {absent}, which have "
-                                     "impedance gains; give every driven cable a column "
-                                     "(0 for a constant target length)")
+
 
     def velocity_table(self, dt: float) -> VelocityTable | None:
         """The gait's V* commands for a physics step ``dt`` [s] (None without a gait).
@@ -156,6 +151,20 @@ class ControllerConfig:
     def with_duration(self, duration: float) -> ControllerConfig:
         """A copy whose gait covers ``duration`` seconds."""
         return dataclasses.replace(self, duration=duration)
+
+
+def check_table_columns(table: VelocityTable, impedance: ImpedanceController) -> None:
+    """Refuses a V* table file that leaves out a cable the impedance laws drive (its V* would
+    silently be 0).
+
+    Raises:
+        ValueError: naming the cables without a column.
+    """
+    absent = [c for c in impedance.gains if c not in table.cables]
+    if absent:
+        raise ValueError(f"the V* table has no column for {absent}, which have impedance "
+                         "gains; give every driven cable a column (0 for a constant target "
+                         "length)")
 
 
 def sampled_table(gait: Gait, duration: float, period: float) -> VelocityTable:
@@ -404,6 +413,11 @@ def controller_from_dict(data: Any, structure: Structure, base: Path | None = No
             raise ControllerFileError(f"unknown gait type {kind!r}; expected one of "
                                       f"{list(readers)}", field="gait.type")
         gait = readers[kind]()
+        if isinstance(gait, VelocityTable):
+            try:
+                check_table_columns(gait, impedance)
+            except ValueError as err:
+                raise ControllerFileError(str(err), field="gait.file") from None
         default = gait.duration if isinstance(gait, VelocityTable) else 60.0
         duration = _number(raw.get("duration", default), "gait.duration", positive=True)
         if "command_period" in raw and raw["command_period"] is not None:
