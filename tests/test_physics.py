@@ -387,3 +387,8 @@ def test_impedance_damping_tracks_the_target_velocity(vstar):
     late = ts.time > 2.0
     rate = np.polyfit(ts.time[late], ts["length/c"][late], 1)[0]
     assert rate == pytest.approx(vstar, rel=0.05)
+
+
+def test_a_node_load_past_what_mujoco_accepts_is_refused():
+    with pytest.raises(ValueError, match="past 1e"):
+        NodeLoad("bob", np.array([0.0, 1.0]), np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 2e9]]))

@@ -319,6 +319,9 @@ class _BatchRun:
             d = mujoco.MjData(self.compiled.model)
             d.qvel[:] = fields["qvel"][row]
             d.actuator_force[:] = fields["actuator_force"][row]
+            warning = d.warning[mujoco.mjtWarning.mjWARN_BADQACC]  # names the body MuJoCo found
+            warning.lastinfo, warning.number = self.batch.warning[
+                i, mujoco.mjtWarning.mjWARN_BADQACC]
             time = float(self.samples.time[i, self.count[i] - 1]) if self.samples else 0.0
             self.error[i] = f"trial {i}: " + diagnose(
                 self.compiled.model, d, self.compiled.index, self.limits, time,

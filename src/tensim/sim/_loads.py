@@ -6,6 +6,8 @@ import dataclasses
 
 import numpy as np
 
+MAX_FORCE = 1e9  # [N] largest node-load component; MuJoCo zeroes inputs past 1e10
+
 
 @dataclasses.dataclass(frozen=True)
 class NodeLoad:
@@ -29,6 +31,10 @@ class NodeLoad:
                              f"{times.size} times and {forces.shape[0]} forces")
         if np.any(np.diff(times) <= 0) or not np.all(np.isfinite(forces)):
             raise ValueError(f"load at {self.node!r}: times must increase, forces be finite")
+        if np.abs(forces).max(initial=0.0) > MAX_FORCE:
+            raise ValueError(f"load at {self.node!r}: a force component of "
+                             f"{np.abs(forces).max():.3g} N is past {MAX_FORCE:g} N (MuJoCo "
+                             "would silently zero such an input)")
         object.__setattr__(self, "times", times)
         object.__setattr__(self, "forces", forces)
 
