@@ -127,7 +127,11 @@ compiled = problem.compiled()
 points = np.random.default_rng(0).random((trials, problem.dimension))
 controllers = [problem.controller(u).build(compiled.model.opt.timestep) for u in points]
 run_batch(compiled, [Trial(c) for c in controllers], duration, threads=2)
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+# VmHWM: this process's own peak (ru_maxrss would carry the parent's over the fork)
+with open("/proc/self/status") as status:
+    peak = [line for line in status if line.startswith("VmHWM:")]
+own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print((int(peak[0].split()[1]) if peak else own) / 1024)
 """
 
 
