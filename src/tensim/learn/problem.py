@@ -13,11 +13,9 @@ the MuJoCo model for every later trial of the same problem.
 
 from __future__ import annotations
 
-import concurrent.futures
 import dataclasses
 import functools
 import hashlib
-import itertools
 import math
 import pickle
 import time
@@ -274,55 +272,28 @@ class TrialProblem:
 
     def evaluate_batch(self, units: Sequence[np.ndarray], threads: int,
                        backend: str = "cpu") -> list[Outcome]:
-        """Simulates the trials of ``units`` as batches on ``threads`` threads and scores
+        """Simulates the trials of ``units`` as one batch on ``threads`` threads and scores
         them; on the ``"cpu"`` backend each outcome equals :meth:`evaluate`'s for the same
-        point (``"warp"``: one MuJoCo Warp world per trial, to float32 tolerance).
-
-        The gaits are built (a CPG integration each, in Python) a part at a time while the
-        batch engine, which releases the GIL, simulates the part before: no core idles while
-        gaits are built.
-        """
+        point (``"warp"``: one MuJoCo Warp world per trial, to float32 tolerance)."""
+        compiled = self.compiled()
         outcomes: list[Outcome | None] = [None] * len(units)
-        parts = 1 if backend != "cpu" else max(1, min(4, len(units) // (2 * max(1, threads))))
-        bounds = np.linspace(0, len(units), parts + 1).astype(int)
-        with concurrent.futures.ThreadPoolExecutor(1) as engine:
-            running = None
-            for first, stop in itertools.pairwise(bounds):
-                trials, where = self._trials(units, range(first, stop), outcomes)
-                if running is not None:
-                    self._collect(*running[1:], running[0].result(), outcomes)
-                running = (engine.submit(self._simulate, trials, threads, backend), where,
-                           len(self.physics)) if trials else None
-            if running is not None:
-                self._collect(*running[1:], running[0].result(), outcomes)
-        return [o for o in outcomes if o is not None]
-
-    def _trials(self, units: Sequence[np.ndarray], indices: range,
-                outcomes: list[Outcome | None]) -> tuple[list[Trial], list[int]]:
-        """The trials of ``units[indices]`` (one per robot); a gait that cannot be built is
-        recorded in ``outcomes`` at once."""
-        dt = self.compiled().model.opt.timestep
         trials: list[Trial] = []
         where: list[int] = []
-        for i in indices:
+        for i, unit in enumerate(units):
             try:
-                controller = self.controller(units[i]).build(dt)
+                controller = self.controller(unit).build(compiled.model.opt.timestep)
             except GaitError as err:
                 outcomes[i] = Outcome(self.penalty, GAIT, f"gait: {err}")
                 continue
             trials.extend(Trial(controller, physics=ps) for ps in self.physics)
             where.append(i)
-        return trials, where
-
-    def _simulate(self, trials: list[Trial], threads: int, backend: str) -> list[TrialResult]:
-        return run_batch(self.compiled(), trials, self.duration_s, threads=threads,
-                         record_dt=self.record_dt, backend=backend)
-
-    def _collect(self, where: list[int], robots: int, results: list[TrialResult],
-                 outcomes: list[Outcome | None]) -> None:
-        for j, i in enumerate(where):
-            outcomes[i] = self._combine([self._score(t)
-                                         for t in results[j * robots:(j + 1) * robots]])
+        if trials:
+            results = run_batch(compiled, trials, self.duration_s, threads=threads,
+                                record_dt=self.record_dt, backend=backend)
+            k = len(self.physics)
+            for j, i in enumerate(where):
+                outcomes[i] = self._combine([self._score(t) for t in results[j * k:(j + 1) * k]])
+        return [o for o in outcomes if o is not None]
 
     def _combine(self, robots: list[Outcome]) -> Outcome:
         """One candidate's outcome over its robots (itself for a single robot)."""
