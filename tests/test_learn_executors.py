@@ -109,12 +109,13 @@ def test_thread_batches_give_the_inline_evaluations():
     structure = preset("tetraspine3").build()
     problem = TrialProblem(structure, default_base("tetraspine3", "cpg", structure), "cpg", 1.5,
                            model="tetraspine3")
-    points = np.random.default_rng(3).random((5, problem.dimension))
+    points = np.random.default_rng(3).random((7, problem.dimension))
     tasks = list(enumerate(points))
     inline = sorted(InlineExecutor(problem).run(tasks), key=lambda e: e.index)
-    batched = sorted(ThreadBatchExecutor(problem, 2, batch_size=3).run(tasks),
-                     key=lambda e: e.index)
     assert len({e.score for e in inline}) > 1  # the gaits differ
-    for a, b in zip(inline, batched, strict=True):
-        assert (a.index, a.unit, a.score, a.status, a.metrics) == \
-            (b.index, b.unit, b.score, b.status, b.metrics)
+    for executor in (ThreadBatchExecutor(problem, 2, batch_size=3),  # 3 batches, 2 threads
+                     ThreadBatchExecutor(problem, 1, batch_size=7)):  # 1 batch, 1 thread
+        batched = sorted(executor.run(tasks), key=lambda e: e.index)
+        for a, b in zip(inline, batched, strict=True):
+            assert (a.index, a.unit, a.score, a.status, a.metrics) == \
+                (b.index, b.unit, b.score, b.status, b.metrics)
