@@ -294,17 +294,9 @@ class _BatchRun:
             self.error[int(i)] = f"trial {int(i)}: MuJoCo: {self.batch.error(int(i))}"
 
     def _take(self, ids: np.ndarray, fields: dict[str, np.ndarray]) -> None:
-        s, index, n = self.samples, self.compiled.index, self.compiled.n_cables
-        assert s is not None
-        k = self.count[ids]
-        s.time[ids, k] = (np.rint(self.batch.state[ids, 0] / self.dt) - 1) * self.dt
-        s.length[ids, k] = fields["ten_length"][:, index.tendon]
-        s.velocity[ids, k] = fields["ten_velocity"][:, index.tendon]
-        s.rest[ids, k] = fields["act"][:, 0:2 * n:2]
-        s.command[ids, k] = fields["ctrl"][:, :n]
-        s.pos[ids, k, :-1] = fields["xpos"][:, index.body]
-        s.pos[ids, k, -1] = fields["subtree_com"][:, 0]
-        s.quat[ids, k] = fields["xquat"][:, index.body]
+        assert self.samples is not None
+        time = (np.rint(self.batch.state[ids, 0] / self.dt) - 1) * self.dt
+        self.samples.put(ids, self.count[ids], time, fields, self.compiled.index)
         self.count[ids] += 1
 
     def _check(self, ids: np.ndarray, fields: dict[str, np.ndarray]) -> None:

@@ -55,6 +55,26 @@ class SampleBuffers:
         return SampleBuffers(**{f.name: getattr(self, f.name)[:k]
                                 for f in dataclasses.fields(self)})
 
+    def put(self, ids: np.ndarray, k: np.ndarray, time: np.ndarray,
+            fields: dict[str, np.ndarray], index: ModelIndex) -> None:
+        """Stores sample k[j] of trial ids[j] from MjData fields, one row per trial.
+
+        Args:
+            ids, k: (m,) trials and their sample positions.
+            time: (m,) the samples' times [s].
+            fields: ten_length, ten_velocity, act, ctrl, xpos, xquat, subtree_com, (m, ...).
+            index: the model's ids.
+        """
+        n = len(index.cables)
+        self.time[ids, k] = time
+        self.length[ids, k] = fields["ten_length"][:, index.tendon]
+        self.velocity[ids, k] = fields["ten_velocity"][:, index.tendon]
+        self.rest[ids, k] = fields["act"][:, 0:2 * n:2]
+        self.command[ids, k] = fields["ctrl"][:, :n]
+        self.pos[ids, k, :-1] = fields["xpos"][:, index.body]
+        self.pos[ids, k, -1] = fields["subtree_com"][:, 0]
+        self.quat[ids, k] = fields["xquat"][:, index.body]
+
     def trial(self, i: int) -> SampleBuffers:
         """Trial i's samples, for buffers with a leading trial dimension."""
         return SampleBuffers(**{f.name: getattr(self, f.name)[i]

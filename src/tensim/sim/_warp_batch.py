@@ -195,20 +195,11 @@ class _WarpRun:
                 progress((k + 1) * self.record_steps * self.dt, duration)
 
     def _take(self) -> None:
-        d, s, index, n = self.d, self.samples, self.compiled.index, self.compiled.n_cables
         live = np.array([e is None for e in self.error])
-        k = self.count[live]
-        fields = {name: getattr(d, name).numpy()[live] for name in
+        fields = {name: getattr(self.d, name).numpy()[live] for name in
                   ("ten_length", "ten_velocity", "act", "ctrl", "xpos", "xquat", "subtree_com")}
-        ids = np.flatnonzero(live)
-        s.time[ids, k] = (self.steps[live] - 1) * self.dt
-        s.length[ids, k] = fields["ten_length"][:, index.tendon]
-        s.velocity[ids, k] = fields["ten_velocity"][:, index.tendon]
-        s.rest[ids, k] = fields["act"][:, 0:2 * n:2]
-        s.command[ids, k] = fields["ctrl"][:, :n]
-        s.pos[ids, k, :-1] = fields["xpos"][:, index.body]
-        s.pos[ids, k, -1] = fields["subtree_com"][:, 0]
-        s.quat[ids, k] = fields["xquat"][:, index.body]
+        self.samples.put(np.flatnonzero(live), self.count[live],
+                         (self.steps[live] - 1) * self.dt, fields, self.compiled.index)
         self.count[live] += 1
 
     def _check(self) -> None:
