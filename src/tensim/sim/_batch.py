@@ -1,9 +1,9 @@
 """Many trials of one robot in one call, on threads: MuJoCo's batch engine with the cable law.
 
-Every trial is a row of MuJoCo state in a :class:`mujoco.batch.Batch`; its controller writes
-its law parameters into the trial's own copy of the actuator parameters and its commands into
-its ``ctrl`` rows, its physical parameters are per-trial model fields, and the stateless
-compiled law runs inside MuJoCo's step on the batch's threads. A trial here is bit-identical to
+Every trial is a row of MuJoCo state in a :class:`mujoco.batch.Batch` and steps its own copy
+of the model: its controller writes the law's parameters there and its commands into its
+``ctrl`` rows, its physics multipliers scale that copy's fields (or it brings a compiled model
+of its own), and the stateless compiled law runs inside MuJoCo's step on the batch's threads. A trial here is bit-identical to
 the same trial run alone with :class:`~tensim.sim.Simulation`, at any thread count.
 """
 
