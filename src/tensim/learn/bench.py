@@ -87,7 +87,8 @@ def machine_scaling(repeats: int = 3, n: int = 4_000_000) -> float:
 def _threads_s(problem: TrialProblem, points: np.ndarray, workers: int) -> float:
     """Wall time of the trials as batches on ``workers`` threads [s]."""
     start = time.perf_counter()
-    done = sum(1 for _ in ThreadBatchExecutor(problem, workers).run(list(enumerate(points))))
+    with ThreadBatchExecutor(problem, workers) as executor:  # its gait builders start here
+        done = sum(1 for _ in executor.run(list(enumerate(points))))
     if done != len(points):
         raise RuntimeError("the batch lost trials")
     return time.perf_counter() - start

@@ -89,10 +89,24 @@ class ThreadBatchExecutor:
     """
 
     def __init__(self, problem: Problem, workers: int, batch_size: int | None = None,
-                 engine: str = "cpu"):
+                 engine: str = "cpu", parallel_builds: bool = True):
         self.problem, self.workers, self.engine = problem, max(1, workers), engine
         self.batch_size = batch_size or (32 if engine == "cpu" else 4096)
         self.backend = "threads" if engine == "cpu" else "warp"
+        # gaits are Python (a CPG integration each): built on worker processes, they take
+        # no longer than the batch's threads need for the simulations
+        self._builders: cf.ProcessPoolExecutor | None = None
+        self._parallel = parallel_builds and self.workers > 1 and hasattr(problem,
+                                                                            "build_gaits")
+
+    def _build(self, units: Sequence[np.ndarray]) -> list[Any]:
+        if self._builders is None:
+            self._builders = cf.ProcessPoolExecutor(self.workers, _context(),
+                                                    initializer=_init_worker,
+                                                    initargs=(self.problem, os.getpid()))
+        share = max(1, -(-len(units) // self.workers))
+        parts = [list(units[k:k + share]) for k in range(0, len(units), share)]
+        return [g for part in self._builders.map(_build_gaits, parts) for g in part]
 
     def run(self, tasks: Sequence[Task]) -> Iterator[Evaluation]:
         """Evaluates the tasks, a batch at a time."""
@@ -106,7 +120,8 @@ class ThreadBatchExecutor:
             start = time.perf_counter()
             try:
                 outcomes = evaluate([np.asarray(u, dtype=float) for _, u in chunk],
-                                    self.workers, self.engine)
+                                    self.workers, self.engine,
+                                    self._build if self._parallel else None)
             except Exception as err:  # the whole batch failed: try its trials one by one
                 log.warning("batch of %d trials failed (%s); running them one at a time",
                             len(chunk), err)
@@ -118,7 +133,10 @@ class ThreadBatchExecutor:
                 yield evaluation_of(self.problem, index, unit, outcome, wall)
 
     def close(self) -> None:
-        """Nothing to release (the batch's threads end with each call)."""
+        """Stops the gait-building processes (the batch's threads end with each call)."""
+        if self._builders is not None:
+            self._builders.shutdown(wait=True, cancel_futures=True)
+            self._builders = None
 
     def __enter__(self) -> ThreadBatchExecutor:
         return self
@@ -153,6 +171,10 @@ def _warm_worker(_: int) -> int:
     if compiled is not None:
         compiled()  # compile the robot now rather than in the first trial
     return os.getpid()
+
+
+def _build_gaits(units: list[np.ndarray]) -> list[Any]:
+    return _WORKER_PROBLEM[0].build_gaits(units)  # type: ignore[attr-defined]
 
 
 def _pool_task(index: int, unit: np.ndarray) -> Evaluation:

@@ -19,7 +19,7 @@ import hashlib
 import math
 import pickle
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
 import numpy as np
@@ -28,7 +28,15 @@ from tensim.control import ControllerConfig, GaitError, ParameterLayout
 from tensim.learn.families import check_family, gait_layout
 from tensim.learn.objective import Objective
 from tensim.model import CompiledModel, WorldOptions, compile_structure
-from tensim.sim import PhysicsScale, SimulationError, Trial, TrialResult, run_batch, simulate
+from tensim.sim import (
+    Controller,
+    PhysicsScale,
+    SimulationError,
+    Trial,
+    TrialResult,
+    run_batch,
+    simulate,
+)
 from tensim.structure import Structure
 from tensim.terrain import format_terrain
 
@@ -127,6 +135,10 @@ def _jsonable(value: Any) -> Any:
 
 # compiled models of this process, by TrialProblem.key (compiling costs more than a short trial)
 _COMPILED: dict[str, CompiledModel] = {}
+
+
+# builds the gaits of many points at once: each point's controller, or why it has none
+GaitBuilder = Callable[[Sequence[np.ndarray]], "list[Controller | str]"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -271,21 +283,26 @@ class TrialProblem:
         return self._score(TrialResult(result))
 
     def evaluate_batch(self, units: Sequence[np.ndarray], threads: int,
-                       backend: str = "cpu") -> list[Outcome]:
+                       backend: str = "cpu", builder: GaitBuilder | None = None
+                       ) -> list[Outcome]:
         """Simulates the trials of ``units`` as one batch on ``threads`` threads and scores
         them; on the ``"cpu"`` backend each outcome equals :meth:`evaluate`'s for the same
-        point (``"warp"``: one MuJoCo Warp world per trial, to float32 tolerance)."""
+        point (``"warp"``: one MuJoCo Warp world per trial, to float32 tolerance).
+
+        Args:
+            builder: builds the gaits of many points at once (e.g. on worker processes, since
+                each is a CPG integration in Python); None builds them here, one by one.
+        """
         compiled = self.compiled()
+        gaits = (builder or self.build_gaits)(units)
         outcomes: list[Outcome | None] = [None] * len(units)
         trials: list[Trial] = []
         where: list[int] = []
-        for i, unit in enumerate(units):
-            try:
-                controller = self.controller(unit).build(compiled.model.opt.timestep)
-            except GaitError as err:
-                outcomes[i] = Outcome(self.penalty, GAIT, f"gait: {err}")
+        for i, gait in enumerate(gaits):
+            if isinstance(gait, str):
+                outcomes[i] = Outcome(self.penalty, GAIT, f"gait: {gait}")
                 continue
-            trials.extend(Trial(controller, physics=ps) for ps in self.physics)
+            trials.extend(Trial(gait, physics=ps) for ps in self.physics)
             where.append(i)
         if trials:
             results = run_batch(compiled, trials, self.duration_s, threads=threads,
@@ -294,6 +311,17 @@ class TrialProblem:
             for j, i in enumerate(where):
                 outcomes[i] = self._combine([self._score(t) for t in results[j * k:(j + 1) * k]])
         return [o for o in outcomes if o is not None]
+
+    def build_gaits(self, units: Sequence[np.ndarray]) -> list[Controller | str]:
+        """Each point's controller, or the reason (a ``GaitError``'s message) it has none."""
+        dt = self.compiled().model.opt.timestep
+        out: list[Controller | str] = []
+        for unit in units:
+            try:
+                out.append(self.controller(unit).build(dt))
+            except GaitError as err:
+                out.append(str(err))
+        return out
 
     def _combine(self, robots: list[Outcome]) -> Outcome:
         """One candidate's outcome over its robots (itself for a single robot)."""

@@ -3,8 +3,9 @@
 Every trial is a row of MuJoCo state in a :class:`mujoco.batch.Batch` and steps its own copy
 of the model: its controller writes the law's parameters there and its commands into its
 ``ctrl`` rows, its physics multipliers scale that copy's fields (or it brings a compiled model
-of its own), and the stateless compiled law runs inside MuJoCo's step on the batch's threads. A trial here is bit-identical to
-the same trial run alone with :class:`~tensim.sim.Simulation`, at any thread count.
+of its own), and the stateless compiled law runs inside MuJoCo's step on the batch's threads.
+A trial here is bit-identical to the same trial run alone with :class:`~tensim.sim.Simulation`,
+at any thread count.
 """
 
 from __future__ import annotations
