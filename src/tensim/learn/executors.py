@@ -93,8 +93,8 @@ class ThreadBatchExecutor:
         self.problem, self.workers, self.engine = problem, max(1, workers), engine
         self.batch_size = batch_size or (32 if engine == "cpu" else 4096)
         self.backend = "threads" if engine == "cpu" else "warp"
-        # gaits are Python (a CPG integration each): built on worker processes, they take
-        # no longer than the batch's threads need for the simulations
+        # a gait is a CPG integration in Python: a generation's are built in parallel on
+        # worker processes (started at the first batch), then simulated on the threads
         self._builders: cf.ProcessPoolExecutor | None = None
         self._parallel = parallel_builds and self.workers > 1 and hasattr(problem,
                                                                             "build_gaits")
