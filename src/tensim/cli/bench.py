@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from tensim.cli._common import count, positive
+from tensim.cli._common import count, natural, positive
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,7 +18,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--learning", action="store_true", help="also learning throughput: "
                    "CMA-ES evaluations/s of Tetraspine3 CPG trials on 2 threads, against "
                    "mujoco.rollout and a process pool")
-    p.add_argument("--batch", type=int, default=0, metavar="N",
+    p.add_argument("--evaluations", type=count, default=20, metavar="N",
+                   help="CMA-ES evaluations of the learning case (default 20)")
+    p.add_argument("--batch", type=natural, default=0, metavar="N",
                    help="also N Tetraspine3 CPG trials per batch on 1 and 2 threads, against "
                    "mujoco.rollout (e.g. 64)")
     p.set_defaults(run=run)
@@ -35,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     if args.learning:
         from tensim.learn.bench import bench_learning, format_learning
 
-        report["learning"] = bench_learning(args.duration)
+        report["learning"] = bench_learning(args.duration, args.evaluations)
         print(format_learning(report["learning"]))
     if args.batch:
         from tensim.bench_batch import bench_batch, format_batch
