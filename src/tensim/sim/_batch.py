@@ -213,21 +213,8 @@ class _BatchRun:
     # -- set-up ------------------------------------------------------------------------------
 
     def _setup(self, i: int, trial: Trial) -> InputPlan | None:
-        compiled, model = self.compileds[i], self.models[i]
-        n = compiled.n_cables
-        drive = CableDrive(compiled, model)
         try:
-            _scale(compiled, model, trial.physics)
-            if trial.controller is not None:
-                trial.controller.configure(_TrialSetup(compiled, drive, self.dt))
-            bad = ~np.isfinite(model.actuator_dynprm[:n]).all(axis=1) | \
-                ~np.isfinite(model.actuator_biasprm[:n]).all(axis=1)
-            if bad.any():
-                cable = compiled.index.cables[int(np.argmax(bad))]
-                raise ValueError(f"cable {cable!r} has non-finite law parameters")
-            if trial.initial_state is not None:
-                _check_state(model, trial.initial_state)
-            return InputPlan(drive, trial.loads, compiled)
+            return setup_trial(self.compileds[i], self.models[i], trial, self.dt)
         except (ValueError, KeyError, TypeError) as exc:
             self.error[i] = f"trial {i}: {exc}"
             return None
@@ -323,22 +310,11 @@ class _BatchRun:
     # -- results -----------------------------------------------------------------------------
 
     def results(self, duration: float, wall: float) -> list[TrialResult]:
-        out = []
-        n, index = self.compiled.n_cables, self.compiled.index
         assert self.samples is not None
-        peak = self.batch.bind("act")[:, 1:2 * n:2]
-        out_of = self.trials
-        for i in range(len(self.trials)):
-            if self.error[i] is not None:
-                out.append(TrialResult(None, self.error[i]))
-                continue
-            model = self.models[i]
-            series = sample_channels(self.samples.trial(i).head(int(self.count[i])), index,
-                                     model.actuator_dynprm[:n], model.actuator_biasprm[:n])
-            # wall_s: the trial's share of the batch's wall time
-            out.append(TrialResult(SimulationResult(series, peak[i].copy(), wall / len(out_of),
-                                                    duration, self.dt, index.cables)))
-        return out
+        n = self.compiled.n_cables
+        return trial_results(self.samples, self.count, self.models, self.error,
+                             self.batch.bind("act")[:, 1:2 * n:2], self.compiled.index, self.dt,
+                             duration, wall)
 
 
 class _Block:
@@ -379,6 +355,49 @@ class _Block:
             fields = {name: field[live] for name, field in run._bound.items()}
         ran = np.array([run.error[int(i)] is None for i in live])
         return live[ran], {name: v[ran] for name, v in fields.items()}
+
+
+def setup_trial(compiled: CompiledModel, model: mujoco.MjModel, trial: Trial,
+                dt: float) -> InputPlan:
+    """Sets up one trial on its own model copy: physics multipliers, then its controller's
+    gains; returns its inputs.
+
+    Raises:
+        ValueError, KeyError, TypeError: the trial cannot run (the message says why).
+    """
+    n = compiled.n_cables
+    drive = CableDrive(compiled, model)
+    _scale(compiled, model, trial.physics)
+    if trial.controller is not None:
+        trial.controller.configure(_TrialSetup(compiled, drive, dt))
+    bad = ~np.isfinite(model.actuator_dynprm[:n]).all(axis=1) | \
+        ~np.isfinite(model.actuator_biasprm[:n]).all(axis=1)
+    if bad.any():
+        raise ValueError(f"cable {compiled.index.cables[int(np.argmax(bad))]!r} has "
+                         "non-finite law parameters")
+    if trial.initial_state is not None:
+        _check_state(model, trial.initial_state)
+    return InputPlan(drive, trial.loads, compiled)
+
+
+def trial_results(samples: SampleBuffers, count: np.ndarray, models: Sequence[mujoco.MjModel],
+                  errors: Sequence[str | None], peak: np.ndarray, index: ModelIndex, dt: float,
+                  duration: float, wall: float) -> list[TrialResult]:
+    """Each trial's recorded run (channels derived with its own model's parameters), or its
+    error; ``peak``: (n_trials, n_cables) the peak tensions [N]."""
+    n = len(index.cables)
+    out = []
+    for i, model in enumerate(models):
+        if errors[i] is not None:
+            out.append(TrialResult(None, errors[i]))
+            continue
+        series = sample_channels(samples.trial(i).head(int(count[i])), index,
+                                 model.actuator_dynprm[:n], model.actuator_biasprm[:n])
+        # wall_s: the trial's share of the batch's wall time
+        out.append(TrialResult(SimulationResult(series, np.array(peak[i], dtype=float),
+                                                wall / len(models), duration, dt,
+                                                index.cables)))
+    return out
 
 
 def _trial_models(compiled: CompiledModel, trials: Sequence[Trial]) -> list[CompiledModel]:

@@ -19,17 +19,10 @@ import mujoco
 import numpy as np
 
 from tensim.model import BUILD_KEY, CompiledModel
-from tensim.sim._batch import (
-    PhysicsScale,
-    Trial,
-    TrialResult,
-    _check_state,
-    _scale,
-    _TrialSetup,
-)
-from tensim.sim._drive import CableDrive, InputPlan
-from tensim.sim._samples import SampleBuffers, sample_channels
-from tensim.sim._simulation import SimulationResult, StabilityLimits, diagnose
+from tensim.sim._batch import PhysicsScale, Trial, TrialResult, setup_trial, trial_results
+from tensim.sim._drive import InputPlan
+from tensim.sim._samples import SampleBuffers
+from tensim.sim._simulation import StabilityLimits, diagnose
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _PER_WORLD = ("actuator_dynprm", "actuator_biasprm", "geom_friction")
@@ -115,20 +108,8 @@ class _WarpRun:
         self.steps = np.zeros(n, dtype=np.int64)
 
     def _setup(self, i: int, trial: Trial) -> InputPlan | None:
-        model, n = self.models[i], self.compiled.n_cables
-        drive = CableDrive(self.compiled, model)
         try:
-            _scale(self.compiled, model, trial.physics)
-            if trial.controller is not None:
-                trial.controller.configure(_TrialSetup(self.compiled, drive, self.dt))
-            bad = ~np.isfinite(model.actuator_dynprm[:n]).all(axis=1) | \
-                ~np.isfinite(model.actuator_biasprm[:n]).all(axis=1)
-            if bad.any():
-                cable = self.compiled.index.cables[int(np.argmax(bad))]
-                raise ValueError(f"cable {cable!r} has non-finite law parameters")
-            if trial.initial_state is not None:
-                _check_state(model, trial.initial_state)
-            return InputPlan(drive, trial.loads, self.compiled)
+            return setup_trial(self.compiled, self.models[i], trial, self.dt)
         except (ValueError, KeyError, TypeError) as exc:
             self.error[i] = f"trial {i}: {exc}"
             # a failed trial's world still steps (worlds cannot be left out): keep it harmless
@@ -219,16 +200,7 @@ class _WarpRun:
                                                       False)
 
     def results(self, duration: float, wall: float) -> list[TrialResult]:
-        n, index = self.compiled.n_cables, self.compiled.index
-        peak = self.d.act.numpy()[:, 1:2 * n:2].astype(float)
-        out = []
-        for i, model in enumerate(self.models):
-            if self.error[i] is not None:
-                out.append(TrialResult(None, self.error[i]))
-                continue
-            series = sample_channels(self.samples.trial(i).head(int(self.count[i])), index,
-                                     model.actuator_dynprm[:n], model.actuator_biasprm[:n])
-            out.append(TrialResult(SimulationResult(series, peak[i].copy(),
-                                                    wall / len(self.models), duration,
-                                                    self.dt, index.cables)))
-        return out
+        n = self.compiled.n_cables
+        return trial_results(self.samples, self.count, self.models, self.error,
+                             self.d.act.numpy()[:, 1:2 * n:2], self.compiled.index, self.dt,
+                             duration, wall)
