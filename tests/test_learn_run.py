@@ -131,3 +131,12 @@ def test_best_so_far_skips_failed_trials_and_the_comparison_plot_is_written(tmp_
     path = plot_best_so_far({"a": runs, "b": runs[1:3]}, tmp_path / "best.png",
                             styles={"a": {"color": "tab:red"}})
     assert imread(path).shape[:2] == (504, 900)  # 7.5 x 4.2 in at 120 dpi
+
+
+def test_warp_with_worker_processes_is_refused_before_a_run_folder_exists(tmp_path):
+    from tensim.cli import main
+
+    out = tmp_path / "run"
+    assert main(["--quiet", "learn", "--backend", "warp", "--processes", "--evaluations", "2",
+                 "--out", str(out)]) != 0
+    assert not out.exists()

@@ -192,6 +192,8 @@ def run_learn(args: argparse.Namespace) -> int:
     )
     from tensim.limits import check_run
 
+    if args.backend == "warp" and (args.processes or args.ray or args.ray_address):
+        raise ValueError("--backend warp runs in this process: drop --ray and --processes")
     workers = (os.cpu_count() or 1) if args.workers is None else args.workers
     if workers < 0:
         raise ValueError(f"--workers must be >= 0, got {workers}")
