@@ -167,3 +167,26 @@ def test_starting_from_a_snapshot_equals_continuing(robot):
     for name, values in straight.channels.items():
         np.testing.assert_array_equal(values[1:], trial.result.trajectory[name][1:],
                                       err_msg=name)
+
+
+def test_the_rollout_benchmark_replays_exactly_the_batch_trials():
+    """The engine-limit figure of `tensim bench --batch` is the same work: mujoco.rollout on
+    its inputs ends where the batch's trials end, bit for bit."""
+    import mujoco
+    from mujoco import rollout
+
+    from tensim.bench_batch import _problem, rollout_inputs
+
+    problem = _problem(0.3)
+    points = np.random.default_rng(5).random((3, problem.dimension))
+    models, state, control, nstep = rollout_inputs(problem, points)
+    states, _ = rollout.rollout(models, mujoco.MjData(models[0]), state, control, nstep=nstep)
+    compiled = problem.compiled()
+    dt = compiled.model.opt.timestep
+    trials = run_batch(compiled, [Trial(problem.controller(u).build(dt)) for u in points], 0.3,
+                       record_dt=problem.record_dt)
+    act = mujoco.mj_stateSize(compiled.model, mujoco.mjtState.mjSTATE_TIME) + compiled.model.nq \
+        + compiled.model.nv  # where act starts in a full-physics state
+    for k, trial in enumerate(trials):
+        rest = states[k, -1, act:act + 2 * compiled.n_cables:2]
+        np.testing.assert_array_equal(trial.result.trajectory.matrix("rest_length")[-1], rest)

@@ -27,7 +27,8 @@ from tensim.learn.families import default_base
 from tensim.learn.problem import TrialProblem
 from tensim.model import BUILD_KEY
 from tensim.models import preset
-from tensim.sim import CableDrive, InputPlan, Trial, install_law, run_batch
+from tensim.sim import Trial, install_law, run_batch
+from tensim.sim._batch import setup_trial
 
 
 def _problem(duration: float) -> TrialProblem:
@@ -42,20 +43,21 @@ def _timed(fn: Callable[[], object]) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def rollout_inputs(problem: TrialProblem, points: np.ndarray):
-    """Per-trial models, initial state and the (N, nstep, nu) ctrl of the same trials."""
+def rollout_inputs(problem: TrialProblem, points: np.ndarray
+                   ) -> tuple[list[mujoco.MjModel], np.ndarray, np.ndarray, int]:
+    """Per-trial models (set up as a batch sets up its trials), the initial state and the
+    (N, nstep, nu) ctrl of the same trials, for ``mujoco.rollout`` (with the compiled law
+    installed, as it is here)."""
+    install_law("compiled")
     compiled = problem.compiled()
     m, dt = compiled.model, compiled.model.opt.timestep
     nstep = round(problem.duration_s / dt) + 1
     models, controls = [], []
     for unit in points:
         model = copy.copy(m)
-        drive = CableDrive(compiled, model)
-        setup = type("Setup", (), {"compiled": compiled, "drive": drive, "dt": dt,
-                                   "index": compiled.index})()
-        problem.controller(unit).build(dt).configure(setup)
+        plan = setup_trial(compiled, model, Trial(problem.controller(unit).build(dt)), dt)
         models.append(model)
-        controls.append(InputPlan(drive, (), compiled).control(0, nstep))
+        controls.append(plan.control(0, nstep))
     data = mujoco.MjData(m)
     mujoco.mj_resetDataKeyframe(m, data, m.key(BUILD_KEY).id)
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
