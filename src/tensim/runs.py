@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from tensim.control import ControllerConfig
     from tensim.model import WorldOptions
     from tensim.structure import Structure
+    from tensim.viz.drawing import FigureDrawer
 
 STRUCTURE_FILE = "structure.yaml"  # the robot as it ran, in every simulation's folder
 CONTROLLER_FILE = "controller.yaml"  # its controller, where it had one
@@ -122,18 +123,20 @@ def prepare_outputs() -> threading.Thread | None:
     return thread
 
 
-def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = None) -> Path:
+def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = None,
+               drawer: FigureDrawer | None = None) -> Path:
     """Writes ``tensim.log``, ``report.html`` and then ``summary.json`` into ``out``.
 
-    Call it last, after the folder's figures and data files are written; ``series`` is the
-    run's trajectory if it has one (else the report reads trajectory.parquet, if any).
+    Call it last, after the folder's figures and data files are written (or handed to
+    ``drawer``, which the report waits for); ``series`` is the run's trajectory if it has one
+    (else the report reads trajectory.parquet, if any).
     """
     from tensim.viz.report import figure_names, write_report
 
     out.mkdir(parents=True, exist_ok=True)
     summary = {**summary, "tensim_version": __version__}
     RUN_LOG.write(out / "tensim.log")
-    write_report(out, summary, series=series)
+    write_report(out, summary, series=series, drawer=drawer)
     summary["figures"] = figure_names(out, summary)  # with those the report added
     write_json(out / "summary.json", summary)
     return out
@@ -151,7 +154,8 @@ def world_record(world: WorldOptions) -> dict[str, Any]:
 
 def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
               structure: Structure | None = None,
-              controller: ControllerConfig | None = None) -> Path:
+              controller: ControllerConfig | None = None,
+              drawer: FigureDrawer | None = None) -> Path:
     """Writes ``trajectory.parquet``, the run's robot and controller, then finishes the folder
     (:func:`finish_run`).
 
@@ -165,6 +169,7 @@ def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
         structure: the robot as it ran, written as ``structure.yaml`` (None: the preset the
             summary's ``model`` names, if it names one).
         controller: the controller it ran under, written as ``controller.yaml``.
+        drawer: still drawing some of the folder's figures (see :func:`finish_run`).
     """
     from tensim.control import save_controller
     from tensim.models import PRESETS
@@ -183,7 +188,7 @@ def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
     if files:
         summary = {**summary, "files": list(dict.fromkeys(files))}
     result.trajectory.to_parquet(out / "trajectory.parquet")
-    return finish_run(out, summary, result.trajectory)
+    return finish_run(out, summary, result.trajectory, drawer)
 
 
 MARKER = ".tensim-run"  # every folder written through replace_folder holds it

@@ -20,6 +20,7 @@ from tensim.cli._common import (
 
 if TYPE_CHECKING:
     from tensim.structure import Structure
+    from tensim.viz.drawing import FigureDrawer, FigurePlan
 
 
 def _structure(args: argparse.Namespace) -> Structure | None:
@@ -27,15 +28,28 @@ def _structure(args: argparse.Namespace) -> Structure | None:
     return load_model(args.robot) if args.robot else None
 
 
+def _drawer(plans: list[FigurePlan], duration: float | None, dt: float | None
+            ) -> FigureDrawer:
+    """A drawer of ``plans`` that lays the figures out while the run simulates, where that pays
+    (:func:`tensim.viz.drawing.background_pays`; ``duration`` None: the run's own, which for
+    the shipped gaits is long enough)."""
+    from tensim.model import WorldOptions
+    from tensim.viz.drawing import MIN_STEPS, FigureDrawer, background_pays
+
+    steps = MIN_STEPS if duration is None else round(duration / (dt or WorldOptions.timestep))
+    return FigureDrawer(plans, background=background_pays(steps))
+
+
 def _disturbance(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     from tensim.experiments import run_disturbance, write_disturbance
-    from tensim.experiments.disturbance import DURATION
+    from tensim.experiments.disturbance import DURATION, disturbance_figures
 
-    result, summary = run_disturbance(dt=args.dt, world=world_from_args(args),
-                                      duration=args.duration or DURATION,
-                                      structure=_structure(args),
-                                      progress=Progress("disturbance", args.quiet))
-    write_disturbance(out, result, summary, _structure(args))
+    duration = args.duration or DURATION
+    with _drawer(disturbance_figures(), duration, args.dt) as drawer:
+        result, summary = run_disturbance(dt=args.dt, world=world_from_args(args),
+                                          duration=duration, structure=_structure(args),
+                                          progress=Progress("disturbance", args.quiet))
+        write_disturbance(out, result, summary, _structure(args), drawer)
     return summary
 
 
@@ -55,14 +69,17 @@ def _timestep(args: argparse.Namespace, out: Path) -> dict[str, Any]:
 
 def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[str, Any]]:
     def run(args: argparse.Namespace, out: Path) -> dict[str, Any]:
-        from tensim.experiments.gait import run_gait, write_gait
+        from tensim.experiments.gait import gait_figures, run_gait, write_gait
+        from tensim.models import preset
 
         structure = _structure(args)
-        result, summary, config = run_gait(
-            name, args.controller or default, structure=structure,
-            duration=args.duration, world=world_from_args(args),
-            progress=Progress(name, args.quiet))
-        write_gait(out, result, summary, config, structure)
+        cables = [c.name for c in (structure or preset("tetraspine3").build()).cables]
+        with _drawer(gait_figures(name, cables), args.duration, args.dt) as drawer:
+            result, summary, config = run_gait(
+                name, args.controller or default, structure=structure,
+                duration=args.duration, world=world_from_args(args),
+                progress=Progress(name, args.quiet))
+            write_gait(out, result, summary, config, structure, drawer)
         print(f"moved {summary['planar_displacement_m']:.3f} m toward "
               f"{summary['direction']} ({summary['direction_deg']:.0f} deg from +x)")
         if "body_sideways_m" in summary:

@@ -23,6 +23,7 @@ from tensim.models.tetraspine import node_name
 from tensim.runs import world_record, write_run
 from tensim.sim import NodeLoad, SimulationResult, ramp_hold_release, simulate
 from tensim.structure import Structure
+from tensim.viz.drawing import FigureDrawer, FigurePlan, Span
 
 PEAK_FORCE = 22.56  # N
 START, RISE, HOLD, FALL = 30.0, 5.0, 5.0, 5.0  # s
@@ -84,24 +85,39 @@ def _named(names: tuple[str, ...], values: np.ndarray) -> dict[str, float]:
     return {n: round(float(v), 4) for n, v in zip(names, values, strict=True)}
 
 
-def write_disturbance(out: Path, result: SimulationResult, summary: dict[str, Any],
-                      structure: Structure | None = None) -> Path:
-    """Writes the run folder: trajectory, tension and length figures, the robot (``structure``,
-    None: the preset) and its controller, summary."""
-    from tensim.viz.plots import Span, plot_cable_tensions, plot_lengths
+CABLE_PANELS = tuple(f"{kind}_{j}" for j in (1, 2) for kind in (
+    "outer_top", "outer_left", "outer_right", "inner_top", "inner_left", "inner_right"))
 
-    order = [f"{kind}_{j}" for j in (1, 2) for kind in
-             ("outer_top", "outer_left", "outer_right", "inner_top", "inner_left", "inner_right")]
+
+def disturbance_figures() -> list[FigurePlan]:
+    """The figures of a disturbance run folder (tensions, lengths, path), before it runs."""
     spans = (Span(START, START + RISE + HOLD + FALL, "force ramps / holds", 0.10),
              Span(*DURING, "hold (averaged)", 0.25),
              Span(*BEFORE, "before (averaged)", 0.12, "tab:green"))
-    plot_cable_tensions(result.trajectory, out / "tensions.png", cables=order, columns=3,
-                        spans=spans,
-                        title="Tetraspine3 disturbance test: measured tension (black), commanded "
-                              "(blue dashed);\norange: external force on, darker while held "
-                              f"({DURING[0]:g}-{DURING[1]:g} s); green: the window before")
-    plot_lengths(result.trajectory, out / "lengths.png", cables=order, columns=3,
-                 title="Tetraspine3 disturbance test: cable length and motor rest length")
+    return [FigurePlan("tensions.png", "tensions", {
+                "cables": CABLE_PANELS, "columns": 3, "spans": spans,
+                "title": "Tetraspine3 disturbance test: measured tension (black), commanded "
+                         "(blue dashed);\norange: external force on, darker while held "
+                         f"({DURING[0]:g}-{DURING[1]:g} s); green: the window before"}),
+            FigurePlan("lengths.png", "lengths", {
+                "cables": CABLE_PANELS, "columns": 3,
+                "title": "Tetraspine3 disturbance test: cable length and motor rest length"}),
+            FigurePlan("path.png", "path")]
+
+
+def write_disturbance(out: Path, result: SimulationResult, summary: dict[str, Any],
+                      structure: Structure | None = None,
+                      drawer: FigureDrawer | None = None) -> Path:
+    """Writes the run folder: trajectory, tension and length figures, the robot (``structure``,
+    None: the preset) and its controller, summary.
+
+    ``drawer``: a drawer of :func:`disturbance_figures` opened before the run (it may have
+    laid them out meanwhile); None: drawn here.
+    """
+    drawer = drawer or FigureDrawer(disturbance_figures())
+    for plan in drawer.plans.values():
+        drawer.draw(plan.file, result.trajectory, out)
     summary = {**summary, "figures": ["tensions.png", "lengths.png"]}
     config = ControllerConfig(preset("tetraspine3").controller(), model="tetraspine3")
-    return write_run(out, result, summary, structure=structure, controller=config)
+    return write_run(out, result, summary, structure=structure, controller=config,
+                     drawer=drawer)

@@ -8,7 +8,7 @@ cable was given, the robot's path and how far and in which direction it moved.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +20,7 @@ from tensim.models import preset
 from tensim.runs import world_record, write_run
 from tensim.sim import COM, SimulationResult, TimeSeries, simulate
 from tensim.structure import Structure
+from tensim.viz.drawing import FigureDrawer, FigurePlan
 
 CABLE_ORDER = tuple(f"{kind}_{j}" for j in (1, 2) for kind in (
     "outer_top", "outer_left", "outer_right", "inner_top", "inner_left", "inner_right"))
@@ -129,25 +130,41 @@ def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tet
     return result, summary, config
 
 
-def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
-               config: ControllerConfig, structure: Structure | None = None) -> Path:
-    """Writes tensions (Fig. 4/5 style), V* inputs, path, trajectory, the robot (``structure``,
-    None: the preset) and controller, and the summary."""
-    from tensim.viz.plots import plot_cable_tensions, plot_path, plot_velocity_input
+def gait_figures(name: str, cables: Sequence[str]) -> list[FigurePlan]:
+    """The figures of a gait run folder (tensions, V* inputs, path), before it runs.
 
-    cables = [c for c in CABLE_ORDER if c in result.cables] or list(result.cables)
-    name = summary.get("experiment", "gait")
-    plot_cable_tensions(result.trajectory, out / "tensions.png", cables=cables, columns=3,
-                        title=f"Tetraspine3 {name} gait: measured tension (black), commanded "
-                              "(dashed)")
+    Args:
+        name: the experiment (``cpg``, ``sine``), for the titles.
+        cables: the robot's cable names.
+    """
+    shown = [c for c in CABLE_ORDER if c in cables] or list(cables)
+    return [FigurePlan("tensions.png", "tensions", {
+                "cables": shown, "columns": 3,
+                "title": f"Tetraspine3 {name} gait: measured tension (black), commanded "
+                         "(dashed)"}),
+            FigurePlan("velocity_input.png", "velocity_input", {"cables": shown}),
+            FigurePlan("path.png", "path")]
+
+
+def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
+               config: ControllerConfig, structure: Structure | None = None,
+               drawer: FigureDrawer | None = None) -> Path:
+    """Writes tensions (Fig. 4/5 style), V* inputs, path, trajectory, the robot (``structure``,
+    None: the preset) and controller, and the summary.
+
+    ``drawer``: a drawer of :func:`gait_figures` opened before the run (it may have laid them
+    out meanwhile); None: drawn here.
+    """
+    drawer = drawer or FigureDrawer(gait_figures(summary.get("experiment", "gait"),
+                                                 result.cables))
+    drawer.draw("tensions.png", result.trajectory, out)
     table = config.velocity_table(result.dt_s)
     figures = ["tensions.png", "velocity_input.png", "path.png"]
     if table is not None:
-        plot_velocity_input(table, out / "velocity_input.png", cables=cables,
-                            until=result.duration_s)
-    plot_path(result.trajectory, out / "path.png",
-              [*(b for b in result.trajectory.items("pos_x") if b != COM), COM],
-              title=f"moved {summary['planar_displacement_m']:.3f} m, "
-                    f"{summary['direction']}")
+        drawer.draw("velocity_input.png", table, out, until=result.duration_s)
+    drawer.draw("path.png", result.trajectory, out,
+                items=[*(b for b in result.trajectory.items("pos_x") if b != COM), COM],
+                title=f"moved {summary['planar_displacement_m']:.3f} m, "
+                      f"{summary['direction']}")
     return write_run(out, result, {**summary, "figures": figures}, structure=structure,
-                     controller=config)
+                     controller=config, drawer=drawer)

@@ -18,22 +18,12 @@ from matplotlib.figure import Figure
 from tensim._files import atomic_path
 from tensim.control.velocity_table import VelocityTable
 from tensim.sim import TimeSeries
+from tensim.viz.drawing import Span
 
 # A panel is about 500 pixels wide at the saved resolution: a line with more samples than
 # this draws the same picture from the minimum and maximum of each group of samples.
 MAX_POINTS = 1200
 SETTLE_S = 0.2  # the y axis ignores commanded tensions before this: the start-up transient [s]
-
-
-@dataclasses.dataclass(frozen=True)
-class Span:
-    """A shaded time span of a tension plot: ``start`` to ``stop`` [s], named in the legend."""
-
-    start: float
-    stop: float
-    label: str
-    alpha: float = 0.12
-    color: str = "tab:orange"
 
 
 def thin(x: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS
@@ -56,13 +46,40 @@ def thin(x: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS
     return x[keep], y[keep]
 
 
-def _cable_panels(cables: Sequence[str], columns: int, ylabel: str, height: float,
-                  draw: Callable[[Axes, str], None], title: str = "") -> Figure:
-    """A grid with one panel per cable, drawn by ``draw(ax, cable)``, labelled and laid out.
+# Panel figures by kind: the y label and the height of a row [in].
+PANELS = {"tensions": ("tension [N]", 2.4), "lengths": ("length [m]", 2.2),
+          "velocity_input": ("V* [mm/s]", 2.0)}
+LENGTHS_TITLE = "Cable length and motor rest length"
+VELOCITY_TITLE = "Target cable velocity V* sent to each impedance controller"
+
+
+@dataclasses.dataclass(frozen=True)
+class PanelGrid:
+    """The empty grid of a panel figure: one labelled panel per cable, no data yet.
+
+    It can be laid out (and drawn once, which makes its ticks and text) before a run ends; a
+    plot function of the same ``kind``, cables, columns and title then only fills it.
+    """
+
+    kind: str
+    cables: tuple[str, ...]
+    columns: int
+    title: str
+    figure: Figure = dataclasses.field(compare=False)
+
+    def fits(self, kind: str, cables: Sequence[str], columns: int, title: str) -> bool:
+        return (self.kind, self.cables, self.columns, self.title) == \
+            (kind, tuple(cables), columns, title)
+
+
+def panel_grid(kind: str, cables: Sequence[str], columns: int = 3, title: str = ""
+               ) -> PanelGrid:
+    """Lays out the empty grid of a panel figure of ``kind`` (see :data:`PANELS`).
 
     The margins are fixed in inches (no automatic layout pass, which cost a second a figure).
     """
-    rows = math.ceil(len(cables) / columns)
+    ylabel, height = PANELS[kind]
+    rows = max(1, math.ceil(len(cables) / columns))
     header = 0.85 if "\n" in title else 0.65 if title else 0.35  # title and panel titles [in]
     width, fig_height = 4.2 * columns, height * rows + header
     fig, axes = plt.subplots(rows, columns, figsize=(width, fig_height), sharex=True,
@@ -71,7 +88,6 @@ def _cable_panels(cables: Sequence[str], columns: int, ylabel: str, height: floa
                         top=1 - header / fig_height,
                         wspace=0.75 / 4.2, hspace=0.55 / height)
     for ax, name in zip(axes.flat, cables, strict=False):
-        draw(ax, name)
         ax.set_title(name, fontsize=9, pad=3, y=1.0)  # a fixed y skips a costly layout pass
         ax.set_ylabel(ylabel, fontsize=8)
         ax.tick_params(labelsize=7)
@@ -80,11 +96,25 @@ def _cable_panels(cables: Sequence[str], columns: int, ylabel: str, height: floa
         ax.set_visible(False)
     for ax in axes[-1]:
         ax.set_xlabel("time [s]", fontsize=8)
-    if axes.flat[0].get_legend_handles_labels()[0]:
-        axes.flat[0].legend(fontsize=7, loc="best")
     if title:
         fig.suptitle(title, fontsize=11)
-    return fig
+    return PanelGrid(kind, tuple(cables), columns, title, fig)
+
+
+def _panels(grid: PanelGrid | None, kind: str, cables: Sequence[str], columns: int, title: str,
+            draw: Callable[[Axes, str], None]) -> Figure:
+    """Fills ``grid`` (or a new grid, where it was laid out for other cables or options) with
+    ``draw(ax, cable)`` per cable, and the legend."""
+    if grid is None or not grid.fits(kind, cables, columns, title):
+        if grid is not None:
+            plt.close(grid.figure)
+        grid = panel_grid(kind, cables, columns, title)
+    axes = grid.figure.axes
+    for ax, name in zip(axes, cables, strict=False):
+        draw(ax, name)
+    if axes and axes[0].get_legend_handles_labels()[0]:
+        axes[0].legend(fontsize=7, loc="best")
+    return grid.figure
 
 
 def _commanded(series: TimeSeries, name: str) -> np.ndarray | None:
@@ -98,7 +128,7 @@ def _commanded(series: TimeSeries, name: str) -> np.ndarray | None:
 
 def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
                         title: str = "", columns: int = 3,
-                        spans: Sequence[Span] = ()) -> Path:
+                        spans: Sequence[Span] = (), grid: PanelGrid | None = None) -> Path:
     """One panel per cable: measured (load-cell) tension, and the commanded tension T_set.
 
     The measured line is drawn over the commanded one. The y axis spans the measured tension
@@ -112,6 +142,8 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
         title: figure title.
         columns: panels per row.
         spans: time spans to shade, e.g. when an external force acts.
+        grid: the empty grid to fill, laid out before the run ended (:func:`panel_grid` of
+            ``"tensions"`` for the same cables, columns and title); None: laid out here.
     """
     t = series.time
     later = t >= min(SETTLE_S, float(t[-1]))
@@ -132,14 +164,17 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
         margin = 0.05 * (high - low) or 0.5
         ax.set_ylim(low - margin, high + margin)
 
-    fig = _cable_panels(list(cables or series.items("tension")), columns, "tension [N]", 2.4,
-                        draw, title)
-    return save_figure(fig, path)
+    cables = list(cables or series.items("tension"))
+    return save_figure(_panels(grid, "tensions", cables, columns, title, draw), path)
 
 
 def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
-                 columns: int = 3, title: str = "Cable length and motor rest length") -> Path:
-    """One panel per cable: anchor-to-anchor length and motor rest length [m]."""
+                 columns: int = 3, title: str = LENGTHS_TITLE, grid: PanelGrid | None = None
+                 ) -> Path:
+    """One panel per cable: anchor-to-anchor length and motor rest length [m].
+
+    ``grid``: the empty grid to fill (as in :func:`plot_cable_tensions`), or None.
+    """
     t = series.time
 
     def draw(ax: Axes, name: str) -> None:
@@ -147,13 +182,15 @@ def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None
                 label="rest length")
         ax.plot(*thin(t, series[f"length/{name}"]), color="black", lw=0.8, label="length")
 
-    fig = _cable_panels(list(cables or series.items("length")), columns, "length [m]", 2.2,
-                        draw, title)
-    return save_figure(fig, path)
+    cables = list(cables or series.items("length"))
+    return save_figure(_panels(grid, "lengths", cables, columns, title, draw), path)
 
 
-def plot_path(series: TimeSeries, path: Path, items: Sequence[str], title: str = "") -> Path:
-    """Top view (x, y) of the bodies' paths [m]; start marked with a circle."""
+def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None,
+              title: str = "") -> Path:
+    """Top view (x, y) of the bodies' paths [m] (``items``; None: every recorded body and the
+    centre of mass); start marked with a circle."""
+    items = series.items("pos_x") if items is None else items
     fig, ax = plt.subplots(figsize=(5, 5))
     if title:
         ax.set_title(title, fontsize=10)
@@ -172,10 +209,12 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str], title: str =
 
 def plot_velocity_input(table: VelocityTable, path: Path, *,
                         cables: Sequence[str] | None = None, columns: int = 3,
-                        until: float | None = None,
-                        title: str = "Target cable velocity V* sent to each impedance "
-                                     "controller") -> Path:
-    """One panel per cable: the target velocity V* it was commanded (held between samples)."""
+                        until: float | None = None, title: str = VELOCITY_TITLE,
+                        grid: PanelGrid | None = None) -> Path:
+    """One panel per cable: the target velocity V* it was commanded (held between samples).
+
+    ``grid``: the empty grid to fill (as in :func:`plot_cable_tensions`), or None.
+    """
     stop = table.values.shape[0] if until is None else min(
         table.values.shape[0], int(until / table.period + 1e-9) + 1)
     times = table.times[:stop]
@@ -186,8 +225,7 @@ def plot_velocity_input(table: VelocityTable, path: Path, *,
         ax.axhline(0.0, color="black", lw=0.5)
 
     chosen = [c for c in (cables or table.cables) if c in table.cables]
-    fig = _cable_panels(chosen, columns, "V* [mm/s]", 2.0, draw, title)
-    return save_figure(fig, path)
+    return save_figure(_panels(grid, "velocity_input", chosen, columns, title, draw), path)
 
 
 def save_figure(fig: Figure, path: Path, dpi: int = 120) -> Path:

@@ -17,10 +17,13 @@ import json
 import logging
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tensim._files import atomic_path, write_text
 from tensim.sim import TimeSeries
+
+if TYPE_CHECKING:
+    from tensim.viz.drawing import FigureDrawer
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +52,8 @@ overflow-x: auto; font-size: 0.8em; } .note { color: #8a5a00; }
 
 
 def write_report(out: Path, summary: dict[str, Any] | None = None, *,
-                 series: TimeSeries | None = None, frame: bool = True) -> Path:
+                 series: TimeSeries | None = None, frame: bool = True,
+                 drawer: FigureDrawer | None = None) -> Path:
     """Writes ``out/report.html`` (atomically) and any figures it needs.
 
     Args:
@@ -58,6 +62,8 @@ def write_report(out: Path, summary: dict[str, Any] | None = None, *,
         series: the run's trajectory (default: the folder's trajectory.parquet, if any).
         frame: render a frame of the robot (needs an offscreen OpenGL backend; skipped with a
             note on the page when none works).
+        drawer: draws some of the folder's figures meanwhile (its pending ones are not drawn
+            here); the page is written once it has finished.
 
     Returns:
         The report's path.
@@ -73,8 +79,11 @@ def write_report(out: Path, summary: dict[str, Any] | None = None, *,
     with concurrent.futures.ThreadPoolExecutor(1) as pool:
         # the backend trial runs in a child process while the figures are drawn
         backend = pool.submit(_gl.select_backend) if frame and series is not None else None
-        figures = _figures(out, summary, series)
+        _figures(out, series, drawer.pending if drawer is not None else frozenset())
         note = _frame(out, summary, series, backend) if backend is not None else None
+    if drawer is not None:
+        drawer.wait()
+    figures = figure_names(out, summary)
     frames = ["frame.png"] if backend is not None and note is None else []
     page = _page(out, summary, frames + figures, [note] if note else [],
                  series.items("tension") if series is not None else [])
@@ -87,18 +96,25 @@ def _trajectory(out: Path) -> TimeSeries | None:
     return TimeSeries.from_parquet(path) if path.is_file() else None
 
 
-def _figures(out: Path, summary: dict[str, Any], series: TimeSeries | None) -> list[str]:
-    """The folder's figures in page order, making the standard ones the run did not."""
+def _figures(out: Path, series: TimeSeries | None, pending: frozenset[str]) -> None:
+    """Draws the standard figures the run did not make (and is not making: ``pending``)."""
+    if series is None:
+        return
+    missing = [(quantity, name) for quantity, name in (("tension", "tensions.png"),
+                                                       ("rest_length", "lengths.png"),
+                                                       ("pos_x", "path.png"))
+               if series.items(quantity) and name not in pending and not (out / name).exists()]
+    if not missing:
+        return  # matplotlib is not even loaded
     from tensim.viz.plots import plot_cable_tensions, plot_lengths, plot_path
 
-    if series is not None:
-        if series.items("tension") and not (out / "tensions.png").exists():
-            plot_cable_tensions(series, out / "tensions.png", title="cable tensions")
-        if series.items("rest_length") and not (out / "lengths.png").exists():
-            plot_lengths(series, out / "lengths.png")
-        if series.items("pos_x") and not (out / "path.png").exists():
-            plot_path(series, out / "path.png", series.items("pos_x"))
-    return figure_names(out, summary)
+    for _, name in missing:
+        if name == "tensions.png":
+            plot_cable_tensions(series, out / name, title="cable tensions")
+        elif name == "lengths.png":
+            plot_lengths(series, out / name)
+        else:
+            plot_path(series, out / name)
 
 
 def figure_names(out: Path, summary: dict[str, Any]) -> list[str]:
@@ -114,7 +130,7 @@ def figure_names(out: Path, summary: dict[str, Any]) -> list[str]:
 def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
            backend: concurrent.futures.Future[str]) -> str | None:
     """Renders ``frame.png`` at the last recorded sample; a note for the page if it cannot."""
-    import matplotlib.pyplot as plt
+    from PIL import Image
 
     from tensim.viz._gl import OffscreenUnavailable
     from tensim.viz.cables import TensionColors
@@ -133,7 +149,7 @@ def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
         log.info("report without a frame of the robot: %s", err)
         return f"No frame of the robot: {err}"
     with atomic_path(out / "frame.png") as tmp:
-        plt.imsave(tmp, image, format="png")
+        Image.fromarray(image).save(tmp, format="png")
     return None
 
 

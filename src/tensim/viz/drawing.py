@@ -1,0 +1,269 @@
+"""A run's figures, drawn in a second process that gets ready while the run simulates.
+
+Drawing a run folder's figures (matplotlib's import, then a dozen-panel grid per figure) took
+about as long as simulating the 60 s disturbance test. A command that knows its figures before
+it simulates names them in :class:`FigurePlan` records and opens a :class:`FigureDrawer`: with
+a second core free, a child process then loads matplotlib and lays out (and draws once) each
+figure's empty grid while the simulation runs, and after it only fills them with the data,
+while this process writes the folder's other files. Without a second core, or for a short run
+whose simulation cannot hide the child's start, the same functions draw in this process; the
+figures are the same either way.
+
+The child is a fresh interpreter (``python -m tensim.viz.drawing``: no copy of this process's
+MuJoCo, threads or OpenGL state, and none of its ``__main__``); it reads the plans and the
+data through a socket pair and writes the PNG files itself (atomically, as every figure). It
+ends with its socket: when the command finishes, fails or is killed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import multiprocessing
+import os
+import queue
+import signal
+import subprocess
+import sys
+import threading
+import traceback
+from collections.abc import Mapping, Sequence
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger(__name__)
+
+# A simulation shorter than this many steps cannot hide the child's start (about a second of
+# CPU: a Python interpreter, numpy, matplotlib and the grids): draw in this process instead.
+MIN_STEPS = 20_000
+
+# What each kind of figure draws: kind -> the tensim.viz.plots function, called as
+# function(data, path, **options).
+KINDS = {"tensions": "plot_cable_tensions", "lengths": "plot_lengths",
+         "velocity_input": "plot_velocity_input", "path": "plot_path"}
+
+
+@dataclasses.dataclass(frozen=True)
+class Span:
+    """A shaded time span of a tension plot: ``start`` to ``stop`` [s], named in the legend."""
+
+    start: float
+    stop: float
+    label: str
+    alpha: float = 0.12
+    color: str = "tab:orange"
+
+
+class FigureError(RuntimeError):
+    """A figure could not be drawn (the message holds the drawing process's traceback)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class FigurePlan:
+    """A figure a run will write, as known before it simulates.
+
+    Attributes:
+        file: its file name in the run folder, e.g. ``"tensions.png"``.
+        kind: what it draws (:data:`KINDS`).
+        options: the plot function's keyword options known in advance (``cables``,
+            ``columns``, ``title``, ``spans``, ...); panel figures whose ``cables`` are
+            given here are laid out before the data come.
+    """
+
+    file: str
+    kind: str
+    options: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"unknown figure kind {self.kind!r}; known: {sorted(KINDS)}")
+
+
+def background_pays(steps: int) -> bool:
+    """Whether a drawing process pays for a run of ``steps`` physics steps: a second usable
+    core, and a simulation long enough to hide the process's start."""
+    return steps >= MIN_STEPS and len(os.sched_getaffinity(0)) >= 2
+
+
+class FigureDrawer:
+    """Draws a run's planned figures, in a child process (``background``) or in this one.
+
+    Use it as a context manager around the simulation and the writing of the folder:
+    :meth:`draw` hands a figure its data (returning at once when a child draws it),
+    :attr:`pending` names the figures still being drawn, :meth:`wait` returns once all are
+    written and raises :class:`FigureError` if one failed. A child that dies is replaced by
+    drawing its figures here, with a warning.
+    """
+
+    def __init__(self, plans: Sequence[FigurePlan], background: bool = False):
+        self.plans = {plan.file: plan for plan in plans}
+        if len(self.plans) != len(plans):
+            raise ValueError("two figure plans share a file name")
+        self._pending: dict[str, tuple[Any, Path, dict[str, Any]]] = {}
+        self._conn: Connection | None = None
+        self._process: subprocess.Popen[bytes] | None = None
+        if background:
+            self._start()
+
+    def _start(self) -> None:
+        ours, theirs = multiprocessing.Pipe()
+        try:
+            process = subprocess.Popen(
+                [sys.executable, "-m", "tensim.viz.drawing", str(theirs.fileno())],
+                pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL)
+            ours.send(list(self.plans.values()))
+        except OSError as err:
+            log.info("figures drawn in this process: no drawing process (%s)", err)
+            ours.close()
+            return
+        finally:
+            theirs.close()
+        self._conn, self._process = ours, process
+
+    @property
+    def background(self) -> bool:
+        """Whether a child process draws the figures."""
+        return self._conn is not None
+
+    @property
+    def pending(self) -> frozenset[str]:
+        """The files handed to the child and not yet reported written."""
+        return frozenset(self._pending)
+
+    def draw(self, file: str, data: Any, folder: Path, **late: Any) -> Path:
+        """Draws the planned figure ``file`` from ``data`` into ``folder``.
+
+        ``late``: options known only now (e.g. a title with the run's result); they join the
+        plan's options, and are not part of the grid laid out in advance.
+        """
+        plan = self.plans[file]
+        path = Path(folder) / file
+        if self._conn is not None:
+            try:
+                self._conn.send((file, data, path, late))
+                self._pending[file] = (data, path, late)
+                return path
+            except (OSError, ValueError) as err:
+                self._lost(err)
+        _draw(plan, data, path, late, grid=None)
+        return path
+
+    def wait(self) -> None:
+        """Returns once every handed-over figure is written.
+
+        Raises:
+            FigureError: a figure failed to draw.
+        """
+        failures = []
+        while self._pending and self._conn is not None:
+            try:
+                file, error = self._conn.recv()
+            except (EOFError, OSError) as err:
+                self._lost(err)
+                break
+            self._pending.pop(file, None)
+            if error is not None:
+                failures.append(f"{file}: {error}")
+        for file, (data, path, late) in list(self._pending.items()):
+            _draw(self.plans[file], data, path, late, grid=None)  # the child was lost
+            del self._pending[file]
+        if failures:
+            raise FigureError("a figure could not be drawn:\n" + "\n".join(failures))
+
+    def _lost(self, err: BaseException) -> None:
+        log.warning("the figure-drawing process ended early (%s); drawing here instead", err)
+        self._close_child(kill=True)
+
+    def close(self) -> None:
+        """Ends the child (figures not yet drawn are dropped: call :meth:`wait` first; a child
+        still drawing is killed, so that it writes nothing into a folder being removed)."""
+        drawing = bool(self._pending)
+        self._pending.clear()
+        self._close_child(kill=drawing)
+
+    def _close_child(self, kill: bool = False) -> None:
+        conn, process = self._conn, self._process
+        self._conn = self._process = None
+        if conn is not None:
+            try:
+                conn.send(None)
+            except (OSError, ValueError):
+                pass
+            conn.close()
+        if process is not None and kill and process.poll() is None:
+            process.kill()
+            process.wait()
+        # otherwise it ends by itself on the sentinel; waiting for its interpreter to shut
+        # down would only delay the command
+
+    def __enter__(self) -> FigureDrawer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _draw(plan: FigurePlan, data: Any, path: Path, late: Mapping[str, Any], grid: Any) -> None:
+    from tensim.viz import plots
+
+    function = getattr(plots, KINDS[plan.kind])
+    options = {**plan.options, **late}
+    if grid is not None:
+        options["grid"] = grid
+    function(data, path, **options)
+
+
+def _lay_out(plan: FigurePlan) -> Any:
+    """The plan's empty panel grid, drawn once (None: a kind or plan without one)."""
+    from tensim.viz import plots
+
+    if plan.kind not in plots.PANELS or "cables" not in plan.options:
+        return None
+    function = getattr(plots, KINDS[plan.kind])
+    defaults = function.__kwdefaults__ or {}
+    options = {**defaults, **plan.options}
+    grid = plots.panel_grid(plan.kind, options["cables"], options["columns"], options["title"])
+    grid.figure.canvas.draw()  # makes the ticks and the text now, while the run simulates
+    return grid
+
+
+def _serve(conn: Connection) -> None:
+    """The drawing process: lays out the planned grids, then draws what it is sent.
+
+    A thread takes the jobs off the socket as they come, so the parent never waits for a
+    figure to be drawn before it can hand over the next.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's; it ends the socket
+    jobs: queue.SimpleQueue[Any] = queue.SimpleQueue()
+
+    def receive() -> None:
+        try:
+            while (job := conn.recv()) is not None:
+                jobs.put(job)
+        except (EOFError, OSError):
+            pass  # the parent has gone: nothing left to draw
+        jobs.put(None)
+
+    threading.Thread(target=receive, name="tensim-figure-jobs", daemon=True).start()
+    plans = jobs.get()
+    if plans is None:
+        return
+    grids = {plan.file: _lay_out(plan) for plan in plans}
+    by_file = {plan.file: plan for plan in plans}
+    while (job := jobs.get()) is not None:
+        file, data, path, late = job
+        try:
+            _draw(by_file[file], data, path, late, grid=grids.pop(file, None))
+            error = None
+        except Exception:  # reported to the parent, which raises it
+            error = traceback.format_exc()
+        try:
+            conn.send((file, error))
+        except OSError:
+            return
+
+
+if __name__ == "__main__":  # the drawing process: python -m tensim.viz.drawing FD
+    _serve(Connection(int(sys.argv[1])))

@@ -1,0 +1,128 @@
+"""Figures drawn by a second process: the same pictures as drawn here, errors that surface,
+a lost process replaced, and a main process that never loads matplotlib for them."""
+
+from __future__ import annotations
+
+import logging
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from tensim.control.velocity_table import VelocityTable
+from tensim.sim import TimeSeries
+from tensim.viz.drawing import (
+    MIN_STEPS,
+    FigureDrawer,
+    FigureError,
+    FigurePlan,
+    Span,
+    background_pays,
+)
+
+CABLES = ("a", "b", "c", "d")
+
+
+def _series() -> TimeSeries:
+    rng = np.random.default_rng(7)
+    t = np.arange(3001) * 0.01
+    channels: dict[str, np.ndarray] = {}
+    for k, name in enumerate(CABLES):
+        channels[f"tension/{name}"] = 10.0 + k + np.cumsum(rng.standard_normal(t.size)) * 0.1
+        channels[f"setpoint/{name}"] = 10.0 + k + np.sin(t)
+        channels[f"length/{name}"] = 0.2 + 0.01 * np.sin(t + k)
+        channels[f"rest_length/{name}"] = 0.19 + 0.01 * np.cos(t + k)
+    for body in ("segment_0", "com"):
+        channels[f"pos_x/{body}"] = 0.01 * t
+        channels[f"pos_y/{body}"] = 0.02 * np.sin(t)
+    return TimeSeries(t, channels)
+
+
+def _plans() -> list[FigurePlan]:
+    return [FigurePlan("tensions.png", "tensions", {
+                "cables": CABLES, "columns": 2, "title": "tensions\nsecond line",
+                "spans": (Span(10.0, 20.0, "push"), Span(12.0, 14.0, "hold", 0.25))}),
+            FigurePlan("lengths.png", "lengths", {"cables": CABLES}),
+            FigurePlan("velocity_input.png", "velocity_input", {"cables": CABLES}),
+            FigurePlan("path.png", "path")]
+
+
+def _draw_all(drawer: FigureDrawer, folder: Path) -> None:
+    series = _series()
+    table = VelocityTable(CABLES, 0.01,
+                          np.tile(np.sin(np.arange(100) * 0.1)[:, None], (1, len(CABLES))))
+    drawer.draw("tensions.png", series, folder)
+    drawer.draw("lengths.png", series, folder)
+    drawer.draw("velocity_input.png", table, folder, until=0.5)
+    drawer.draw("path.png", series, folder, title="moved")
+    drawer.wait()
+
+
+def _pixels(path: Path) -> np.ndarray:
+    with Image.open(path) as image:
+        return np.asarray(image.convert("RGBA"))
+
+
+def test_a_drawing_process_draws_the_same_figures_as_this_one(tmp_path):
+    here, there = tmp_path / "here", tmp_path / "there"
+    here.mkdir()
+    there.mkdir()
+    _draw_all(FigureDrawer(_plans()), here)
+    with FigureDrawer(_plans(), background=True) as drawer:
+        assert drawer.background
+        _draw_all(drawer, there)
+        assert not drawer.pending
+    for name in ("tensions.png", "lengths.png", "velocity_input.png", "path.png"):
+        a, b = _pixels(here / name), _pixels(there / name)
+        assert a.shape == b.shape and a.shape[0] > 200
+        # laid out (and drawn once) before the data came, the grid ends as one drawn at once
+        assert np.array_equal(a, b), name
+        assert len(np.unique(a.reshape(-1, 4), axis=0)) > 20  # a real picture, not a blank
+
+
+def test_a_figure_that_fails_in_the_drawing_process_fails_the_command(tmp_path):
+    plans = [FigurePlan("tensions.png", "tensions", {"cables": ("a", "no_such_cable")})]
+    with FigureDrawer(plans, background=True) as drawer:
+        drawer.draw("tensions.png", _series(), tmp_path)
+        with pytest.raises(FigureError, match=r"(?s)tensions.png: .*no channel 'tension/no_such"):
+            drawer.wait()
+    assert not (tmp_path / "tensions.png").exists()
+
+
+def test_a_lost_drawing_process_is_replaced_by_drawing_here(tmp_path, caplog):
+    with FigureDrawer(_plans(), background=True) as drawer:
+        drawer._process.kill()  # as an out-of-memory kill would
+        drawer._process.wait()
+        with caplog.at_level(logging.WARNING, logger="tensim.viz.drawing"):
+            _draw_all(drawer, tmp_path)
+    assert "drawing here instead" in caplog.text
+    assert all((tmp_path / p.file).is_file() for p in _plans())
+
+
+def test_closing_with_figures_pending_stops_the_process(tmp_path):
+    drawer = FigureDrawer(_plans(), background=True)
+    process = drawer._process
+    drawer.draw("tensions.png", _series(), tmp_path)
+    drawer.close()  # as when the command fails: the staging folder is about to go
+    assert process.poll() is not None  # ended (killed) before close returned
+
+
+def test_only_a_long_run_on_two_cores_starts_a_drawing_process(monkeypatch):
+    monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0, 1})
+    assert background_pays(MIN_STEPS) and not background_pays(MIN_STEPS - 1)
+    monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0})
+    assert not background_pays(10 * MIN_STEPS)
+
+
+def test_plans_load_no_matplotlib_and_refuse_unknown_kinds():
+    probe = ("import sys; from tensim.experiments.disturbance import disturbance_figures; "
+             "from tensim.experiments.gait import gait_figures; disturbance_figures(); "
+             "gait_figures('cpg', ['a']); print('matplotlib.pyplot' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "False"
+    with pytest.raises(ValueError, match="unknown figure kind 'bars'"):
+        FigurePlan("x.png", "bars")
