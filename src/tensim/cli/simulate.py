@@ -45,14 +45,14 @@ def run(args: argparse.Namespace) -> int:
         write_run,
     )
     from tensim.sim import simulate
-    from tensim.viz import plot_cable_tensions, plot_path
+    from tensim.viz.drawing import FigureDrawer, FigurePlan, background_pays
 
     prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     structure = load_model(args.model)
     config = resolve_controller(args.model, structure, args.controller)
-    if args.velocity_input and config is None:
-        raise ValueError("--velocity-input needs impedance laws: give --controller")
     if args.velocity_input:
+        if config is None:
+            raise ValueError("--velocity-input needs impedance laws: give --controller")
         table = load_velocity_table(args.velocity_input)
         try:
             check_table_columns(table, config.impedance)
@@ -67,20 +67,24 @@ def run(args: argparse.Namespace) -> int:
     check_run_folder(Path(args.out))
     compiled = compile_structure(structure, world_from_args(args))
     controller = config.build(compiled.model.opt.timestep) if config else None
-    result = simulate(compiled, duration, controller=controller, record_dt=args.record_dt,
-                      progress=Progress(args.model, args.quiet))
-    summary = {"model": args.model, "controller": _controller_label(args, config),
-               **result.summary(), **world_record(compiled.world)}
+    cables = list(compiled.index.cables)
+    plans = [FigurePlan("path.png", "path", {"items": list(compiled.index.bodies)})]
+    if cables:
+        plans[:0] = [FigurePlan("tensions.png", "tensions",
+                                {"cables": cables, "title": f"{args.model}: cable tensions"}),
+                     FigurePlan("lengths.png", "lengths", {"cables": cables})]
+    steps = round(duration / compiled.model.opt.timestep)
     out = Path(args.out)
-    figures = ["path.png"]
-    with replace_folder(out) as stage:
-        if compiled.n_cables:
-            plot_cable_tensions(result.trajectory, stage / "tensions.png",
-                                title=f"{args.model}: cable tensions")
-            figures.insert(0, "tensions.png")
-        plot_path(result.trajectory, stage / "path.png", compiled.index.bodies)
-        write_run(stage, result, {**summary, "figures": figures}, structure=structure,
-                  controller=config)
+    with FigureDrawer(plans, background=background_pays(steps)) as drawer:
+        result = simulate(compiled, duration, controller=controller, record_dt=args.record_dt,
+                          progress=Progress(args.model, args.quiet))
+        summary = {"model": args.model, "controller": _controller_label(args, config),
+                   **result.summary(), **world_record(compiled.world)}
+        with replace_folder(out) as stage:
+            for plan in plans:
+                drawer.draw(plan.file, result.trajectory, stage)
+            write_run(stage, result, {**summary, "figures": [p.file for p in plans]},
+                      structure=structure, controller=config, drawer=drawer)
     print_summary(summary, out)
     return 0
 

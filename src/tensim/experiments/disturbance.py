@@ -118,6 +118,7 @@ def write_disturbance(out: Path, result: SimulationResult, summary: dict[str, An
     for plan in drawer.plans.values():
         drawer.draw(plan.file, result.trajectory, out)
     summary = {**summary, "figures": ["tensions.png", "lengths.png"]}
-    config = ControllerConfig(preset("tetraspine3").controller(), model="tetraspine3")
+    impedance = preset("tetraspine3").controller()
+    config = ControllerConfig(impedance, model="tetraspine3") if impedance else None
     return write_run(out, result, summary, structure=structure, controller=config,
                      drawer=drawer)

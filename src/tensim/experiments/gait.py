@@ -131,7 +131,7 @@ def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tet
 
 
 def gait_figures(name: str, cables: Sequence[str]) -> list[FigurePlan]:
-    """The figures of a gait run folder (tensions, V* inputs, path), before it runs.
+    """The figures of a gait run folder (tensions, V* inputs, lengths, path), before it runs.
 
     Args:
         name: the experiment (``cpg``, ``sine``), for the titles.
@@ -143,14 +143,15 @@ def gait_figures(name: str, cables: Sequence[str]) -> list[FigurePlan]:
                 "title": f"Tetraspine3 {name} gait: measured tension (black), commanded "
                          "(dashed)"}),
             FigurePlan("velocity_input.png", "velocity_input", {"cables": shown}),
+            FigurePlan("lengths.png", "lengths", {"cables": shown}),
             FigurePlan("path.png", "path")]
 
 
 def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
                config: ControllerConfig, structure: Structure | None = None,
                drawer: FigureDrawer | None = None) -> Path:
-    """Writes tensions (Fig. 4/5 style), V* inputs, path, trajectory, the robot (``structure``,
-    None: the preset) and controller, and the summary.
+    """Writes tensions (Fig. 4/5 style), V* inputs, lengths, path, trajectory, the robot
+    (``structure``, None: the preset) and controller, and the summary.
 
     ``drawer``: a drawer of :func:`gait_figures` opened before the run (it may have laid them
     out meanwhile); None: drawn here.
@@ -159,9 +160,10 @@ def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
                                                  result.cables))
     drawer.draw("tensions.png", result.trajectory, out)
     table = config.velocity_table(result.dt_s)
-    figures = ["tensions.png", "velocity_input.png", "path.png"]
+    figures = ["tensions.png", "velocity_input.png", "lengths.png", "path.png"]
     if table is not None:
         drawer.draw("velocity_input.png", table, out, until=result.duration_s)
+    drawer.draw("lengths.png", result.trajectory, out)
     drawer.draw("path.png", result.trajectory, out,
                 items=[*(b for b in result.trajectory.items("pos_x") if b != COM), COM],
                 title=f"moved {summary['planar_displacement_m']:.3f} m, "

@@ -80,7 +80,8 @@ def write_report(out: Path, summary: dict[str, Any] | None = None, *,
         # the backend trial runs in a child process while the figures are drawn
         backend = pool.submit(_gl.select_backend) if frame and series is not None else None
         _figures(out, series, drawer.pending if drawer is not None else frozenset())
-        note = _frame(out, summary, series, backend) if backend is not None else None
+        note = _frame(out, summary, series, backend) \
+            if backend is not None and series is not None else None
     if drawer is not None:
         drawer.wait()
     figures = figure_names(out, summary)
