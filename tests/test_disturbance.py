@@ -60,8 +60,9 @@ def test_cli_experiment_writes_summary_and_figures(tmp_path, capsys) -> None:
     # is taken "mostly in the outside cables"
     change = summary["tension_change_hold_N"]
     assert change["outer_left_1"] > 1.0 and change["outer_right_1"] > 1.0
-    for figure in ("tensions.png", "lengths.png"):
+    for figure in ("tensions.png", "lengths.png", "path.png"):  # drawn by a second process
         assert (out / figure).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert summary["figures"][:3] == ["tensions.png", "lengths.png", "path.png"]
     assert "max system tension" in capsys.readouterr().out
 
 

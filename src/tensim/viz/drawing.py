@@ -192,11 +192,14 @@ class FigureDrawer:
             except (OSError, ValueError):
                 pass
             conn.close()
-        if process is not None and kill and process.poll() is None:
-            process.kill()
-            process.wait()
-        # otherwise it ends by itself on the sentinel; waiting for its interpreter to shut
-        # down would only delay the command
+        if process is not None:
+            if kill:
+                process.kill()
+            try:
+                process.wait(timeout=5.0)  # it exits at once on the sentinel
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
 
     def __enter__(self) -> FigureDrawer:
         return self
@@ -267,3 +270,4 @@ def _serve(conn: Connection) -> None:
 
 if __name__ == "__main__":  # the drawing process: python -m tensim.viz.drawing FD
     _serve(Connection(int(sys.argv[1])))
+    os._exit(0)  # its files are written and closed: skip the interpreter's slow shutdown
