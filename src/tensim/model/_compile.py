@@ -95,6 +95,8 @@ class ModelIndex:
         node_body: node name -> MuJoCo body id (0 for world-fixed nodes).
         node_local: node name -> (3,) node position in its body's frame [m].
         load_nodes: nodes with external force inputs, in input order.
+        rest_act: (n_cables,) address in ``act`` of each cable's rest length; its peak tension
+            follows it, and a DC motor's line speed follows that.
     """
 
     cables: tuple[str, ...]
@@ -105,6 +107,15 @@ class ModelIndex:
     node_body: dict[str, int]
     node_local: dict[str, np.ndarray]
     load_nodes: tuple[str, ...] = ()
+    rest_act: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
+
+    def cable_act(self, act: np.ndarray, part: int = 0) -> np.ndarray:
+        """Each cable's activation ``part`` (0: rest length, 1: peak tension) from ``act``
+        (..., na): a view where every cable has two activations, else a copy."""
+        n = len(self.cables)
+        if np.array_equal(self.rest_act, np.arange(0, 2 * n, 2)):
+            return act[..., part:2 * n:2]
+        return act[..., self.rest_act + part]
 
     def cable_id(self, name: str) -> int:
         """Position of cable ``name`` in the per-cable arrays."""
@@ -284,8 +295,10 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
         _add_cable_actuator(spec, cable, structure.rest_length(cable))
     _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
     rest = [structure.rest_length(c) for c in structure.cables]
-    spec.add_key(name=BUILD_KEY, act=[v for r in rest for v in (r, 0.0)],
-                 ctrl=rest + [0.0] * (3 * len(load_nodes)))
+    # per cable: rest length, peak tension 0 (and a DC motor's spool at rest)
+    act = [v for c, r in zip(structure.cables, rest, strict=True)
+           for v in ((r, 0.0) if c.motor.dc is None else (r, 0.0, 0.0))]
+    spec.add_key(name=BUILD_KEY, act=act, ctrl=rest + [0.0] * (3 * len(load_nodes)))
     model = _compile_spec(spec)
     return dataclasses.replace(
         _assemble(structure, world, model, node_body, node_local, tuple(adjusted), load_nodes),
@@ -351,6 +364,9 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -
     Parameters as in ``tensim.sim._laws`` (the compiled callback reads them from here):
     dynprm = [marker, mode, max_speed, max_tension, min_rest_length, min_length, T0, K, B, L*],
     biasprm = [stiffness, damping]; act = [rest length, peak tension]; ctrl = the command.
+    A DC motor adds its line speed to act (actdim 3) and its parameters in cable coordinates
+    to biasprm[3:10]: [stall force, no-load line speed, mass, viscous, Coulomb, position time,
+    back-drivable].
     """
     actuator = spec.add_actuator(name=cable.name, target=cable.name,
                                  trntype=mujoco.mjtTrn.mjTRN_TENDON)
@@ -364,6 +380,14 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -
                           motor.min_rest_length, motor.min_length, 0.0, 0.0, 0.0, rest_length]
     actuator.biasprm[0] = cable.stiffness
     actuator.biasprm[1] = cable.damping
+    dc = motor.dc
+    if dc is not None:
+        actuator.actdim = 3
+        line = dc.line()
+        # biasprm[2] stays 0: MuJoCo's compiler reads a positive one as a damping ratio
+        actuator.biasprm[3:10] = [line["stall_force"], line["no_load_line_speed"],
+                                 line["mass"], line["viscous"], line["coulomb"],
+                                 dc.position_time, 1.0 if dc.back_drivable else 0.0]
 
 
 def _add_load_actuators(spec: mujoco.MjSpec, bodies: dict[str, mujoco.MjsBody],
@@ -406,6 +430,8 @@ def _assemble(structure: Structure, world: WorldOptions, model: mujoco.MjModel,
                    for n, b in node_body.items()},
         node_local={n: np.asarray(p, dtype=float) for n, p in node_local.items()},
         load_nodes=load_nodes,
+        rest_act=model.actuator_actadr[ids(mujoco.mjtObj.mjOBJ_ACTUATOR, names)].astype(
+            np.int32),
     )
 
     def column(get: object) -> np.ndarray:

@@ -311,10 +311,9 @@ class _BatchRun:
 
     def results(self, duration: float, wall: float) -> list[TrialResult]:
         assert self.samples is not None
-        n = self.compiled.n_cables
         return trial_results(self.samples, self.count, self.models, self.error,
-                             self.batch.bind("act")[:, 1:2 * n:2], self.compiled.index, self.dt,
-                             duration, wall)
+                             self.compiled.index.cable_act(self.batch.bind("act"), 1),
+                             self.compiled.index, self.dt, duration, wall)
 
 
 class _Block:

@@ -290,8 +290,9 @@ class _Recorder:
         self.buffers = SampleBuffers.empty(sim.compiled, n)
         d, n_cables = sim.data, sim.compiled.n_cables
         b = self.buffers
-        self._copies = [(b.rest, d.act[0:2 * n_cables:2]), (b.command, d.ctrl[:n_cables])]
-        self._takes = [(b.length, d.ten_length, sim.index.tendon),
+        self._copies = [(b.command, d.ctrl[:n_cables])]
+        self._takes = [(b.rest, d.act, sim.index.rest_act),
+                       (b.length, d.ten_length, sim.index.tendon),
                        (b.velocity, d.ten_velocity, sim.index.tendon),
                        (b.quat, d.xquat, sim.index.body)]
         self._xpos, self._com, self._body = d.xpos, d.subtree_com, sim.index.body
