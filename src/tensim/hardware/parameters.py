@@ -1,8 +1,9 @@
 """The named model parameters that system identification fits, and what each one changes.
 
 Physical parameters change the structure description (then it is recompiled and simulated
-again): robot-ground friction, cable stiffness and damping, motor speed limit, point masses,
-and the scale of the V* input. Measurement parameters (sensor offset, gain, delay) act on the
+again): robot-ground friction, cable stiffness and damping, motor speed limit, the DC motors'
+stall torque, no-load speed, rotor inertia and friction, point masses, and the scale of the V*
+input. Measurement parameters (sensor offset, gain, delay) act on the
 simulated signals only, as in MuJoCo's ``mujoco.sysid`` toolbox. Cable-wide parameters take
 the mean over the cables as their value and scale every cable by the same factor, so cables
 that differ keep their ratios.
@@ -18,7 +19,7 @@ import numpy as np
 
 from tensim.control import Bounds, Parameter, ParameterVector
 from tensim.hardware.sensor import SensorModel
-from tensim.structure import Structure
+from tensim.structure import Cable, Structure
 
 PHYSICAL, MEASUREMENT = "physical", "measurement"
 
@@ -73,6 +74,38 @@ def _max_speed(structure: Structure, value: float) -> Structure:
             c.motor, max_speed=float(c.motor.max_speed * factor))) for c in structure.cables))
 
 
+def _dc_motors(structure: Structure, field: str) -> list[float]:
+    values = [getattr(c.motor.dc, field) for c in structure.cables if c.motor.dc is not None]
+    if not values:
+        raise ValueError(f"{field} is a DC motor's parameter, and no cable of "
+                         f"{structure.name!r} has a DC motor (motor: dc: ...)")
+    return values
+
+
+def _dc_scale(field: str) -> Callable[[Structure, float], Structure]:
+    """Sets the DC motors' mean ``field`` to the value, scaling every DC motor alike."""
+    def apply(structure: Structure, value: float) -> Structure:
+        mean = _mean(_dc_motors(structure, field))
+        factor = value / mean if mean > 0 else 1.0
+
+        def motor(c: Cable) -> Cable:
+            dc = c.motor.dc
+            if dc is None:
+                return c
+            new = float(getattr(dc, field) * factor) if mean > 0 else float(value)
+            return dataclasses.replace(c, motor=dataclasses.replace(
+                c.motor, dc=dataclasses.replace(dc, **{field: new})))
+        return dataclasses.replace(structure, cables=tuple(motor(c) for c in structure.cables))
+    return apply
+
+
+def _dc_definition(field: str, unit: str, description: str,
+                   zero_span: tuple[float, float]) -> Definition:
+    return Definition(field, PHYSICAL, unit, description,
+                      lambda s: _mean(_dc_motors(s, field)),
+                      lambda n: (0.2 * n, 5.0 * n) if n > 0 else zero_span, _dc_scale(field))
+
+
 def _mass_scale(structure: Structure, value: float) -> Structure:
     return dataclasses.replace(structure, point_masses=tuple(
         dataclasses.replace(p, mass=float(p.mass * value)) for p in structure.point_masses))
@@ -91,6 +124,16 @@ DEFINITIONS: dict[str, Definition] = {d.name: d for d in (
     Definition("max_speed", PHYSICAL, "m/s", "motor speed limit (mean; all scaled)",
                lambda s: _mean([c.motor.max_speed for c in s.cables]),
                lambda n: (0.3 * n, 3.0 * n), _max_speed),
+    _dc_definition("stall_torque", "N m", "DC motors' stall torque at the spool (mean; all "
+                   "scaled)", (0.0, 1.0)),
+    _dc_definition("no_load_speed", "rad/s", "DC motors' no-load speed at the spool (mean; all "
+                   "scaled)", (0.0, 1.0)),
+    _dc_definition("rotor_inertia", "kg m^2", "DC motors' inertia at the spool (mean; all "
+                   "scaled)", (0.0, 1e-3)),
+    _dc_definition("coulomb_friction", "N m", "DC motors' Coulomb friction at the spool (mean; "
+                   "all scaled)", (0.0, 0.05)),
+    _dc_definition("viscous_friction", "N m s/rad", "DC motors' viscous friction at the spool "
+                   "(mean; all scaled)", (0.0, 0.01)),
     Definition("mass_scale", PHYSICAL, "-", "factor on every point mass",
                lambda s: 1.0, lambda n: (0.5, 1.5), _mass_scale),
     Definition("vstar_scale", PHYSICAL, "-", "factor on the logged V* input (sim = scale x log)",

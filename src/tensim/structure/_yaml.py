@@ -46,8 +46,9 @@ def _build(cls: type, raw: Any, item: str) -> Any:
         values["dc"] = _build(DCMotor, values["dc"], f"{item} dc")
     try:
         return cls(**values)
-    except StructureError as err:
-        raise StructureError(err.detail, item=err.item or item) from None
+    except StructureError as err:  # a motor has no name of its own: name it by its path
+        own = err.item if cls not in (Motor, DCMotor) else None
+        raise StructureError(err.detail, item=own or item) from None
     except TypeError as err:  # a required field is missing
         raise StructureError(f"{err}; expected fields {_fields(cls)}", item=item) from None
 
