@@ -67,3 +67,28 @@ def test_a_dc_motor_log_is_fitted_by_the_dc_model_not_the_kinematic_one():
     params = dc.parameters()
     for name in ("stall_torque", "no_load_speed"):
         assert abs(params[name]["fitted"] - getattr(TRUTH, name)) <= params[name]["ci95"], name
+
+
+def test_world_friction_parameters_set_the_world_and_need_its_condim():
+    from tensim.hardware import SysidSpace
+    from tensim.hardware.parameters import apply_world, check_world
+    from tensim.hardware.sysid import SysidError
+    from tensim.model import WorldOptions
+
+    world = WorldOptions(condim=6)
+    space = SysidSpace.build(tetraspine3(), ["torsional_friction", "rolling_friction"],
+                             world=world)
+    # nominal values come from the world, not the structure
+    np.testing.assert_allclose(space.structure_values(), [0.005, 0.0001])
+    changed = apply_world(world, {"torsional_friction": 0.02, "stiffness": 1.0})
+    assert changed == dataclasses.replace(world, torsional_friction=0.02)
+    check_world(["torsional_friction", "rolling_friction"], world)
+    with pytest.raises(ValueError, match="rolling_friction acts only on contacts with condim "
+                                         ">= 6, and the world has condim 4"):
+        check_world(["rolling_friction"], WorldOptions(condim=4))
+    # identify refuses before simulating anything
+    log = simulated_log(tetraspine3(), load_controller("tetraspine3_impedance", tetraspine3()),
+                        0.5)
+    with pytest.raises(SysidError, match="torsional_friction acts only"):
+        identify([log], tetraspine3(), load_controller("tetraspine3_impedance", tetraspine3()),
+                 ["torsional_friction"])

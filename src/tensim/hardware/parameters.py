@@ -3,10 +3,10 @@
 Physical parameters change the structure description (then it is recompiled and simulated
 again): robot-ground friction, cable stiffness and damping, motor speed limit, the DC motors'
 stall torque, no-load speed, rotor inertia and friction, point masses, and the scale of the V*
-input. Measurement parameters (sensor offset, gain, delay) act on the
-simulated signals only, as in MuJoCo's ``mujoco.sysid`` toolbox. Cable-wide parameters take
-the mean over the cables as their value and scale every cable by the same factor, so cables
-that differ keep their ratios.
+input; world parameters (torsional and rolling friction) change the ``WorldOptions`` instead.
+Measurement parameters (sensor offset, gain, delay) act on the simulated signals only, as in
+MuJoCo's ``mujoco.sysid`` toolbox. Cable-wide parameters take the mean over the cables as their
+value and scale every cable by the same factor, so cables that differ keep their ratios.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import numpy as np
 
 from tensim.control import Bounds, Parameter, ParameterVector
 from tensim.hardware.sensor import SensorModel
+from tensim.model import WorldOptions
 from tensim.structure import Cable, Structure
 
 PHYSICAL, MEASUREMENT = "physical", "measurement"
@@ -36,6 +37,8 @@ class Definition:
         nominal: its value in a structure (or the default for signals).
         span: default (low, high) bounds around a nominal value.
         apply: the structure with this value (physical parameters that change the structure).
+        world_field: the ``WorldOptions`` field this parameter sets (world parameters: their
+            nominal value is the world's, not the structure's).
     """
 
     name: str
@@ -45,6 +48,13 @@ class Definition:
     nominal: Callable[[Structure], float]
     span: Callable[[float], tuple[float, float]]
     apply: Callable[[Structure, float], Structure] | None = None
+    world_field: str | None = None
+
+    def nominal_in(self, structure: Structure, world: WorldOptions | None) -> float:
+        """The nominal value: the world's for world parameters, else the structure's."""
+        if self.world_field is not None:
+            return float(getattr(world or WorldOptions(), self.world_field))
+        return self.nominal(structure)
 
 
 def _mean(values: Sequence[float]) -> float:
@@ -134,6 +144,14 @@ DEFINITIONS: dict[str, Definition] = {d.name: d for d in (
                    "all scaled)", (0.0, 0.05)),
     _dc_definition("viscous_friction", "N m s/rad", "DC motors' viscous friction at the spool "
                    "(mean; all scaled)", (0.0, 0.01)),
+    Definition("torsional_friction", PHYSICAL, "m", "robot-ground torsional friction "
+               "(WorldOptions; acts with condim 4 or 6)", lambda s: math.nan,
+               lambda n: (0.0, 4.0 * n) if n > 0 else (0.0, 0.05),
+               world_field="torsional_friction"),
+    Definition("rolling_friction", PHYSICAL, "m", "robot-ground rolling friction "
+               "(WorldOptions; acts with condim 6)", lambda s: math.nan,
+               lambda n: (0.0, 4.0 * n) if n > 0 else (0.0, 0.01),
+               world_field="rolling_friction"),
     Definition("mass_scale", PHYSICAL, "-", "factor on every point mass",
                lambda s: 1.0, lambda n: (0.5, 1.5), _mass_scale),
     Definition("vstar_scale", PHYSICAL, "-", "factor on the logged V* input (sim = scale x log)",
@@ -169,6 +187,29 @@ def apply_physical(structure: Structure, values: Mapping[str, float]) -> Structu
     return structure
 
 
+def apply_world(world: WorldOptions | None, values: Mapping[str, float]) -> WorldOptions:
+    """``world`` (default: WorldOptions()) with the named world parameters set (others are
+    ignored)."""
+    fields = {d.world_field: float(v) for d, v in
+              ((definition(n), v) for n, v in values.items()) if d.world_field is not None}
+    return dataclasses.replace(world or WorldOptions(), **fields)
+
+
+def check_world(names: Sequence[str], world: WorldOptions | None) -> None:
+    """Refuses world friction parameters that the world's contact model ignores.
+
+    Raises:
+        ValueError: torsional friction with condim 3, rolling friction with condim < 6.
+    """
+    condim = (world or WorldOptions()).condim
+    needs = {"torsional_friction": 4, "rolling_friction": 6}
+    for name in names:
+        if name in needs and condim < needs[name]:
+            raise ValueError(f"{name} acts only on contacts with condim >= {needs[name]}, and "
+                             f"the world has condim {condim} (WorldOptions.condim); fitting it "
+                             "would be ill-posed")
+
+
 def apply_measurement(sensor: SensorModel, values: Mapping[str, float]) -> SensorModel:
     """``sensor`` with the named measurement parameters set (others are ignored)."""
     fields = {n: float(v) for n, v in values.items() if definition(n).kind == MEASUREMENT}
@@ -187,11 +228,13 @@ class SysidSpace(ParameterVector):
 
     structure: Structure
     entries: tuple[Parameter, ...]
+    world: WorldOptions | None = None
 
     @classmethod
     def build(cls, structure: Structure, names: Sequence[str], *,
               bounds: Mapping[str, tuple[float, float]] | None = None,
-              start: Mapping[str, float] | None = None) -> SysidSpace:
+              start: Mapping[str, float] | None = None,
+              world: WorldOptions | None = None) -> SysidSpace:
         """The space of ``names`` with default or given bounds and starting values.
 
         Raises:
@@ -207,13 +250,14 @@ class SysidSpace(ParameterVector):
         entries = []
         for name in names:
             d = definition(name)
-            value = start.get(name, d.nominal(structure))
-            low, high = bounds.get(name, d.span(d.nominal(structure)))
+            nominal = d.nominal_in(structure, world)
+            value = start.get(name, nominal)
+            low, high = bounds.get(name, d.span(nominal))
             try:
                 entries.append(Parameter(name, Bounds(float(low), float(high), float(value))))
             except ValueError as err:
                 raise ValueError(f"parameter {name!r}: {err}") from None
-        return cls(structure, tuple(entries))
+        return cls(structure, tuple(entries), world)
 
     @property
     def parameters(self) -> tuple[Parameter, ...]:
@@ -227,7 +271,8 @@ class SysidSpace(ParameterVector):
 
     def structure_values(self) -> np.ndarray:
         """(n,) the values in the nominal structure (measurement defaults: no offset etc.)."""
-        return np.array([definition(n).nominal(self.structure) for n in self.names])
+        return np.array([definition(n).nominal_in(self.structure, self.world)
+                         for n in self.names])
 
     @property
     def physical(self) -> np.ndarray:

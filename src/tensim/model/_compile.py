@@ -28,6 +28,7 @@ _ROBOT_PRIORITY = 1
 CABLE_MARKER = 7317.0  # dynprm[0] of a cable actuator: the compiled law acts on these only
 BUILD_KEY = "build"  # the keyframe of the build pose: rest lengths in act, commands in ctrl
 WORLD_FRAME_SITE = "world_frame"  # reference frame of the node-load inputs
+_CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 
 
 class ModelError(ValueError):
@@ -57,6 +58,14 @@ class WorldOptions:
             ``False`` keeps only contacts with the ground: faster (1.2x for Tetraspine3, whose
             neighbouring segments' capsules are tested every step and never touch in the
             disturbance test), but it changes the physics wherever the robot's parts do touch.
+        cone: MuJoCo's friction cone, ``"pyramidal"`` (its default) or ``"elliptic"`` (the
+            exact Coulomb cone; softer stick-slip transitions, docs/speed.md).
+        noslip_iterations: iterations of MuJoCo's no-slip solver after the main one (0: off);
+            it removes the creep of soft contacts under tangential load, so sticking feet stay.
+        condim: contact dimensionality of the robot's contacts: 3 (sliding friction), 4 (plus
+            torsional friction about the contact normal) or 6 (plus rolling friction).
+        torsional_friction: torsional friction coefficient [m] (condim 4 and 6).
+        rolling_friction: rolling friction coefficient [m] (condim 6).
     """
 
     timestep: float = 1e-3
@@ -68,6 +77,11 @@ class WorldOptions:
     terrain: Terrain = dataclasses.field(default_factory=Flat)
     midphase: bool = False
     self_collision: bool = True
+    cone: str = "pyramidal"
+    noslip_iterations: int = 0
+    condim: int = 3
+    torsional_friction: float = 0.005
+    rolling_friction: float = 0.0001
 
     def __post_init__(self) -> None:
         if not 0 < self.timestep <= 0.05:
@@ -80,6 +94,23 @@ class WorldOptions:
             raise ValueError(f"contact_timeconst must be > 0 s, got {self.contact_timeconst}")
         if not self.ground and self.terrain != Flat():
             raise ValueError("a terrain needs ground=True")
+        if self.cone not in _CONES:
+            raise ValueError(f"cone must be 'pyramidal' or 'elliptic', got {self.cone!r}")
+        if isinstance(self.noslip_iterations, bool) or not isinstance(
+                self.noslip_iterations, int) or self.noslip_iterations < 0:
+            raise ValueError("noslip_iterations must be a whole number >= 0, got "
+                             f"{self.noslip_iterations!r}")
+        if self.condim not in (3, 4, 6) or isinstance(self.condim, bool):
+            raise ValueError(f"condim must be 3, 4 or 6, got {self.condim!r}")
+        for name in ("torsional_friction", "rolling_friction"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and not isinstance(value, bool)
+                    and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0 [m], got {value!r}")
+
+    def geom_friction(self, sliding: float) -> list[float]:
+        """MuJoCo's geom friction [sliding, torsional, rolling] for a sliding coefficient."""
+        return [sliding, self.torsional_friction, self.rolling_friction]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -221,12 +252,18 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
     if not world.midphase:
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
+    spec.option.cone = _CONES[world.cone]
+    spec.option.noslip_iterations = world.noslip_iterations
     # without self-collision a robot geom only meets geoms whose contype has bit 1 (the ground)
     robot_contype = 1 if world.self_collision else 0
     spec.compiler.autolimits = True
     spec.worldbody.add_light(pos=[0, 0, 5], dir=[0, 0, -1])
     if world.ground:
         add_terrain(spec, world.terrain, world.contact_timeconst)
+        for geom in spec.geoms:  # a terrain that outranks the robot: the world's contact model
+            if geom.priority > _ROBOT_PRIORITY:
+                geom.condim = world.condim
+                geom.friction[1:] = [world.torsional_friction, world.rolling_friction]
     rods = {r.name: r for r in structure.rods}
     masses = {p.node: p for p in structure.point_masses}
     node_body: dict[str, str] = {}
@@ -253,8 +290,8 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
             ends = [node_local[n] for n in rod.nodes]
             body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                           fromto=np.concatenate(ends).tolist(), size=[rod.radius, 0, 0],
-                          friction=[rod.friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
-                          contype=robot_contype, conaffinity=1,
+                          friction=world.geom_friction(rod.friction), condim=world.condim,
+                          priority=_ROBOT_PRIORITY, contype=robot_contype, conaffinity=1,
                           solref=[world.contact_timeconst,
                                   _restitution_dampratio(rod.restitution)],
                           rgba=[0.25, 0.25, 0.3, 1])
@@ -266,7 +303,8 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
                 friction = max((r.friction for r in touching), default=1.0)
                 body.add_geom(name=f"mass_{node}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
                               pos=node_local[node].tolist(), size=[masses[node].radius, 0, 0],
-                              friction=[friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
+                              friction=world.geom_friction(friction), condim=world.condim,
+                              priority=_ROBOT_PRIORITY,
                               contype=0 if covered else robot_contype,
                               conaffinity=0 if covered else 1,
                               solref=[world.contact_timeconst, 1.0],
