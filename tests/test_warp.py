@@ -92,6 +92,6 @@ def test_warp_runs_dc_motors_as_the_cpu_engine():
     assert warp.ok and cpu.ok, (warp.error, cpu.error)
     a, b = cpu.result.trajectory, warp.result.trajectory
     assert a["rest_length/c"][-1] < 0.53  # the spool did reel in (from 0.55 m)
-    # float32: lengths round at ~1e-7 m, i.e. ~5e-5 N on a 500 N/m cable; allow 100 times
+    # float32 rounding only: measured 5.9e-7 m and 4.8e-4 N at most (of 25 N); about ten times
     np.testing.assert_allclose(b["rest_length/c"], a["rest_length/c"], atol=1e-5)
     np.testing.assert_allclose(b["tension/c"], a["tension/c"], atol=5e-3)
