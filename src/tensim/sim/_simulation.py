@@ -290,11 +290,15 @@ class _Recorder:
         self.buffers = SampleBuffers.empty(sim.compiled, n)
         d, n_cables = sim.data, sim.compiled.n_cables
         b = self.buffers
+        rest = sim.index.cable_act(d.act)  # a view unless some cable has a DC motor
         self._copies = [(b.command, d.ctrl[:n_cables])]
-        self._takes = [(b.rest, d.act, sim.index.rest_act),
-                       (b.length, d.ten_length, sim.index.tendon),
+        self._takes = [(b.length, d.ten_length, sim.index.tendon),
                        (b.velocity, d.ten_velocity, sim.index.tendon),
                        (b.quat, d.xquat, sim.index.body)]
+        if np.shares_memory(rest, d.act):
+            self._copies.append((b.rest, rest))
+        else:
+            self._takes.append((b.rest, d.act, sim.index.rest_act))
         self._xpos, self._com, self._body = d.xpos, d.subtree_com, sim.index.body
 
     def take(self, sim: Simulation) -> None:
