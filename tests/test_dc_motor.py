@@ -250,3 +250,18 @@ def test_yaml_round_trip_and_clear_errors():
         structure_from_dict(data)
     with pytest.raises(StructureError, match="back_drivable must be true or false"):
         DCMotor(back_drivable="no")
+
+
+def test_yaml_defaults_merge_into_each_cables_dc_motor():
+    data = {"name": "two", "nodes": [{"name": "a", "position": [0, 0, 1], "fixed": True},
+                                     {"name": "b", "position": [0.5, 0, 1], "fixed": True},
+                                     {"name": "c", "position": [0, 0.5, 1], "fixed": True}],
+            "defaults": {"cable": {"stiffness": 100.0, "pretension": 5.0,
+                                   "motor": {"dc": {"stall_torque": 0.2, "spool_radius": 0.02}}}},
+            "cables": [{"name": "ab", "nodes": ["a", "b"]},
+                       {"name": "ac", "nodes": ["a", "c"],
+                        "motor": {"dc": {"stall_torque": 0.4, "back_drivable": False}}}]}
+    ab, ac = structure_from_dict(data).cables
+    assert ab.motor.dc == DCMotor(stall_torque=0.2, spool_radius=0.02)
+    # the cable's own entries win, the defaults fill the rest
+    assert ac.motor.dc == DCMotor(stall_torque=0.4, spool_radius=0.02, back_drivable=False)
