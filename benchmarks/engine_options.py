@@ -32,7 +32,8 @@ def _set(**fields: object) -> Callable[[object], None]:
     return apply
 
 
-# name -> (world options, a change to MuJoCo's options after compiling)
+# name -> (world options, a change to MuJoCo's options after compiling, for options that
+# WorldOptions does not carry)
 OPTIONS: dict[str, tuple[WorldOptions, Callable[[object], None]]] = {
     "defaults (midphase off, self-collision on)": (WorldOptions(), _set()),
     "midphase on (MuJoCo's default)": (WorldOptions(midphase=True), _set()),
@@ -40,8 +41,12 @@ OPTIONS: dict[str, tuple[WorldOptions, Callable[[object], None]]] = {
     "solver tolerance 1e-5 (default 1e-8)": (WorldOptions(), _set(tolerance=1e-5)),
     "CG solver (default Newton)": (WorldOptions(), _set(solver=mujoco.mjtSolver.mjSOL_CG)),
     "PGS solver": (WorldOptions(), _set(solver=mujoco.mjtSolver.mjSOL_PGS)),
-    "elliptic friction cones (default pyramidal)": (
-        WorldOptions(), _set(cone=mujoco.mjtCone.mjCONE_ELLIPTIC)),
+    "cone='elliptic' (default pyramidal)": (WorldOptions(cone="elliptic"), _set()),
+    "noslip_iterations=10 (default 0)": (WorldOptions(noslip_iterations=10), _set()),
+    "condim=4 (torsional friction 0.005 m)": (WorldOptions(condim=4), _set()),
+    "condim=6 (and rolling friction 1e-4 m)": (WorldOptions(condim=6), _set()),
+    "condim=6, elliptic, noslip_iterations=10": (
+        WorldOptions(condim=6, cone="elliptic", noslip_iterations=10), _set()),
     "sparse Jacobians (default dense here)": (
         WorldOptions(), _set(jacobian=mujoco.mjtJacobian.mjJAC_SPARSE)),
 }

@@ -31,12 +31,16 @@ def test_simulate_on_a_terrain_replays_on_that_terrain(tmp_path):
 def test_a_gait_run_keeps_its_controller_robot_and_world_options(tmp_path):
     out = tmp_path / "cpg"
     assert main(["--quiet", "experiment", "cpg", "--terrain", "slope:angle=2",
-                 "--no-self-collision", "--duration", "0.2", "--out", str(out)]) == 0
+                 "--no-self-collision", "--contact", "cone=elliptic,condim=6,rolling=0.001",
+                 "--duration", "0.2", "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert {"structure.yaml", "controller.yaml"} <= set(summary["files"])
     run = load_run(out)
     assert run.compiled.world.terrain == Slope(angle=2.0)
     assert run.compiled.world.self_collision is False
+    world = run.compiled.world  # the contact model too, as given and as defaulted
+    assert (world.cone, world.condim, world.rolling_friction) == ("elliptic", 6, 0.001)
+    assert (world.noslip_iterations, world.torsional_friction) == (0, 0.005)
     config = load_controller(out / "controller.yaml", run.compiled.structure)
     assert config.gait is not None and config.model == "tetraspine3"
 

@@ -13,6 +13,7 @@ from tensim.sim import (
 )
 from tensim.structure import (
     Cable,
+    DCMotor,
     Motor,
     Node,
     PointMass,
@@ -28,6 +29,7 @@ __version__ = "0.1.0"
 __all__ = [
     "Cable",
     "CompiledModel",
+    "DCMotor",
     "ImpedanceController",
     "ImpedanceGains",
     "InputError",

@@ -149,7 +149,10 @@ def world_record(world: WorldOptions) -> dict[str, Any]:
 
     return {"dt_s": world.timestep, "terrain": format_terrain(world.terrain),
             "contact_timeconst_s": world.contact_timeconst, "midphase": world.midphase,
-            "self_collision": world.self_collision}
+            "self_collision": world.self_collision, "cone": world.cone,
+            "noslip_iterations": world.noslip_iterations, "condim": world.condim,
+            "torsional_friction_m": world.torsional_friction,
+            "rolling_friction_m": world.rolling_friction}
 
 
 def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,

@@ -128,6 +128,10 @@ def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None
                         help="the robot's bodies collide only with the ground, not with each "
                              "other: faster, but wrong wherever its parts touch (see "
                              "docs/speed.md)")
+    parser.add_argument("--contact", default=None, metavar="KEY=VALUE,...",
+                        help="robot-ground friction model: cone=pyramidal|elliptic, "
+                             "noslip=ITERATIONS, condim=3|4|6, torsional=COEFF [m], "
+                             "rolling=COEFF [m] (see docs/speed.md)")
 
 
 def add_terrain_option(parser: argparse.ArgumentParser | argparse._ArgumentGroup,
@@ -152,7 +156,32 @@ def world_from_args(args: argparse.Namespace) -> WorldOptions:
     text = getattr(args, "terrain", None)
     return WorldOptions(timestep=args.dt,
                         terrain=parse_terrain(text) if text is not None else Flat(),
-                        self_collision=not getattr(args, "no_self_collision", False))
+                        self_collision=not getattr(args, "no_self_collision", False),
+                        **contact_options(getattr(args, "contact", None)))
+
+
+_CONTACT = {"cone": ("cone", str), "noslip": ("noslip_iterations", int),
+            "condim": ("condim", int), "torsional": ("torsional_friction", float),
+            "rolling": ("rolling_friction", float)}
+
+
+def contact_options(text: str | None) -> dict[str, Any]:
+    """``--contact``'s ``cone=elliptic,condim=4,...`` as WorldOptions fields.
+
+    Raises:
+        ValueError: an unknown key or a value of the wrong kind (WorldOptions checks ranges).
+    """
+    out: dict[str, Any] = {}
+    for entry in (e.strip() for e in (text or "").split(",") if e.strip()):
+        key, _, value = (part.strip() for part in entry.partition("="))
+        if key not in _CONTACT:
+            raise ValueError(f"--contact: unknown key {key!r}; expected {', '.join(_CONTACT)}")
+        field, kind = _CONTACT[key]
+        try:
+            out[field] = kind(value)
+        except ValueError:
+            raise ValueError(f"--contact: {key} expects {kind.__name__}, got {value!r}") from None
+    return out
 
 
 def parse_point(text: str, what: str) -> tuple[float, float]:

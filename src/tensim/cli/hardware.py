@@ -199,6 +199,9 @@ def _print_comparison(s: dict) -> None:
 # the names and units of tensim.hardware.parameters.DEFINITIONS, spelt out so that building the
 # parser imports no simulation code (tests check the two agree)
 SYSID_PARAMETERS = ("friction [-], stiffness [N/m], damping [N s/m], max_speed [m/s], "
+                    "stall_torque [N m], no_load_speed [rad/s], rotor_inertia [kg m^2], "
+                    "coulomb_friction [N m], viscous_friction [N m s/rad], "
+                    "torsional_friction [m], rolling_friction [m], "
                     "mass_scale [-], vstar_scale [-], offset [N], gain [-], delay [s]")
 
 
@@ -228,6 +231,9 @@ def _register_sysid(sub: argparse._SubParsersAction) -> None:
                    help="budget of simulations per log (each one replays the whole log)")
     p.add_argument("--diff-step", type=positive, default=0.05,
                    help="finite-difference step as a fraction of each bound range")
+    p.add_argument("--max-offset", type=nonnegative, default=0.5,
+                   help="largest time offset the nominal model's alignment tries while "
+                        "'delay' is not fitted [s] (0: the log's clock is the simulation's)")
     p.add_argument("--out", default="runs/sysid", help="output folder")
     p.set_defaults(run=_sysid)
 
@@ -252,7 +258,7 @@ def _sysid(args: argparse.Namespace) -> int:
                       world=world_from_args(args), progress=progress,
                       settings=SysidSettings(
                           max_simulations=args.max_sims, diff_step=args.diff_step,
-                          skip=args.skip, force=args.force,
+                          max_offset=args.max_offset, skip=args.skip, force=args.force,
                           fit_window=_window(args.fit_window, "--fit-window"),
                           validate_window=_window(args.validate_window, "--validate-window")))
     if not args.quiet and progress.tty:

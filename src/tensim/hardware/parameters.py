@@ -1,11 +1,12 @@
 """The named model parameters that system identification fits, and what each one changes.
 
 Physical parameters change the structure description (then it is recompiled and simulated
-again): robot-ground friction, cable stiffness and damping, motor speed limit, point masses,
-and the scale of the V* input. Measurement parameters (sensor offset, gain, delay) act on the
-simulated signals only, as in MuJoCo's ``mujoco.sysid`` toolbox. Cable-wide parameters take
-the mean over the cables as their value and scale every cable by the same factor, so cables
-that differ keep their ratios.
+again): robot-ground friction, cable stiffness and damping, motor speed limit, the DC motors'
+stall torque, no-load speed, rotor inertia and friction, point masses, and the scale of the V*
+input; world parameters (torsional and rolling friction) change the ``WorldOptions`` instead.
+Measurement parameters (sensor offset, gain, delay) act on the simulated signals only, as in
+MuJoCo's ``mujoco.sysid`` toolbox. Cable-wide parameters take the mean over the cables as their
+value and scale every cable by the same factor, so cables that differ keep their ratios.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ import numpy as np
 
 from tensim.control import Bounds, Parameter, ParameterVector
 from tensim.hardware.sensor import SensorModel
-from tensim.structure import Structure
+from tensim.model import WorldOptions
+from tensim.structure import Cable, Structure
 
 PHYSICAL, MEASUREMENT = "physical", "measurement"
 
@@ -35,6 +37,8 @@ class Definition:
         nominal: its value in a structure (or the default for signals).
         span: default (low, high) bounds around a nominal value.
         apply: the structure with this value (physical parameters that change the structure).
+        world_field: the ``WorldOptions`` field this parameter sets (world parameters: their
+            nominal value is the world's, not the structure's).
     """
 
     name: str
@@ -44,6 +48,13 @@ class Definition:
     nominal: Callable[[Structure], float]
     span: Callable[[float], tuple[float, float]]
     apply: Callable[[Structure, float], Structure] | None = None
+    world_field: str | None = None
+
+    def nominal_in(self, structure: Structure, world: WorldOptions | None) -> float:
+        """The nominal value: the world's for world parameters, else the structure's."""
+        if self.world_field is not None:
+            return float(getattr(world or WorldOptions(), self.world_field))
+        return self.nominal(structure)
 
 
 def _mean(values: Sequence[float]) -> float:
@@ -73,6 +84,38 @@ def _max_speed(structure: Structure, value: float) -> Structure:
             c.motor, max_speed=float(c.motor.max_speed * factor))) for c in structure.cables))
 
 
+def _dc_motors(structure: Structure, field: str) -> list[float]:
+    values = [getattr(c.motor.dc, field) for c in structure.cables if c.motor.dc is not None]
+    if not values:
+        raise ValueError(f"{field} is a DC motor's parameter, and no cable of "
+                         f"{structure.name!r} has a DC motor (motor: dc: ...)")
+    return values
+
+
+def _dc_scale(field: str) -> Callable[[Structure, float], Structure]:
+    """Sets the DC motors' mean ``field`` to the value, scaling every DC motor alike."""
+    def apply(structure: Structure, value: float) -> Structure:
+        mean = _mean(_dc_motors(structure, field))
+        factor = value / mean if mean > 0 else 1.0
+
+        def motor(c: Cable) -> Cable:
+            dc = c.motor.dc
+            if dc is None:
+                return c
+            new = float(getattr(dc, field) * factor) if mean > 0 else float(value)
+            return dataclasses.replace(c, motor=dataclasses.replace(
+                c.motor, dc=dataclasses.replace(dc, **{field: new})))
+        return dataclasses.replace(structure, cables=tuple(motor(c) for c in structure.cables))
+    return apply
+
+
+def _dc_definition(field: str, unit: str, description: str,
+                   zero_span: tuple[float, float]) -> Definition:
+    return Definition(field, PHYSICAL, unit, description,
+                      lambda s: _mean(_dc_motors(s, field)),
+                      lambda n: (0.2 * n, 5.0 * n) if n > 0 else zero_span, _dc_scale(field))
+
+
 def _mass_scale(structure: Structure, value: float) -> Structure:
     return dataclasses.replace(structure, point_masses=tuple(
         dataclasses.replace(p, mass=float(p.mass * value)) for p in structure.point_masses))
@@ -91,6 +134,24 @@ DEFINITIONS: dict[str, Definition] = {d.name: d for d in (
     Definition("max_speed", PHYSICAL, "m/s", "motor speed limit (mean; all scaled)",
                lambda s: _mean([c.motor.max_speed for c in s.cables]),
                lambda n: (0.3 * n, 3.0 * n), _max_speed),
+    _dc_definition("stall_torque", "N m", "DC motors' stall torque at the spool (mean; all "
+                   "scaled)", (0.0, 1.0)),
+    _dc_definition("no_load_speed", "rad/s", "DC motors' no-load speed at the spool (mean; all "
+                   "scaled)", (0.0, 1.0)),
+    _dc_definition("rotor_inertia", "kg m^2", "DC motors' inertia at the spool (mean; all "
+                   "scaled)", (0.0, 1e-3)),
+    _dc_definition("coulomb_friction", "N m", "DC motors' Coulomb friction at the spool (mean; "
+                   "all scaled)", (0.0, 0.05)),
+    _dc_definition("viscous_friction", "N m s/rad", "DC motors' viscous friction at the spool "
+                   "(mean; all scaled)", (0.0, 0.01)),
+    Definition("torsional_friction", PHYSICAL, "m", "robot-ground torsional friction "
+               "(WorldOptions; acts with condim 4 or 6)", lambda s: math.nan,
+               lambda n: (0.0, 4.0 * n) if n > 0 else (0.0, 0.05),
+               world_field="torsional_friction"),
+    Definition("rolling_friction", PHYSICAL, "m", "robot-ground rolling friction "
+               "(WorldOptions; acts with condim 6)", lambda s: math.nan,
+               lambda n: (0.0, 4.0 * n) if n > 0 else (0.0, 0.01),
+               world_field="rolling_friction"),
     Definition("mass_scale", PHYSICAL, "-", "factor on every point mass",
                lambda s: 1.0, lambda n: (0.5, 1.5), _mass_scale),
     Definition("vstar_scale", PHYSICAL, "-", "factor on the logged V* input (sim = scale x log)",
@@ -126,6 +187,29 @@ def apply_physical(structure: Structure, values: Mapping[str, float]) -> Structu
     return structure
 
 
+def apply_world(world: WorldOptions | None, values: Mapping[str, float]) -> WorldOptions:
+    """``world`` (default: WorldOptions()) with the named world parameters set (others are
+    ignored)."""
+    fields = {d.world_field: float(v) for d, v in
+              ((definition(n), v) for n, v in values.items()) if d.world_field is not None}
+    return dataclasses.replace(world or WorldOptions(), **fields)
+
+
+def check_world(names: Sequence[str], world: WorldOptions | None) -> None:
+    """Refuses world friction parameters that the world's contact model ignores.
+
+    Raises:
+        ValueError: torsional friction with condim 3, rolling friction with condim < 6.
+    """
+    condim = (world or WorldOptions()).condim
+    needs = {"torsional_friction": 4, "rolling_friction": 6}
+    for name in names:
+        if name in needs and condim < needs[name]:
+            raise ValueError(f"{name} acts only on contacts with condim >= {needs[name]}, and "
+                             f"the world has condim {condim} (WorldOptions.condim); fitting it "
+                             "would be ill-posed")
+
+
 def apply_measurement(sensor: SensorModel, values: Mapping[str, float]) -> SensorModel:
     """``sensor`` with the named measurement parameters set (others are ignored)."""
     fields = {n: float(v) for n, v in values.items() if definition(n).kind == MEASUREMENT}
@@ -144,11 +228,13 @@ class SysidSpace(ParameterVector):
 
     structure: Structure
     entries: tuple[Parameter, ...]
+    world: WorldOptions | None = None
 
     @classmethod
     def build(cls, structure: Structure, names: Sequence[str], *,
               bounds: Mapping[str, tuple[float, float]] | None = None,
-              start: Mapping[str, float] | None = None) -> SysidSpace:
+              start: Mapping[str, float] | None = None,
+              world: WorldOptions | None = None) -> SysidSpace:
         """The space of ``names`` with default or given bounds and starting values.
 
         Raises:
@@ -164,13 +250,14 @@ class SysidSpace(ParameterVector):
         entries = []
         for name in names:
             d = definition(name)
-            value = start.get(name, d.nominal(structure))
-            low, high = bounds.get(name, d.span(d.nominal(structure)))
+            nominal = d.nominal_in(structure, world)
+            value = start.get(name, nominal)
+            low, high = bounds.get(name, d.span(nominal))
             try:
                 entries.append(Parameter(name, Bounds(float(low), float(high), float(value))))
             except ValueError as err:
                 raise ValueError(f"parameter {name!r}: {err}") from None
-        return cls(structure, tuple(entries))
+        return cls(structure, tuple(entries), world)
 
     @property
     def parameters(self) -> tuple[Parameter, ...]:
@@ -184,7 +271,8 @@ class SysidSpace(ParameterVector):
 
     def structure_values(self) -> np.ndarray:
         """(n,) the values in the nominal structure (measurement defaults: no offset etc.)."""
-        return np.array([definition(n).nominal(self.structure) for n in self.names])
+        return np.array([definition(n).nominal_in(self.structure, self.world)
+                         for n in self.names])
 
     @property
     def physical(self) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 from tensim.control import ControllerConfig, VelocityTable
 from tensim.hardware.loads import EXPERIMENTS, format_params
 from tensim.hardware.logs import AXES, HardwareLog
-from tensim.hardware.parameters import apply_physical
+from tensim.hardware.parameters import apply_physical, apply_world
 from tensim.hardware.replay import node_positions
 from tensim.hardware.sensor import SensorModel
 from tensim.model import CompiledModel, WorldOptions, compile_structure
@@ -64,7 +64,8 @@ def simulated_log(structure: Structure, config: ControllerConfig, duration: floa
                          f"command periods ({command_period} s)")
     if adc and sensor.loadcell is None:
         raise ValueError("logging raw ADC counts needs a sensor with a load cell")
-    compiled = compile_structure(apply_physical(structure, parameters), world)
+    compiled = compile_structure(apply_physical(structure, parameters),
+                                 apply_world(world, parameters))
     times = np.arange(math.floor(duration / command_period + 1e-9) + 1) * command_period
     table = config.gait.velocity_table(duration, command_period) if config.gait else None
     played = config if table is None else config.with_gait(VelocityTable(

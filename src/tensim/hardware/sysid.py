@@ -29,7 +29,13 @@ from tensim.control import ControllerConfig
 from tensim.hardware.compare import Comparison, compare_tensions
 from tensim.hardware.loads import loads_for
 from tensim.hardware.logs import HardwareLog, check_items
-from tensim.hardware.parameters import SysidSpace, apply_measurement, apply_physical
+from tensim.hardware.parameters import (
+    SysidSpace,
+    apply_measurement,
+    apply_physical,
+    apply_world,
+    check_world,
+)
 from tensim.hardware.replay import replay_config
 from tensim.hardware.sensor import SensorModel
 from tensim.hardware.uncertainty import block_stderr, interval_factor, naive_stderr
@@ -106,6 +112,7 @@ class SysidResult:
             and the windows (``nominal_rmse_N``, ``fitted_rmse_N``, ...).
         kept_nominal: the fit was worse than nominal on the validation samples, so
             ``structure``, ``sensor`` and ``vstar_scale`` are the nominal ones.
+        world: the fitted world options (torsional and rolling friction; else as given).
     """
 
     space: SysidSpace
@@ -121,6 +128,7 @@ class SysidResult:
     optimizer: optimize.OptimizeResult
     validation: dict[str, Any] = dataclasses.field(default_factory=dict)
     kept_nominal: bool = False
+    world: WorldOptions | None = None
 
     def parameters(self) -> dict[str, dict[str, Any]]:
         """name -> nominal, start, fitted, stderr, 95 % interval half-width, bounds, unit."""
@@ -220,8 +228,8 @@ class _Problem:
     def _run(self, values: list[np.ndarray]) -> list[list[TimeSeries]]:
         """Replays every log for every parameter vector: per vector, a list over the logs."""
         named = [self.space.as_dict(v) for v in values]
-        compiled = [compile_structure(apply_physical(self.space.structure, n), self.world)
-                    for n in named]
+        compiled = [compile_structure(apply_physical(self.space.structure, n),
+                                      apply_world(self.world, n)) for n in named]
         out: list[list[TimeSeries]] = [[] for _ in values]
         for log in self.logs:
             check_items(log, compiled[0].structure)
@@ -340,15 +348,19 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
         raise ValueError("system identification needs at least one log")
     settings = _hold_out(settings or SysidSettings())
     _check_informed(logs, names, settings)
+    try:
+        check_world(names, world)
+    except ValueError as err:
+        raise SysidError(str(err)) from None
     start = dict(start or {})
-    nominal = SysidSpace.build(structure, names, bounds=bounds)
+    nominal = SysidSpace.build(structure, names, bounds=bounds, world=world)
     problem = _Problem(nominal, logs, config, sensor or SensorModel(), world, settings, progress)
     before = _nominal_comparisons(problem, nominal)
     problem.offsets = [c.offset_s for c in before]
     if "delay" in names and "delay" not in start:
         delay = nominal.parameters[list(names).index("delay")].bounds
         start["delay"] = float(np.clip(np.median(problem.offsets), delay.low, delay.high))
-    space = SysidSpace.build(structure, names, bounds=bounds, start=start)
+    space = SysidSpace.build(structure, names, bounds=bounds, start=start, world=world)
     problem.space = space
     physical = int(space.physical.sum())
     fit = optimize.least_squares(
@@ -367,7 +379,7 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     return SysidResult(space, fitted, stderr, naive, tuple(before),
                        tuple(problem.comparisons(fitted)), apply_physical(structure, named),
                        apply_measurement(problem.sensor, named), named.get("vstar_scale", 1.0),
-                       problem.simulations, fit, validation, kept)
+                       problem.simulations, fit, validation, kept, apply_world(world, named))
 
 
 def _hold_out(settings: SysidSettings) -> SysidSettings:

@@ -28,6 +28,7 @@ _ROBOT_PRIORITY = 1
 CABLE_MARKER = 7317.0  # dynprm[0] of a cable actuator: the compiled law acts on these only
 BUILD_KEY = "build"  # the keyframe of the build pose: rest lengths in act, commands in ctrl
 WORLD_FRAME_SITE = "world_frame"  # reference frame of the node-load inputs
+_CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 
 
 class ModelError(ValueError):
@@ -57,6 +58,14 @@ class WorldOptions:
             ``False`` keeps only contacts with the ground: faster (1.2x for Tetraspine3, whose
             neighbouring segments' capsules are tested every step and never touch in the
             disturbance test), but it changes the physics wherever the robot's parts do touch.
+        cone: MuJoCo's friction cone, ``"pyramidal"`` (its default) or ``"elliptic"`` (the
+            exact Coulomb cone; softer stick-slip transitions, docs/speed.md).
+        noslip_iterations: iterations of MuJoCo's no-slip solver after the main one (0: off);
+            it removes the creep of soft contacts under tangential load, so sticking feet stay.
+        condim: contact dimensionality of the robot's contacts: 3 (sliding friction), 4 (plus
+            torsional friction about the contact normal) or 6 (plus rolling friction).
+        torsional_friction: torsional friction coefficient [m] (condim 4 and 6).
+        rolling_friction: rolling friction coefficient [m] (condim 6).
     """
 
     timestep: float = 1e-3
@@ -68,6 +77,11 @@ class WorldOptions:
     terrain: Terrain = dataclasses.field(default_factory=Flat)
     midphase: bool = False
     self_collision: bool = True
+    cone: str = "pyramidal"
+    noslip_iterations: int = 0
+    condim: int = 3
+    torsional_friction: float = 0.005
+    rolling_friction: float = 0.0001
 
     def __post_init__(self) -> None:
         if not 0 < self.timestep <= 0.05:
@@ -80,6 +94,23 @@ class WorldOptions:
             raise ValueError(f"contact_timeconst must be > 0 s, got {self.contact_timeconst}")
         if not self.ground and self.terrain != Flat():
             raise ValueError("a terrain needs ground=True")
+        if self.cone not in _CONES:
+            raise ValueError(f"cone must be 'pyramidal' or 'elliptic', got {self.cone!r}")
+        if isinstance(self.noslip_iterations, bool) or not isinstance(
+                self.noslip_iterations, int) or self.noslip_iterations < 0:
+            raise ValueError("noslip_iterations must be a whole number >= 0, got "
+                             f"{self.noslip_iterations!r}")
+        if self.condim not in (3, 4, 6) or isinstance(self.condim, bool):
+            raise ValueError(f"condim must be 3, 4 or 6, got {self.condim!r}")
+        for name in ("torsional_friction", "rolling_friction"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and not isinstance(value, bool)
+                    and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0 [m], got {value!r}")
+
+    def geom_friction(self, sliding: float) -> list[float]:
+        """MuJoCo's geom friction [sliding, torsional, rolling] for a sliding coefficient."""
+        return [sliding, self.torsional_friction, self.rolling_friction]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -95,6 +126,8 @@ class ModelIndex:
         node_body: node name -> MuJoCo body id (0 for world-fixed nodes).
         node_local: node name -> (3,) node position in its body's frame [m].
         load_nodes: nodes with external force inputs, in input order.
+        rest_act: (n_cables,) address in ``act`` of each cable's rest length; its peak tension
+            follows it, and a DC motor's line speed follows that.
     """
 
     cables: tuple[str, ...]
@@ -105,6 +138,15 @@ class ModelIndex:
     node_body: dict[str, int]
     node_local: dict[str, np.ndarray]
     load_nodes: tuple[str, ...] = ()
+    rest_act: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
+
+    def cable_act(self, act: np.ndarray, part: int = 0) -> np.ndarray:
+        """Each cable's activation ``part`` (0: rest length, 1: peak tension) from ``act``
+        (..., na): a view where every cable has two activations, else a copy."""
+        n = len(self.cables)
+        if np.array_equal(self.rest_act, np.arange(0, 2 * n, 2)):
+            return act[..., part:2 * n:2]
+        return act[..., self.rest_act + part]
 
     def cable_id(self, name: str) -> int:
         """Position of cable ``name`` in the per-cable arrays."""
@@ -210,12 +252,18 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
     if not world.midphase:
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
+    spec.option.cone = _CONES[world.cone]
+    spec.option.noslip_iterations = world.noslip_iterations
     # without self-collision a robot geom only meets geoms whose contype has bit 1 (the ground)
     robot_contype = 1 if world.self_collision else 0
     spec.compiler.autolimits = True
     spec.worldbody.add_light(pos=[0, 0, 5], dir=[0, 0, -1])
     if world.ground:
         add_terrain(spec, world.terrain, world.contact_timeconst)
+        for geom in spec.geoms:  # a terrain that outranks the robot: the world's contact model
+            if geom.priority > _ROBOT_PRIORITY:
+                geom.condim = world.condim
+                geom.friction[1:] = [world.torsional_friction, world.rolling_friction]
     rods = {r.name: r for r in structure.rods}
     masses = {p.node: p for p in structure.point_masses}
     node_body: dict[str, str] = {}
@@ -242,8 +290,8 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
             ends = [node_local[n] for n in rod.nodes]
             body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                           fromto=np.concatenate(ends).tolist(), size=[rod.radius, 0, 0],
-                          friction=[rod.friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
-                          contype=robot_contype, conaffinity=1,
+                          friction=world.geom_friction(rod.friction), condim=world.condim,
+                          priority=_ROBOT_PRIORITY, contype=robot_contype, conaffinity=1,
                           solref=[world.contact_timeconst,
                                   _restitution_dampratio(rod.restitution)],
                           rgba=[0.25, 0.25, 0.3, 1])
@@ -255,7 +303,8 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
                 friction = max((r.friction for r in touching), default=1.0)
                 body.add_geom(name=f"mass_{node}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
                               pos=node_local[node].tolist(), size=[masses[node].radius, 0, 0],
-                              friction=[friction, 0.005, 0.0001], priority=_ROBOT_PRIORITY,
+                              friction=world.geom_friction(friction), condim=world.condim,
+                              priority=_ROBOT_PRIORITY,
                               contype=0 if covered else robot_contype,
                               conaffinity=0 if covered else 1,
                               solref=[world.contact_timeconst, 1.0],
@@ -284,8 +333,10 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
         _add_cable_actuator(spec, cable, structure.rest_length(cable))
     _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
     rest = [structure.rest_length(c) for c in structure.cables]
-    spec.add_key(name=BUILD_KEY, act=[v for r in rest for v in (r, 0.0)],
-                 ctrl=rest + [0.0] * (3 * len(load_nodes)))
+    # per cable: rest length, peak tension 0 (and a DC motor's spool at rest)
+    act = [v for c, r in zip(structure.cables, rest, strict=True)
+           for v in ((r, 0.0) if c.motor.dc is None else (r, 0.0, 0.0))]
+    spec.add_key(name=BUILD_KEY, act=act, ctrl=rest + [0.0] * (3 * len(load_nodes)))
     model = _compile_spec(spec)
     return dataclasses.replace(
         _assemble(structure, world, model, node_body, node_local, tuple(adjusted), load_nodes),
@@ -351,6 +402,9 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -
     Parameters as in ``tensim.sim._laws`` (the compiled callback reads them from here):
     dynprm = [marker, mode, max_speed, max_tension, min_rest_length, min_length, T0, K, B, L*],
     biasprm = [stiffness, damping]; act = [rest length, peak tension]; ctrl = the command.
+    A DC motor adds its line speed to act (actdim 3) and its parameters in cable coordinates
+    to biasprm[3:10]: [stall force, no-load line speed, mass, viscous, Coulomb, position time,
+    back-drivable].
     """
     actuator = spec.add_actuator(name=cable.name, target=cable.name,
                                  trntype=mujoco.mjtTrn.mjTRN_TENDON)
@@ -364,6 +418,14 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -
                           motor.min_rest_length, motor.min_length, 0.0, 0.0, 0.0, rest_length]
     actuator.biasprm[0] = cable.stiffness
     actuator.biasprm[1] = cable.damping
+    dc = motor.dc
+    if dc is not None:
+        actuator.actdim = 3
+        line = dc.line()
+        # biasprm[2] stays 0: MuJoCo's compiler reads a positive one as a damping ratio
+        actuator.biasprm[3:10] = [line["stall_force"], line["no_load_line_speed"],
+                                 line["mass"], line["viscous"], line["coulomb"],
+                                 dc.position_time, 1.0 if dc.back_drivable else 0.0]
 
 
 def _add_load_actuators(spec: mujoco.MjSpec, bodies: dict[str, mujoco.MjsBody],
@@ -406,6 +468,8 @@ def _assemble(structure: Structure, world: WorldOptions, model: mujoco.MjModel,
                    for n, b in node_body.items()},
         node_local={n: np.asarray(p, dtype=float) for n, p in node_local.items()},
         load_nodes=load_nodes,
+        rest_act=model.actuator_actadr[ids(mujoco.mjtObj.mjOBJ_ACTUATOR, names)].astype(
+            np.int32),
     )
 
     def column(get: object) -> np.ndarray:

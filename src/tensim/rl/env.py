@@ -194,9 +194,9 @@ class TensegrityVectorEnv(VectorEnv):
         self._steps[ids] = 0
 
     def _obs(self) -> np.ndarray:
-        f, n = self._fields, self.robot.n
-        return self.robot.observe(f["ten_length"], f["ten_velocity"], self._act[:, 0:2 * n:2],
-                                  self._stiffness, f["xpos"], f["xquat"])
+        f, rest = self._fields, self.robot.compiled.index.cable_act(self._act)
+        return self.robot.observe(f["ten_length"], f["ten_velocity"], rest, self._stiffness,
+                                  f["xpos"], f["xquat"])
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:

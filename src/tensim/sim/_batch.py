@@ -52,7 +52,10 @@ class PhysicsScale:
         stiffness: every cable's stiffness k.
         damping: every cable's damping b.
         mass: every rigid body's mass and inertia (rods and point masses alike).
-        motor_speed: every motor's maximum speed.
+        motor_speed: every motor's maximum speed (a DC motor's no-load speed).
+        motor_stall: every DC motor's stall torque.
+        motor_inertia: every DC motor's rotor inertia.
+        motor_friction: every DC motor's viscous and Coulomb friction.
     """
 
     friction: float = 1.0
@@ -60,6 +63,9 @@ class PhysicsScale:
     damping: float = 1.0
     mass: float = 1.0
     motor_speed: float = 1.0
+    motor_stall: float = 1.0
+    motor_inertia: float = 1.0
+    motor_friction: float = 1.0
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -311,10 +317,9 @@ class _BatchRun:
 
     def results(self, duration: float, wall: float) -> list[TrialResult]:
         assert self.samples is not None
-        n = self.compiled.n_cables
         return trial_results(self.samples, self.count, self.models, self.error,
-                             self.batch.bind("act")[:, 1:2 * n:2], self.compiled.index, self.dt,
-                             duration, wall)
+                             self.compiled.index.cable_act(self.batch.bind("act"), 1),
+                             self.compiled.index, self.dt, duration, wall)
 
 
 class _Block:
@@ -422,6 +427,12 @@ def _scale(compiled: CompiledModel, model: mujoco.MjModel, physics: PhysicsScale
     model.actuator_biasprm[:n, _law.B_STIFFNESS] *= physics.stiffness
     model.actuator_biasprm[:n, _law.B_DAMPING] *= physics.damping
     model.actuator_dynprm[:n, _law.P_MAX_SPEED] *= physics.motor_speed
+    # DC motors (kinematic motors hold zeros in these slots)
+    dc = model.actuator_biasprm[:n]
+    dc[:, _law.B_NO_LOAD_SPEED] *= physics.motor_speed
+    dc[:, _law.B_STALL_FORCE] *= physics.motor_stall
+    dc[:, _law.B_MASS] *= physics.motor_inertia
+    dc[:, [_law.B_VISCOUS, _law.B_COULOMB]] *= physics.motor_friction
     if physics.mass != 1.0:
         model.body_mass[1:] *= physics.mass
         model.body_inertia[1:] *= physics.mass

@@ -93,13 +93,15 @@ class CableDrive:
 
     @property
     def rest(self) -> np.ndarray:
-        """(n,) the motors' rest lengths [m] (a live view of the activations)."""
-        return self._need_data().act[0:2 * self.stiffness.size:2]
+        """(n,) the motors' rest lengths [m] (a live view of the activations unless some
+        cable has a DC motor)."""
+        return self._compiled.index.cable_act(self._need_data().act, 0)
 
     @property
     def peak(self) -> np.ndarray:
-        """(n,) running maximum of the load-cell tension over every step [N] (live view)."""
-        return self._need_data().act[1:2 * self.stiffness.size:2]
+        """(n,) running maximum of the load-cell tension over every step [N] (live view,
+        as :attr:`rest`)."""
+        return self._compiled.index.cable_act(self._need_data().act, 1)
 
     @property
     def tension(self) -> np.ndarray:

@@ -2,9 +2,10 @@
 
 Each cable is an actuator with user dynamics and user bias (see ``tensim.model``): its
 parameters are in the model (``actuator_dynprm``, ``actuator_biasprm``), its rest length and
-peak tension in ``act``, its command in ``ctrl``. The law is therefore a pure function of
-(model, data): :func:`cable_law` is the reference in Python, built on :mod:`tensim.sim._laws`,
-and ``_cable.c`` the same operations compiled, installed as ``mjcb_act_dyn``/``mjcb_act_bias``.
+peak tension in ``act`` (and a DC motor's speed, actdim 3), its command in ``ctrl``. The law
+is therefore a pure function of (model, data): :func:`cable_law` is the reference in Python,
+built on :mod:`tensim.sim._laws`, and ``_cable.c`` the same operations compiled, installed as
+``mjcb_act_dyn``/``mjcb_act_bias``.
 Being stateless, the compiled law runs on any number of threads (``mujoco.rollout``,
 ``mujoco.batch``). The callbacks are process-wide: :func:`install` sets them once, under a lock,
 and hands actuators that are not tensim cables to a compiled callback installed before it.
@@ -16,7 +17,7 @@ import ctypes
 import importlib.util
 import logging
 import threading
-from typing import Any
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
@@ -33,6 +34,28 @@ MODE_IMPEDANCE = 1  # the motor realises the impedance law's tension setpoint
 P_MODE, P_MAX_SPEED, P_MAX_TENSION, P_MIN_REST, P_MIN_LENGTH = 1, 2, 3, 4, 5
 P_OFFSET, P_GAIN_K, P_GAIN_B, P_TARGET_LENGTH = 6, 7, 8, 9
 B_STIFFNESS, B_DAMPING = 0, 1
+# DC motors only (actdim 3), in cable coordinates (see tensim.structure.DCMotor.line)
+# (biasprm[2] stays 0: MuJoCo's compiler reads a positive one as a position actuator's
+# damping ratio)
+B_STALL_FORCE, B_NO_LOAD_SPEED, B_MASS, B_VISCOUS, B_COULOMB = 3, 4, 5, 6, 7
+B_POSITION_TIME, B_BACK_DRIVABLE = 8, 9
+DC_ACTDIM = 3  # rest length, peak tension, the spool's line speed
+
+
+class LawRates(NamedTuple):
+    """What the cable law writes for each cable: act_dot and the actuator force.
+
+    Attributes:
+        rest_rate: (n,) d(rest length)/dt [m/s].
+        peak_rate: (n,) d(peak tension)/dt [N/s].
+        speed_rate: (n,) d(line speed)/dt of DC motors [m/s^2] (0 for kinematic motors).
+        force: (n,) the actuator force -f [N].
+    """
+
+    rest_rate: np.ndarray
+    peak_rate: np.ndarray
+    speed_rate: np.ndarray
+    force: np.ndarray
 
 _ACT = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)
 
@@ -74,15 +97,13 @@ def installed_backend() -> str | None:
 
 # -- the reference law -----------------------------------------------------------------------
 
-def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None) -> LawRates:
     """The law for cable actuators ``ids`` (all cables by default), from model and data.
 
     Needs the position and velocity stages of ``d`` (ten_length, ten_velocity).
 
     Returns:
-        (rest_rate, peak_rate, force): (n,) d(rest length)/dt [m/s], d(peak)/dt [N/s] and the
-        actuator force -f [N], as the compiled law writes them into act_dot and
+        The rates and forces, as the compiled law writes them into act_dot and
         actuator_force.
     """
     if ids is None:
@@ -101,26 +122,53 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
                       command)
     new = _laws.motor_step(rest, target, x, k, p[:, P_MAX_SPEED], p[:, P_MAX_TENSION],
                            p[:, P_MIN_REST], p[:, P_MIN_LENGTH], dt)
+    speed_rate = np.zeros(len(ids))
+    dc = m.actuator_actnum[ids] == DC_ACTDIM
+    if dc.any():
+        new[dc], speed_rate[dc] = _dc_step(p[dc], b[dc], d.act[adr[dc] + 2], rest[dc],
+                                           target[dc], x[dc], v[dc], dt)
     rest_rate = (new - rest) / dt
     spring, applied = _laws.cable_tension(x, v, rest + rest_rate * dt, k, damping)
     peak_rate = (np.maximum(peak, spring) - peak) / dt
-    return rest_rate, peak_rate, -applied
+    return LawRates(rest_rate, peak_rate, speed_rate, -applied)
+
+
+def _dc_step(p: np.ndarray, b: np.ndarray, speed: np.ndarray, rest: np.ndarray,
+             target: np.ndarray, x: np.ndarray, v: np.ndarray, dt: float
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """DC motors: (new rest length [m], rate of the line speed [m/s^2])."""
+    measured, applied = _laws.cable_tension(x, v, rest, b[:, B_STIFFNESS], b[:, B_DAMPING])
+    drive = _laws.dc_drive(rest, target, b[:, B_NO_LOAD_SPEED], b[:, B_POSITION_TIME])
+    # the controller's limits: no reeling in at max_tension or at min_length
+    stop = (drive < 0.0) & ((measured >= p[:, P_MAX_TENSION]) | (x <= p[:, P_MIN_LENGTH]))
+    drive = np.where(stop, 0.0, drive)
+    new_speed = _laws.dc_motor_speed(speed, drive, applied, b[:, B_STALL_FORCE],
+                                     b[:, B_NO_LOAD_SPEED], b[:, B_MASS], b[:, B_VISCOUS],
+                                     b[:, B_COULOMB], b[:, B_BACK_DRIVABLE], dt)
+    new = rest + new_speed * dt
+    # the floor on the rest length stops the spool
+    floor = new < p[:, P_MIN_REST]
+    new = np.where(floor, p[:, P_MIN_REST], new)
+    new_speed = np.where(floor, 0.0, new_speed)
+    return new, (new_speed - speed) / dt
 
 
 def cable_actuators(m: mujoco.MjModel) -> np.ndarray:
     """Ids of the actuators that are tensim cables."""
     return np.flatnonzero((m.actuator_dynprm[:, 0] == CABLE_MARKER)
-                          & (m.actuator_actnum == 2)).astype(np.int32)
+                          & np.isin(m.actuator_actnum, (2, DC_ACTDIM))).astype(np.int32)
 
 
 def _python_dyn(m: Any, d: Any, i: int) -> float:
     if m.actuator_dynprm[i, 0] != CABLE_MARKER:
         return 0.0
     ids = np.array([i])
-    rest_rate, peak_rate, _ = cable_law(m, d, ids)
+    rates = cable_law(m, d, ids)
     adr = m.actuator_actadr[i]
-    d.act_dot[adr], d.act_dot[adr + 1] = rest_rate[0], peak_rate[0]
-    return float(peak_rate[0])
+    d.act_dot[adr], d.act_dot[adr + 1] = rates.rest_rate[0], rates.peak_rate[0]
+    if m.actuator_actnum[i] == DC_ACTDIM:
+        d.act_dot[adr + 2] = rates.speed_rate[0]
+    return float(rates.peak_rate[0])
 
 
 def _python_bias(m: Any, d: Any, i: int) -> float:

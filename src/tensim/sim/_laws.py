@@ -70,3 +70,51 @@ def motor_step(rest_length: np.ndarray, target: np.ndarray, length: np.ndarray,
     new = np.where(reel, np.maximum(new, force_floor), new)
     new = np.where(reel & (length <= min_length), rest_length, new)
     return np.maximum(new, min_rest_length)
+
+
+def dc_drive(rest_length: np.ndarray, target: np.ndarray, no_load_line_speed: np.ndarray,
+             position_time: np.ndarray) -> np.ndarray:
+    """The DC motor's drive u in [-1, 1] (fraction of full voltage; > 0 pays cable out): a
+    proportional position loop, u = (target - l) / (v0 t_p), saturated.
+
+    Args:
+        rest_length, target: (n,) rest length l and its target [m].
+        no_load_line_speed: (n,) v0, the spool's surface speed at no load [m/s].
+        position_time: (n,) t_p, the position loop's time constant [s].
+    """
+    error = (target - rest_length) / (no_load_line_speed * position_time)
+    return np.minimum(np.maximum(error, -1.0), 1.0)
+
+
+def dc_motor_speed(speed: np.ndarray, drive: np.ndarray, tension: np.ndarray,
+                   stall_force: np.ndarray, no_load_line_speed: np.ndarray, mass: np.ndarray,
+                   viscous: np.ndarray, coulomb: np.ndarray, back_drivable: np.ndarray,
+                   dt: float) -> np.ndarray:
+    """One step of the DC motor's line speed s = dl/dt [m/s] (> 0: paying cable out).
+
+    In cable coordinates (torques / spool radius, inertia / radius^2) the spool obeys
+    M ds/dt = T + F_s (u - s / v0) - c s - F_c sgn(s): the cable's tension T pulls cable out,
+    the motor's linear torque-speed curve drives it, viscous and Coulomb friction resist. The
+    step is backward Euler, M (s' - s) / dt = T + F_s u - (F_s / v0 + c) s' - F_c sgn(s'),
+    with sgn(0) anywhere in [-1, 1] (the spool sticks while the other forces are within F_c):
+    stable for any M >= 0, and exact for a static spool. A spool that is not back-drivable
+    (a worm gear) turns only where the motor drives it (sgn(s') = sgn(u), or not at all).
+
+    Args:
+        speed: (n,) s [m/s]. drive: (n,) u [-]. tension: (n,) T [N].
+        stall_force: (n,) F_s [N]. no_load_line_speed: (n,) v0 [m/s]. mass: (n,) M [kg].
+        viscous: (n,) c [N s/m]. coulomb: (n,) F_c [N].
+        back_drivable: (n,) 1.0 where the cable may drive the spool, else 0.0.
+        dt: time step [s].
+
+    Returns:
+        (n,) the new speed s' [m/s].
+    """
+    inertia = mass + dt * (stall_force / no_load_line_speed + viscous)
+    free = (mass * speed + dt * (tension + stall_force * drive)) / inertia
+    slip = dt * coulomb / inertia
+    new = np.where(np.abs(free) > slip, free - np.copysign(slip, free), 0.0)
+    # a worm gear: the spool turns only where the motor drives it
+    held = np.where(drive > 0.0, np.maximum(new, 0.0),
+                    np.where(drive < 0.0, np.minimum(new, 0.0), 0.0))
+    return np.where(back_drivable != 0.0, new, held)

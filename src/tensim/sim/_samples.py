@@ -69,7 +69,7 @@ class SampleBuffers:
         self.time[ids, k] = time
         self.length[ids, k] = fields["ten_length"][:, index.tendon]
         self.velocity[ids, k] = fields["ten_velocity"][:, index.tendon]
-        self.rest[ids, k] = fields["act"][:, 0:2 * n:2]
+        self.rest[ids, k] = index.cable_act(fields["act"])
         self.command[ids, k] = fields["ctrl"][:, :n]
         self.pos[ids, k, :-1] = fields["xpos"][:, index.body]
         self.pos[ids, k, -1] = fields["subtree_com"][:, 0]

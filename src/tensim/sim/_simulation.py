@@ -290,10 +290,15 @@ class _Recorder:
         self.buffers = SampleBuffers.empty(sim.compiled, n)
         d, n_cables = sim.data, sim.compiled.n_cables
         b = self.buffers
-        self._copies = [(b.rest, d.act[0:2 * n_cables:2]), (b.command, d.ctrl[:n_cables])]
+        rest = sim.index.cable_act(d.act)  # a view unless some cable has a DC motor
+        self._copies = [(b.command, d.ctrl[:n_cables])]
         self._takes = [(b.length, d.ten_length, sim.index.tendon),
                        (b.velocity, d.ten_velocity, sim.index.tendon),
                        (b.quat, d.xquat, sim.index.body)]
+        if np.shares_memory(rest, d.act):
+            self._copies.append((b.rest, rest))
+        else:
+            self._takes.append((b.rest, d.act, sim.index.rest_act))
         self._xpos, self._com, self._body = d.xpos, d.subtree_com, sim.index.body
 
     def take(self, sim: Simulation) -> None:

@@ -200,7 +200,6 @@ class _WarpRun:
                                                       False)
 
     def results(self, duration: float, wall: float) -> list[TrialResult]:
-        n = self.compiled.n_cables
         return trial_results(self.samples, self.count, self.models, self.error,
-                             self.d.act.numpy()[:, 1:2 * n:2], self.compiled.index, self.dt,
-                             duration, wall)
+                             self.compiled.index.cable_act(self.d.act.numpy(), 1),
+                             self.compiled.index, self.dt, duration, wall)

@@ -3,12 +3,12 @@
 MuJoCo Warp calls a model's ``act_dyn`` callback once per step for all worlds, after its own
 actuator stage; :func:`install_warp_law` sets it to launch :func:`cable_law` over worlds x
 actuators. The kernel is the law of ``_cable.c`` and :mod:`tensim.sim._laws`, operation for
-operation, on the same layout (rest length and peak tension in ``act``, the command in
-``ctrl``, the parameters in ``actuator_dynprm``/``actuator_biasprm``, per world where MuJoCo
-Warp holds them per world), so a batch moves between the CPU engine and the GPU unchanged. It
-writes the motor rates into ``act_dot`` and the cable force into ``actuator_force``
-(MuJoCo Warp leaves user actuators at zero force for this callback to fill). MuJoCo Warp
-computes in float32.
+operation, on the same layout (rest length and peak tension in ``act``, then a DC motor's line
+speed; the command in ``ctrl``, the parameters in ``actuator_dynprm``/``actuator_biasprm``, per
+world where MuJoCo Warp holds them per world), so a batch moves between the CPU engine and the
+GPU unchanged. It writes the motor rates into ``act_dot`` and the cable force into
+``actuator_force`` (MuJoCo Warp leaves user actuators at zero force for this callback to
+fill). MuJoCo Warp computes in float32.
 """
 
 from __future__ import annotations
@@ -24,6 +24,43 @@ from tensim.model import CABLE_MARKER
 
 _MARKER = wp.constant(float(CABLE_MARKER))
 _IMPEDANCE = wp.constant(1.0)
+
+
+@wp.func
+def _dc_step(p: vec10, b: vec10, speed: float, rest: float, target: float, x: float, v: float,
+             dt: float) -> wp.vec2:
+    """DC motor (actdim 3): (new rest length, new line speed), as ``_cable.c``'s dc_step."""
+    stretch = x - rest
+    measured = 0.0
+    applied = 0.0
+    if stretch > 0.0:
+        measured = b[0] * stretch
+        applied = wp.max(measured + b[1] * v, 0.0)
+    # position loop: full voltage at an error of v0 t_p; no reeling in past the limits
+    drive = wp.min(wp.max((target - rest) / (b[4] * b[8]), -1.0), 1.0)
+    if drive < 0.0 and (measured >= p[3] or x <= p[5]):
+        drive = 0.0
+    # backward Euler in the speed, Coulomb friction set-valued (the spool may stick)
+    inertia = b[5] + dt * (b[3] / b[4] + b[6])
+    free = (b[5] * speed + dt * (applied + b[3] * drive)) / inertia
+    slip = dt * b[7] / inertia
+    new_speed = 0.0
+    if free > slip:
+        new_speed = free - slip
+    elif free < -slip:
+        new_speed = free + slip
+    if b[9] == 0.0:  # a worm gear: the spool turns only where the motor drives it
+        if drive > 0.0:
+            new_speed = wp.max(new_speed, 0.0)
+        elif drive < 0.0:
+            new_speed = wp.min(new_speed, 0.0)
+        else:
+            new_speed = 0.0
+    new = rest + new_speed * dt
+    if new < p[4]:  # the floor on the rest length stops the spool
+        new = p[4]
+        new_speed = 0.0
+    return wp.vec2(new, new_speed)
 
 
 @wp.kernel(module="unique", enable_backward=False)
@@ -45,7 +82,8 @@ def cable_law(
     """One cable of one world: motor step, peak, and the tension-only force (eq. 1-3)."""
     world, i = wp.tid()
     p = actuator_dynprm[world % actuator_dynprm.shape[0], i]
-    if p[0] != _MARKER or actuator_actnum[i] != 2:
+    actnum = actuator_actnum[i]
+    if p[0] != _MARKER or (actnum != 2 and actnum != 3):
         return
     b = actuator_biasprm[world % actuator_biasprm.shape[0], i]
     dt = opt_timestep[world % opt_timestep.shape[0]]
@@ -65,15 +103,21 @@ def cable_law(
             measured = k * stretch
         setpoint = wp.max(0.0, p[6] + p[7] * (x - p[9]) + p[8] * (v - command))
         target = rest - (setpoint - measured) / k
-    # motor: at most max_speed, never reeling in past max_tension or below the floors
-    reach = p[2] * dt
-    step = wp.min(wp.max(target - rest, -reach), reach)
-    new = rest + step
-    if step < 0.0:
-        new = wp.max(new, wp.min(rest, x - p[3] / k))
-        if x <= p[5]:
-            new = rest
-    new = wp.max(new, p[4])
+    new = rest
+    if actnum == 3:
+        dc = _dc_step(p, b, act[world, adr + 2], rest, target, x, v, dt)
+        act_dot[world, adr + 2] = (dc[1] - act[world, adr + 2]) / dt
+        new = dc[0]
+    else:
+        # motor: at most max_speed, never reeling in past max_tension or below the floors
+        reach = p[2] * dt
+        step = wp.min(wp.max(target - rest, -reach), reach)
+        new = rest + step
+        if step < 0.0:
+            new = wp.max(new, wp.min(rest, x - p[3] / k))
+            if x <= p[5]:
+                new = rest
+        new = wp.max(new, p[4])
     rate = (new - rest) / dt
     act_dot[world, adr] = rate
     # cable (eq. 1-2) from the rest length after this step, as Euler integration stores it
@@ -115,7 +159,7 @@ def _law_actuators(model: mujoco.MjModel) -> Any:
     import numpy as np
 
     return np.flatnonzero((model.actuator_dynprm[:, 0] == CABLE_MARKER)
-                          & (model.actuator_actnum == 2))
+                          & np.isin(model.actuator_actnum, (2, 3)))
 
 
 def install_warp_law(m: Any) -> None:

@@ -174,23 +174,99 @@ class PointMass:
 
 
 @dataclasses.dataclass(frozen=True)
+class DCMotor:
+    """A DC motor with gearbox and spool that winds the cable (instead of the kinematic motor).
+
+    Every quantity is at the spool (after the gearbox): torque and speed of the output shaft,
+    the rotor's inertia reflected through the gear ratio (J_rotor N^2, plus the spool's own).
+    The torque-speed curve is linear: tau = stall_torque (u - omega / no_load_speed) for a
+    drive u in [-1, 1] (the fraction of full voltage); u comes from a proportional position
+    loop that saturates at a rest-length error of no_load_speed x spool_radius x
+    position_time. The cable's tension drives the spool back where it exceeds what the motor
+    holds, unless the gearbox is not back-drivable (a worm gear): then the spool turns only
+    where the motor drives it.
+
+    Attributes:
+        spool_radius: R, cable length wound per radian [m].
+        stall_torque: torque at zero speed and full voltage [N m].
+        no_load_speed: speed at full voltage and no load [rad/s].
+        rotor_inertia: J, inertia turning with the spool [kg m^2].
+        viscous_friction: torque per speed opposing motion [N m s/rad].
+        coulomb_friction: constant torque opposing motion, or holding the spool at rest [N m].
+        back_drivable: the cable can turn the spool against (or without) the motor.
+        position_time: the position loop's time constant: full voltage at an error of
+            no_load_speed x spool_radius x position_time [s].
+    """
+
+    spool_radius: float = 0.01
+    stall_torque: float = 0.5
+    no_load_speed: float = 10.0
+    rotor_inertia: float = 5e-4
+    viscous_friction: float = 0.0
+    coulomb_friction: float = 0.01
+    back_drivable: bool = True
+    position_time: float = 0.05
+
+    def __post_init__(self) -> None:
+        for field, unit in (("spool_radius", "m"), ("stall_torque", "N m"),
+                            ("no_load_speed", "rad/s"), ("rotor_inertia", "kg m^2"),
+                            ("viscous_friction", "N m s/rad"), ("coulomb_friction", "N m"),
+                            ("position_time", "s")):
+            _real(self, "DC motor", field, unit)
+        for field in ("spool_radius", "stall_torque", "no_load_speed", "position_time"):
+            value = getattr(self, field)
+            _check(value > 0, "DC motor", f"{field} must be > 0, got {value}")
+        for field in ("rotor_inertia", "viscous_friction", "coulomb_friction"):
+            value = getattr(self, field)
+            _check(value >= 0, "DC motor", f"{field} must be >= 0, got {value}")
+        _check(isinstance(self.back_drivable, bool), "DC motor",
+               f"back_drivable must be true or false, got {describe(self.back_drivable)}")
+
+    @classmethod
+    def from_constants(cls, torque_constant: float, resistance: float, voltage: float,
+                       gear_ratio: float, **fields: float) -> DCMotor:
+        """The motor of a torque constant K_t [N m/A] (= back-EMF constant [V s/rad]), an
+        armature resistance [ohm] and a supply voltage [V] behind a gear ratio N [-]:
+        stall_torque = N K_t V / R_a, no_load_speed = V / (N K_t). Other fields as keywords."""
+        return cls(stall_torque=gear_ratio * torque_constant * voltage / resistance,
+                   no_load_speed=voltage / (gear_ratio * torque_constant), **fields)
+
+    def line(self) -> dict[str, float]:
+        """The motor in cable coordinates: stall force [N], no-load line speed [m/s],
+        reflected mass [kg], viscous [N s/m] and Coulomb [N] friction."""
+        r = self.spool_radius
+        return {"stall_force": self.stall_torque / r, "no_load_line_speed": self.no_load_speed * r,
+                "mass": self.rotor_inertia / r**2, "viscous": self.viscous_friction / r**2,
+                "coulomb": self.coulomb_friction / r}
+
+
+@dataclasses.dataclass(frozen=True)
 class Motor:
     """Limits of the motor that winds a cable's rest length.
 
+    By default the motor is kinematic: the rest length moves toward its command at up to
+    ``max_speed``. With ``dc`` it is a DC motor (:class:`DCMotor`) whose speed is a state
+    driven by its torque-speed curve, its inertia, friction and the cable's tension;
+    ``max_speed`` then has no effect.
+
     Attributes:
-        max_speed: fastest rest-length change [m/s].
+        max_speed: fastest rest-length change of the kinematic motor [m/s].
         max_tension: the motor stops reeling in once the static tension k(x - l) would exceed
             this [N].
         min_rest_length: floor on the rest length [m].
         min_length: the motor stops reeling in once the actual length is at or below this [m].
+        dc: the DC motor, or None for the kinematic one.
     """
 
     max_speed: float = 0.07
     max_tension: float = 50.0
     min_rest_length: float = 0.01
     min_length: float = 0.01
+    dc: DCMotor | None = None
 
     def __post_init__(self) -> None:
+        _check(self.dc is None or isinstance(self.dc, DCMotor), "motor",
+               f"dc must be a mapping of DC-motor parameters, got {describe(self.dc)}")
         for field, unit in (("max_speed", "m/s"), ("max_tension", "N"),
                             ("min_rest_length", "m"), ("min_length", "m")):
             _real(self, "motor", field, unit)

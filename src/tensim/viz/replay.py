@@ -144,7 +144,14 @@ def _world(summary: dict[str, Any], folder: Path) -> WorldOptions:
             contact_timeconst=float(summary.get("contact_timeconst_s",
                                                 defaults.contact_timeconst)),
             midphase=bool(summary.get("midphase", defaults.midphase)),
-            self_collision=bool(summary.get("self_collision", defaults.self_collision)))
+            self_collision=bool(summary.get("self_collision", defaults.self_collision)),
+            cone=str(summary.get("cone", defaults.cone)),
+            noslip_iterations=int(summary.get("noslip_iterations", defaults.noslip_iterations)),
+            condim=int(summary.get("condim", defaults.condim)),
+            torsional_friction=float(summary.get("torsional_friction_m",
+                                                 defaults.torsional_friction)),
+            rolling_friction=float(summary.get("rolling_friction_m",
+                                               defaults.rolling_friction)))
     except (TypeError, ValueError) as err:
         raise RunFolderError(f"{folder / 'summary.json'}: {err}") from err
     text = summary.get("terrain")
