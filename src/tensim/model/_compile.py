@@ -17,6 +17,7 @@ import math
 import mujoco
 import numpy as np
 
+from tensim.model import _beads
 from tensim.structure import Cable, Rod, Structure, mass_properties
 from tensim.structure._mass import MassProperties
 from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain
@@ -265,17 +266,26 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
             node_body[anchor.name] = "world"
             node_local[anchor.name] = structure.position(anchor.name)
     bodies = {b.name: b for b in spec.bodies}
+    bead_paths: dict[str, list[str]] = {}  # contact cables: every site along the path
     for cable in structure.cables:
         tendon = spec.add_tendon(name=cable.name, rgba=[0.8, 0.1, 0.1, 1], width=0.002)
         # anchor site, a site at each via node (MuJoCo pulls each along both spans), anchor site
         sites = [f"{cable.name}_0", *(f"{cable.name}_via{k}" for k in range(len(cable.via))),
                  f"{cable.name}_1"]
-        for k, (site, node, point) in enumerate(zip(sites, cable.path,
-                                                    structure.cable_points(cable), strict=True)):
+        points = structure.cable_points(cable)
+        # a contact cable also runs over the bead sites of each span (docs/cables.md)
+        beads = _beads.add_beads(spec, cable, points, world.timestep, world.contact_timeconst) \
+            if cable.contact is not None else None
+        for k, (site, node, point) in enumerate(zip(sites, cable.path, points, strict=True)):
             body = bodies[node_body[node]]
             local = point - (structure.position(node) - node_local[node])
             body.add_site(name=site, pos=local.tolist(), size=[0.002, 0, 0])
+            for bead in beads[k - 1] if beads and k else ():
+                tendon.wrap_site(bead)
+                bead_paths.setdefault(cable.name, [sites[0]]).append(bead)
             tendon.wrap_site(site)
+            if beads and k:
+                bead_paths[cable.name].append(site)
             if k == 0:  # between the anchors: the rods the cable wraps around, in order
                 for rod in cable.wrap:
                     tendon.wrap_geom(_wrap_geom(spec, bodies, rods[rod], node_body,
@@ -283,6 +293,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     for cable in structure.cables:  # cable actuators first: ids 0..n_cables-1
         _add_cable_actuator(spec, cable, structure.rest_length(cable))
     _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
+    _add_bead_springs(spec, structure, world, bead_paths)
     rest = [structure.rest_length(c) for c in structure.cables]
     spec.add_key(name=BUILD_KEY, act=[v for r in rest for v in (r, 0.0)],
                  ctrl=rest + [0.0] * (3 * len(load_nodes)))
@@ -364,6 +375,17 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -
                           motor.min_rest_length, motor.min_length, 0.0, 0.0, 0.0, rest_length]
     actuator.biasprm[0] = cable.stiffness
     actuator.biasprm[1] = cable.damping
+
+
+def _add_bead_springs(spec: mujoco.MjSpec, structure: Structure, world: WorldOptions,
+                      paths: dict[str, list[str]]) -> None:
+    """The span springs of the contact cables (after every cable's tendon), and the world's
+    geoms made touchable by their beads."""
+    for name, path in paths.items():
+        cable = structure.cable(name)
+        _beads.add_span_springs(spec, cable, path, structure.cable_points(cable), world.timestep)
+    if paths:
+        _beads.let_world_touch_beads(spec)
 
 
 def _add_load_actuators(spec: mujoco.MjSpec, bodies: dict[str, mujoco.MjsBody],

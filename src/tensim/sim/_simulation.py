@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 
 from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
+from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import CableDrive, InputPlan, changes
 from tensim.sim._law import install, installed_backend
 from tensim.sim._loads import NodeLoad
@@ -108,6 +109,8 @@ class Simulation:
         self._loads = tuple(loads)
         self._qvel = self.data.qvel
         self._bad_acc = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
+        self._contact = ContactCheck(compiled) \
+            if any(c.contact for c in compiled.structure.cables) else None
         if controller is not None:
             controller.configure(self)
         self._advance(1)  # the motor update at t = 0
@@ -220,7 +223,12 @@ class Simulation:
         if speed < self.limits.max_speed and force < self.limits.max_tension and not bad_acc:
             # MuJoCo's reset clears the activations: keep the peak tensions for the message
             self._peak_seen = (self.time, self.drive.peak.copy())
-            return  # also False for NaN, which lands below
+            problem = self._contact.problem(self.model, self.data) if self._contact else None
+            if problem is None:
+                return  # also False for NaN, which lands below
+            raise SimulationError(f"contact cable tunnelled at t = {self.time:.3f} s: {problem}. "
+                                  "Try a smaller timestep (--dt), a smaller bead spacing or "
+                                  "heavier beads (the cable's contact: spacing, mass).")
         raise SimulationError(diagnose(self.model, self.data, self.index, self.limits,
                                        self.time, bool(bad_acc),
                                        getattr(self, "_peak_seen", None)))

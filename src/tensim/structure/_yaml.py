@@ -19,7 +19,7 @@ import yaml
 from tensim._files import write_text
 from tensim._input import InputError, describe, load_yaml_file
 from tensim.structure._errors import StructureError
-from tensim.structure._records import Cable, Motor, Node, PointMass, Rod
+from tensim.structure._records import Cable, CableContact, Motor, Node, PointMass, Rod
 from tensim.structure._structure import Structure
 
 _SECTIONS = {"nodes": Node, "rods": Rod, "cables": Cable, "point_masses": PointMass}
@@ -42,6 +42,8 @@ def _build(cls: type, raw: Any, item: str) -> Any:
     values = dict(raw)
     if cls is Cable and "motor" in values:
         values["motor"] = _build(Motor, values["motor"], f"{item} motor")
+    if cls is Cable and isinstance(values.get("contact"), dict):
+        values["contact"] = _build(CableContact, values["contact"], f"{item} contact")
     try:
         return cls(**values)
     except StructureError as err:
@@ -107,6 +109,8 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
         for key, value in dataclasses.asdict(record).items():
             if value is None or value == ():
                 continue
+            if isinstance(value, dict):  # a nested record (motor, contact): drop its Nones
+                value = {k: v for k, v in value.items() if v is not None}
             out[key] = list(value) if isinstance(value, tuple) else value
         return out
 
