@@ -3,9 +3,8 @@ the ground and obstacles (docs/cables.md)."""
 
 from __future__ import annotations
 
-import numpy as np
-
 import mujoco
+import numpy as np
 
 from tensim.model import CompiledModel
 

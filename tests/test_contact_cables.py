@@ -1,0 +1,212 @@
+"""Contact cables: one tendon over light collision beads, against closed forms (a slack cable
+on the ground, a taut one over a block edge, the law on the whole path, a free cable against
+the straight one) and the tunnelling check."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from tensim.model import WorldOptions, compile_structure
+from tensim.sim import Simulation, SimulationError
+from tensim.structure import (
+    Cable,
+    CableContact,
+    Node,
+    PointMass,
+    Structure,
+    StructureError,
+    structure_from_dict,
+    structure_to_dict,
+)
+from tensim.terrain import Wall
+
+R = 0.005  # bead radius [m]
+K = 1000.0  # cable stiffness [N/m]
+G = 9.81
+
+
+def _bead_contact_force(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
+    """(3,) the world's push on all beads [N]."""
+    total = np.zeros(3)
+    for i in range(d.ncon):
+        contact, force = d.contact[i], np.zeros(6)
+        names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "" for g in contact.geom]
+        if not any("_bead" in n for n in names):
+            continue
+        mujoco.mj_contactForce(m, d, i, force)
+        world_first = m.geom_bodyid[contact.geom[0]] == 0  # the frame's normal points 0 -> 1
+        total += (1 if world_first else -1) * force[:3] @ contact.frame.reshape(3, 3)
+    return total
+
+
+def _hanging_over_edge(damping: float = 20.0) -> Structure:
+    """A 1 kg mass on a cable from an anchor on top of a 0.3 m block, released level with the
+    top beside the block's edge (x = 0, z = 0.3): it falls and hangs over the edge."""
+    return Structure(
+        "edge", (Node("a", (-0.08, 0.0, R), fixed=True), Node("b", (0.15, 0.0, R))),
+        point_masses=(PointMass("b", 1.0, 0.002),),
+        cables=(Cable("c", ("a", "b"), K, damping=damping, rest_length=0.2,
+                      contact=CableContact(spacing=0.02, radius=R)),))
+
+
+EDGE_WALL = Wall(height=0.3, distance=-0.1, thickness=0.1)  # top face x in [-0.1, 0]
+
+
+def test_a_taut_cable_over_a_block_edge_pushes_it_with_the_sum_of_the_two_tensions():
+    compiled = compile_structure(_hanging_over_edge(), WorldOptions(terrain=EDGE_WALL))
+    with Simulation(compiled) as sim:
+        sim.run(4.0)
+        m, d = sim.model, sim.data
+        tension = sim.drive.tension[0]
+        edge = np.array([0.0, 0.0, 0.3])
+        anchor = d.site_xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "c_0")]
+        mass = d.xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "b")]
+        units = [(p - edge) / np.linalg.norm(p - edge) for p in (anchor, mass)]
+        beads = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"c_bead{k}") for k in range(20)]
+        weight = G * sum(m.body_mass[b] for b in beads if b >= 0)
+        assert tension > 5.0  # taut: the 1 kg mass hangs (and still swings a little) on it
+        # the beads pass the two tensions to the block; they add at most their own weight
+        # (those on the block) and the span springs' pull (a bead weight per span, see
+        # tensim.model._beads.SPRING_SHARE)
+        np.testing.assert_allclose(-_bead_contact_force(m, d), tension * sum(units),
+                                   atol=2 * weight)
+        # the path over the edge: bead centres ride R off the faces, and a span may cut the
+        # corner by at most its limit (1.5 build spans) times (sqrt 2 - 1)
+        closed = sum(np.linalg.norm(p - edge) for p in (anchor, mass))
+        span = np.max(m.tendon_range[1:, 1])
+        assert closed - span * (math.sqrt(2) - 1) - 2 * R <= d.ten_length[0] \
+            <= closed + 2 * R
+
+
+def test_a_slack_contact_cable_on_the_ground_carries_no_tension():
+    s = Structure(
+        "slack", (Node("a", (0.0, 0.0, R), fixed=True), Node("b", (0.3, 0.0, R), fixed=True)),
+        cables=(Cable("c", ("a", "b"), K, damping=5.0, rest_length=0.4,
+                      contact=CableContact(spacing=0.05, radius=R)),))
+    with Simulation(compile_structure(s)) as sim:
+        series = sim.run(1.0)
+        m, d = sim.model, sim.data
+        assert np.all(series["tension/c"] == 0.0)  # length 0.3 m < rest length 0.4 m
+        assert d.actuator_force[0] == 0.0
+        beads = d.xpos[[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"c_bead{k}")
+                        for k in range(5)]]
+        # the beads lie on the ground (centres one radius up, within MuJoCo's soft contact),
+        # in order along the line between the anchors
+        np.testing.assert_allclose(beads[:, 2], R, atol=2e-4)
+        assert np.all(np.diff(beads[:, 0]) > 0)
+
+
+def test_the_law_acts_on_the_whole_bead_path_and_each_anchor_feels_that_tension():
+    s = _hanging_over_edge()
+    compiled = compile_structure(s, WorldOptions(terrain=EDGE_WALL))
+    with Simulation(compiled) as sim:
+        sim.run(1.0)
+        m, d = sim.model, sim.data
+        x = d.ten_length[0]
+        path = d.wrap_xpos.reshape(-1, 3)[d.ten_wrapadr[0]:d.ten_wrapadr[0] + d.ten_wrapnum[0]]
+        # the tendon's length is the polyline through the anchors and every bead centre
+        assert x == pytest.approx(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)),
+                                  abs=1e-12)
+        # the law on that length: k (x - l) + b dx/dt with the motor's new rest length l
+        rest = d.act[0] + d.act_dot[0] * m.opt.timestep
+        law = K * (x - rest) + 20.0 * d.ten_velocity[0]
+        assert law > 1.0
+        assert -d.actuator_force[0] == pytest.approx(law, rel=1e-12)
+        # the cable's actuator pulls anchor b along the last span with the law's tension:
+        # its generalized force on b's free joint is T times the unit vector toward the bead
+        b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "b")
+        dof = m.body_dofadr[b]
+        pull = d.qfrc_actuator[dof:dof + 3]
+        toward = (path[-2] - path[-1]) / np.linalg.norm(path[-2] - path[-1])
+        np.testing.assert_allclose(pull, -d.actuator_force[0] * toward, rtol=1e-9, atol=1e-12)
+
+
+def _swing(contact: bool) -> np.ndarray:
+    """Tension over the first quarter swing (0.4 s) of a 1 kg pendulum on an unloaded 0.3 m
+    cable, released horizontal, far from anything (2 m above the ground)."""
+    cable = Cable("c", ("a", "b"), K, damping=5.0, rest_length=0.3,
+                  contact=CableContact(spacing=0.05, radius=R, mass=2e-3) if contact else None)
+    s = Structure("swing", (Node("a", (0, 0, 2.0), fixed=True), Node("b", (0.3, 0, 2.0))),
+                  point_masses=(PointMass("b", 1.0, 0.005),), cables=(cable,))
+    with Simulation(compile_structure(s)) as sim:
+        return sim.run(0.4)["tension/c"]
+
+
+def test_a_contact_cable_far_from_anything_carries_the_straight_cables_tension():
+    straight, beaded = _swing(False), _swing(True)
+    assert straight.max() > 2.5 * G  # at the bottom: 3 m g less the cable's stretch
+    # 5 beads of 2 g on a 1 kg pendulum add 1 % to the swinging mass; at the start, with the
+    # cable unloaded, their 0.1 N weight sags it and lengthens its path by up to 0.3 mm
+    # (0.3 N at 1000 N/m): 3 % of the peak covers both
+    assert np.max(np.abs(beaded - straight)) < 0.03 * straight.max()
+
+
+def test_cables_without_contact_compile_as_before():
+    s = _hanging_over_edge()
+    plain = Structure(s.name, s.nodes, cables=(Cable("c", ("a", "b"), K, damping=20.0,
+                                                     rest_length=0.2),),
+                      point_masses=s.point_masses)
+    m = compile_structure(plain, WorldOptions(terrain=EDGE_WALL)).model
+    assert m.nbody == 2 and m.ntendon == 1 and m.neq == 0
+    assert all(m.geom_contype[g] == 1 for g in range(m.ngeom) if m.geom_bodyid[g] == 0)
+
+
+def test_a_cable_whipped_through_a_thin_wall_is_reported():
+    # a taut cable along y, 3 cm beside a 3 cm wall; its beads are flung at the wall at
+    # 40 m/s, 4 cm per step: they land inside it, which the check reports with what to change
+    s = Structure(
+        "whip", (Node("a", (0.15, -0.1, R), fixed=True), Node("b", (0.15, 0.1, R), fixed=True)),
+        cables=(Cable("c", ("a", "b"), K, damping=5.0, pretension=5.0,
+                      contact=CableContact(spacing=0.03, radius=R)),))
+    wall = Wall(height=0.05, distance=0.09, thickness=0.03, width=0.4)
+    with Simulation(compile_structure(s, WorldOptions(terrain=wall))) as sim:
+        beads = [j for j in range(sim.model.njnt) if sim.model.jnt_type[j] == 2
+                 and sim.model.jnt_axis[j, 0] == 1.0]
+        sim.data.qvel[sim.model.jnt_dofadr[beads]] = -40.0
+        with pytest.raises(SimulationError, match=r"contact cable tunnelled .* inside "
+                           r"'terrain_box_0'.* smaller timestep .* bead spacing"):
+            sim.step(2)  # the first step moves them, the second finds them inside
+
+
+def test_a_cable_trapped_in_a_corner_stays_stable():
+    # a 1 kg mass pulled by the motor into the corner between the ground and a wall: the
+    # beads pile up in the corner, the simulation stays finite and the tension bounded
+    s = Structure(
+        "corner", (Node("a", (0.05, 0.0, 0.3), fixed=True), Node("b", (0.3, 0.0, 0.01))),
+        point_masses=(PointMass("b", 1.0, 0.01),),
+        cables=(Cable("c", ("a", "b"), K, damping=5.0, pretension=5.0,
+                      contact=CableContact(spacing=0.03, radius=R)),))
+    wall = Wall(height=0.2, distance=0.1, thickness=0.05, width=1.0)
+    compiled = compile_structure(s, WorldOptions(terrain=wall))
+    with Simulation(compiled) as sim:
+        sim.drive.rest_command[:] = 0.05  # the motor reels in at its top speed
+        series = sim.run(3.0)
+        m, d = sim.model, sim.data
+        beads = d.xpos[[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"c_bead{k}")
+                        for k in range(12)]]
+    assert np.all(np.isfinite(series["tension/c"]))
+    # the motor stops at its tension limit (50 N); the cable's damping adds a little on top
+    assert series["tension/c"].max() < 1.2 * compiled.max_tension[0]
+    # the beads lie outside the wall (x >= 0.15) and above the ground, none inside
+    assert np.all((beads[:, 0] >= 0.15 + R - 1e-3) | (beads[:, 2] >= 0.2 + R - 1e-3))
+    assert np.all(beads[:, 2] >= R - 1e-3)
+
+
+def test_contact_round_trips_and_bad_contact_is_refused():
+    s = _hanging_over_edge()
+    assert structure_from_dict(structure_to_dict(s)) == s
+    data = structure_to_dict(s)
+    short = {**data, "cables": [{**data["cables"][0], "contact": True}]}
+    assert structure_from_dict(short).cables[0].contact == CableContact()
+    with pytest.raises(StructureError, match="contact must be true, false or a mapping"):
+        structure_from_dict({**data, "cables": [{**data["cables"][0], "contact": "yes"}]})
+    with pytest.raises(StructureError, match="unknown field 'beads'"):
+        structure_from_dict({**data, "cables": [{**data["cables"][0], "contact": {"beads": 3}}]})
+    with pytest.raises(StructureError, match="spacing must be > 0"):
+        CableContact(spacing=0.0)
+    with pytest.raises(StructureError, match="not both"):
+        Cable("c", ("a", "b"), K, rest_length=0.5, wrap=("bar",), contact=True)
