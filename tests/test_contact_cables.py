@@ -210,3 +210,20 @@ def test_contact_round_trips_and_bad_contact_is_refused():
         CableContact(spacing=0.0)
     with pytest.raises(StructureError, match="not both"):
         Cable("c", ("a", "b"), K, rest_length=0.5, wrap=("bar",), contact=True)
+
+
+def test_the_drawing_follows_the_bead_path():
+    from tensim.viz.cables import CableArtist
+
+    compiled = compile_structure(_hanging_over_edge(), WorldOptions(terrain=EDGE_WALL))
+    with Simulation(compiled) as sim:
+        sim.run(0.5)
+        m, d = sim.model, sim.data
+        artist = CableArtist(compiled)
+        path = artist._path(d, 0)
+        beads = d.xpos[[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"c_bead{k}")
+                        for k in range(len(path) - 2)]]
+        np.testing.assert_allclose(path[1:-1], beads, atol=1e-12)  # through every bead
+        scene = mujoco.MjvScene(m, maxgeom=artist.max_geoms)
+        artist.draw(scene, d, sim.drive.tension, sim.drive.rest)
+        assert scene.ngeom == len(path) - 1  # one piece per span, within the budget
