@@ -1,6 +1,6 @@
 """Figures of docs/cables.md: contact cables against closed forms, and their bead-mass bound.
 
-Usage: python docs/cables.py
+Usage: python examples/contact_cables.py
 """
 
 from __future__ import annotations
