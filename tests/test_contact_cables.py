@@ -172,6 +172,25 @@ def test_a_cable_whipped_through_a_thin_wall_is_reported():
             sim.step(2)  # the first step moves them, the second finds them inside
 
 
+def test_a_cable_whose_beads_jumped_a_thin_plate_is_reported():
+    # a taut cable along y, 4.5 cm beside a 5 mm plate; its beads put 2 cm past the plate
+    # (as a step of 7 cm would, too fast to meet it): the spans from the anchors to the
+    # outer beads now run through the plate, which the check reports
+    s = Structure(
+        "jump", (Node("a", (0.15, -0.1, R), fixed=True), Node("b", (0.15, 0.1, R), fixed=True)),
+        cables=(Cable("c", ("a", "b"), K, damping=5.0, pretension=5.0,
+                      contact=CableContact(spacing=0.03, radius=R)),))
+    plate = Wall(height=0.05, distance=0.1, thickness=0.005, width=0.4)
+    with Simulation(compile_structure(s, WorldOptions(terrain=plate))) as sim:
+        m = sim.model
+        beads = [j for j in range(m.njnt) if m.jnt_type[j] == 2 and m.jnt_axis[j, 0] == 1.0]
+        sim.data.qpos[m.jnt_qposadr[beads]] = -0.07  # x = 0.08, the plate is x in [0.1, 0.105]
+        mujoco.mj_forward(m, sim.data)
+        with pytest.raises(SimulationError, match=r"span (0|6) of contact cable 'c' passes "
+                           r"through 'terrain_box_0' \(5\.\d mm of it inside\)"):  # oblique span
+            sim.check()
+
+
 def test_a_cable_trapped_in_a_corner_stays_stable():
     # a 1 kg mass pulled by the motor into the corner between the ground and a wall: the
     # beads pile up in the corner, the simulation stays finite and the tension bounded
