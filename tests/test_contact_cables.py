@@ -246,3 +246,23 @@ def test_the_drawing_follows_the_bead_path():
         scene = mujoco.MjvScene(m, maxgeom=artist.max_geoms)
         artist.draw(scene, d, sim.drive.tension, sim.drive.rest)
         assert scene.ngeom == len(path) - 1  # one piece per span, within the budget
+
+
+def test_a_contact_cable_spans_several_segments_through_via_nodes():
+    # a -> v -> b, spans of 0.2 m and 0.1 m with beads at most 0.05 m apart: 3 and 1 beads
+    s = Structure(
+        "span", (Node("a", (0.0, 0.0, 0.5), fixed=True), Node("v", (0.2, 0.0, 0.5), fixed=True),
+                 Node("b", (0.2, 0.1, 0.5), fixed=True)),
+        cables=(Cable("c", ("a", "b"), K, pretension=5.0, via=("v",),
+                      contact=CableContact(spacing=0.05, radius=R)),))
+    compiled = compile_structure(s, WorldOptions(gravity=(0, 0, 0)))
+    m = compiled.model
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    sites = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_SITE, m.wrap_objid[m.tendon_adr[0] + k])
+             for k in range(m.tendon_num[0])]
+    assert sites == ["c_0", "c_bead0_site", "c_bead1_site", "c_bead2_site", "c_via0",
+                     "c_bead3_site", "c_1"]
+    # at build the beads sit on the straight spans: the routed length, and the pretension
+    assert d.ten_length[0] == pytest.approx(s.cable_length(s.cables[0]), abs=1e-12)
+    assert K * (d.ten_length[0] - compiled.rest_length[0]) == pytest.approx(5.0, abs=1e-9)
