@@ -43,14 +43,14 @@ def _bead_contact_force(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
     return total
 
 
-def _hanging_over_edge(damping: float = 20.0) -> Structure:
+def _hanging_over_edge(damping: float = 20.0, mass: float | None = None) -> Structure:
     """A 1 kg mass on a cable from an anchor on top of a 0.3 m block, released level with the
     top beside the block's edge (x = 0, z = 0.3): it falls and hangs over the edge."""
     return Structure(
         "edge", (Node("a", (-0.08, 0.0, R), fixed=True), Node("b", (0.15, 0.0, R))),
         point_masses=(PointMass("b", 1.0, 0.002),),
         cables=(Cable("c", ("a", "b"), K, damping=damping, rest_length=0.2,
-                      contact=CableContact(spacing=0.02, radius=R)),))
+                      contact=CableContact(spacing=0.02, radius=R, mass=mass)),))
 
 
 EDGE_WALL = Wall(height=0.3, distance=-0.1, thickness=0.1)  # top face x in [-0.1, 0]
@@ -266,3 +266,35 @@ def test_a_contact_cable_spans_several_segments_through_via_nodes():
     # at build the beads sit on the straight spans: the routed length, and the pretension
     assert d.ten_length[0] == pytest.approx(s.cable_length(s.cables[0]), abs=1e-12)
     assert K * (d.ten_length[0] - compiled.rest_length[0]) == pytest.approx(5.0, abs=1e-9)
+
+
+def test_a_recorded_run_replays_its_beads_where_they_were():
+    from pathlib import Path
+
+    from tensim.viz.replay import PoseReplay, RecordedRun
+
+    compiled = compile_structure(_hanging_over_edge(), WorldOptions(terrain=EDGE_WALL))
+    with Simulation(compiled) as sim:
+        series = sim.run(0.5)
+        d = sim.data
+        # the bead channels hold the beads' last positions, which replay puts back
+        np.testing.assert_array_equal(series["bead_x/c_bead3"][-1],
+                                      d.xpos[compiled.index.bead[3]][0])
+        path = d.wrap_xpos.reshape(-1, 3)[d.ten_wrapadr[0]:d.ten_wrapadr[0] + d.ten_wrapnum[0]]
+        path = path.copy()
+    replay = PoseReplay(RecordedRun(Path("."), {}, series, compile_structure(
+        _hanging_over_edge(), WorldOptions(terrain=EDGE_WALL))))
+    placed = replay.place(series.time.size - 1)
+    t = compiled.index.tendon[0]
+    replayed = placed.wrap_xpos.reshape(-1, 3)[placed.ten_wrapadr[t]:placed.ten_wrapadr[t]
+                                              + placed.ten_wrapnum[t]]
+    np.testing.assert_allclose(replayed, path, atol=1e-12)  # the drawn path, bead for bead
+
+
+def test_beads_too_light_for_the_timestep_are_named_in_the_error():
+    # 1 g beads against a bound of about 10 g (examples/contact_cables.py finds 8 g unstable)
+    compiled = compile_structure(_hanging_over_edge(mass=1e-3), WorldOptions(terrain=EDGE_WALL))
+    with Simulation(compiled) as sim, pytest.raises(
+            SimulationError, match=r"'c_bead\d+' is a contact cable's bead: give its cable "
+                                   r"heavier beads \(contact: mass\) or take a smaller timestep"):
+        sim.run(1.0)

@@ -18,7 +18,7 @@ import math
 import mujoco
 import numpy as np
 
-from tensim.structure import Cable, CableContact
+from tensim.structure import Cable, CableContact, Structure
 
 BEAD_PRIORITY = 3  # outranks the terrain's 2: bead contacts use the beads' own parameters
 BEAD_BIT = 2  # contype bit of the world's geoms that beads touch (robot geoms lack it)
@@ -117,6 +117,20 @@ def add_span_springs(spec: mujoco.MjSpec, cable: Cable, path_sites: list[str],
                                  solimp_limit=list(SOLIMP))
         tendon.wrap_site(a)
         tendon.wrap_site(b)
+
+
+def bead_bodies(model: mujoco.MjModel, structure: Structure) -> tuple[str, ...]:
+    """The bead bodies' names, in cable and path order."""
+    names = []
+    for cable in structure.cables:
+        if cable.contact is None:
+            continue
+        for k in itertools.count():
+            name = f"{cable.name}_bead{k}"
+            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) < 0:
+                break
+            names.append(name)
+    return tuple(names)
 
 
 def let_world_touch_beads(spec: mujoco.MjSpec) -> None:

@@ -96,6 +96,8 @@ class ModelIndex:
         node_body: node name -> MuJoCo body id (0 for world-fixed nodes).
         node_local: node name -> (3,) node position in its body's frame [m].
         load_nodes: nodes with external force inputs, in input order.
+        beads: the contact cables' bead bodies, in cable and path order.
+        bead: (n_beads,) MuJoCo body id of each bead.
     """
 
     cables: tuple[str, ...]
@@ -106,6 +108,8 @@ class ModelIndex:
     node_body: dict[str, int]
     node_local: dict[str, np.ndarray]
     load_nodes: tuple[str, ...] = ()
+    beads: tuple[str, ...] = ()
+    bead: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=np.int32))
 
     def cable_id(self, name: str) -> int:
         """Position of cable ``name`` in the per-cable arrays."""
@@ -428,6 +432,8 @@ def _assemble(structure: Structure, world: WorldOptions, model: mujoco.MjModel,
                    for n, b in node_body.items()},
         node_local={n: np.asarray(p, dtype=float) for n, p in node_local.items()},
         load_nodes=load_nodes,
+        beads=(beads := _beads.bead_bodies(model, structure)),
+        bead=ids(mujoco.mjtObj.mjOBJ_BODY, beads),
     )
 
     def column(get: object) -> np.ndarray:

@@ -264,9 +264,12 @@ def diagnose(m: mujoco.MjModel, d: mujoco.MjData, index: ModelIndex, limits: Sta
         what = f"body {body!r} reached speed {qvel.max():.3g} " \
                f"(limit {limits.max_speed:g} m/s or rad/s)"
     cable = index.cables[int(np.argmax(applied))] if applied.size else "-"
+    beads = f" {', '.join(repr(b) for b in index.beads if b in what)} is a contact cable's " \
+        "bead: give its cable heavier beads (contact: mass) or take a smaller timestep." \
+        if any(repr(b) in what for b in index.beads) else ""
     return (f"simulation unstable {when}: {what}; {load} {cable!r} at "
             f"{applied.max(initial=0.0):.4g} N. Try a smaller timestep (--dt), "
-            "lower cable stiffness or pretension, or more cable damping.")
+            f"lower cable stiffness or pretension, or more cable damping.{beads}")
 
 
 class _Segments:
@@ -302,6 +305,8 @@ class _Recorder:
         self._takes = [(b.length, d.ten_length, sim.index.tendon),
                        (b.velocity, d.ten_velocity, sim.index.tendon),
                        (b.quat, d.xquat, sim.index.body)]
+        if sim.index.beads:
+            self._takes.append((b.bead, d.xpos, sim.index.bead))
         self._xpos, self._com, self._body = d.xpos, d.subtree_com, sim.index.body
 
     def take(self, sim: Simulation) -> None:
