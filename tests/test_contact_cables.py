@@ -298,3 +298,16 @@ def test_beads_too_light_for_the_timestep_are_named_in_the_error():
             SimulationError, match=r"'c_bead\d+' is a contact cable's bead: give its cable "
                                    r"heavier beads \(contact: mass\) or take a smaller timestep"):
         sim.run(1.0)
+
+
+def test_the_batch_engine_runs_contact_cables_as_a_single_run_does():
+    from tensim.sim import Trial, compiled_available, run_batch, simulate
+
+    if not compiled_available():
+        pytest.skip("the batch engine needs the compiled cable law")
+    compiled = compile_structure(_hanging_over_edge(), WorldOptions(terrain=EDGE_WALL))
+    single = simulate(compiled, 0.5)
+    (trial,) = run_batch(compiled, [Trial(None)], 0.5)
+    assert trial.ok, trial.error
+    for name, values in single.trajectory.channels.items():  # beads' channels included
+        np.testing.assert_array_equal(values, trial.result.trajectory[name], err_msg=name)
