@@ -25,8 +25,8 @@ BEAD_BIT = 2  # contype bit of the world's geoms that beads touch (robot geoms l
 # Bead mass bound (docs/cables.md): a bead between spans of length l under tension T is a
 # transverse spring of 2 T / l; one that bends the path by a right angle takes the cable's
 # stiffness k as about 4 k and its damping b explicitly. Semi-implicit Euler at step dt then
-# needs m >= max(2 T dt^2 / l, 4 k dt^2, b dt / 2) (measured: docs/cables.py); the default
-# mass is SAFETY times that, with T the motor's tension limit.
+# needs m >= max(2 T dt^2 / l, 4 k dt^2, b dt / 2) (measured: examples/contact_cables.py); the
+# default mass is SAFETY times that, with T the motor's tension limit.
 SAFETY = 4.0
 MIN_BEAD_MASS = 1e-4  # kg: lighter beads gain nothing and make MuJoCo's contacts stiffer
 SPRING_SHARE = 1.0  # a span spring pulls with this many bead weights at the build span

@@ -3,8 +3,9 @@
 The file is a mapping with ``name``, ``nodes``, ``rods``, ``cables``, ``point_masses`` (lists of
 mappings whose keys are the record fields) and an optional ``defaults`` mapping with ``rod``,
 ``cable`` and ``point_mass`` entries merged under every item of that kind. Cables take a nested
-``motor`` mapping and, when routed, a ``via`` list of the nodes they pass through. All values are
-SI units (the README lists every field).
+``motor`` mapping, when routed a ``via`` list of the nodes they pass through, and a ``contact``
+that is ``true`` or a mapping of :class:`CableContact` fields. All values are SI units (the
+README lists every field).
 """
 
 from __future__ import annotations
