@@ -227,6 +227,11 @@ def test_contact_round_trips_and_bad_contact_is_refused():
         structure_from_dict({**data, "cables": [{**data["cables"][0], "contact": {"beads": 3}}]})
     with pytest.raises(StructureError, match="spacing must be > 0"):
         CableContact(spacing=0.0)
+    with pytest.raises(StructureError, match=r"cables\[0\] 'c' contact: radius must be > 0"):
+        structure_from_dict({**data, "cables": [{**data["cables"][0],
+                                                 "contact": {"radius": -1.0}}]})
+    assert Cable("c", ("a", "b"), K, rest_length=0.5,
+                 contact={"spacing": 0.1}).contact == CableContact(spacing=0.1)
     with pytest.raises(StructureError, match="not both"):
         Cable("c", ("a", "b"), K, rest_length=0.5, wrap=("bar",), contact=True)
 

@@ -277,6 +277,15 @@ class Cable:
             object.__setattr__(self, "contact", CableContact())
         elif self.contact is False:
             object.__setattr__(self, "contact", None)
+        elif isinstance(self.contact, dict):
+            unknown = sorted(set(self.contact) - {f.name for f in
+                                                  dataclasses.fields(CableContact)})
+            _check(not unknown, item, f"contact: unknown field {unknown[:1]}; expected spacing, "
+                   "radius, mass")
+            try:
+                object.__setattr__(self, "contact", CableContact(**self.contact))
+            except StructureError as err:
+                raise StructureError(err.detail, item=f"{item} contact") from None
         _check(self.contact is None or isinstance(self.contact, CableContact), item,
                f"contact must be true, false or a mapping of spacing, radius and mass, got "
                f"{describe(self.contact)}")

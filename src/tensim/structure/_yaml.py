@@ -47,8 +47,9 @@ def _build(cls: type, raw: Any, item: str) -> Any:
         values["contact"] = _build(CableContact, values["contact"], f"{item} contact")
     try:
         return cls(**values)
-    except StructureError as err:
-        raise StructureError(err.detail, item=err.item or item) from None
+    except StructureError as err:  # a nested record names itself only: name its owner too
+        nested = err.item in ("motor", "contact")
+        raise StructureError(err.detail, item=item if nested else err.item or item) from None
     except TypeError as err:  # a required field is missing
         raise StructureError(f"{err}; expected fields {_fields(cls)}", item=item) from None
 
