@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 
 from tensim.model import WorldOptions, compile_structure
-from tensim.model._beads import stable_bead_mass
+from tensim.model._beads import BEAD_BIT, stable_bead_mass
 from tensim.models import preset
 from tensim.sim import Simulation, SimulationError
 from tensim.structure import Cable, CableContact, Node, PointMass, Structure
@@ -89,8 +89,9 @@ def preset_masses() -> None:
               f"dt {dt * 1e3:g} ms: beads of {stable_bead_mass(cable, 0.04, dt) * 1e3:.3g} g")
 
 
-def climb(contact: CableContact | None, dt: float) -> str:
-    """The climb scenario's outcome with the lowest cables as contact cables (None: straight)."""
+def climb(contact: CableContact | None, dt: float, touching: bool = True) -> str:
+    """The climb scenario's outcome with the lowest cables as contact cables (None: straight);
+    ``touching=False`` keeps the beads but lets them pass through the world."""
     from tensim.bench import CONTACT_TAGS
     from tensim.experiments.climb import (
         CLIMB_DURATION,
@@ -104,9 +105,12 @@ def climb(contact: CableContact | None, dt: float) -> str:
         dataclasses.replace(c, contact=contact) if set(c.tags) & set(CONTACT_TAGS) else c
         for c in structure.cables))
     compiled = compile_structure(structure, WorldOptions(terrain=CLIMB_TERRAIN, timestep=dt))
+    if not touching:  # the world's geoms lose the bit that beads touch
+        compiled.model.geom_contype[compiled.model.geom_bodyid == 0] &= ~BEAD_BIT
     beads = compiled.model.body_mass[compiled.index.bead]
     controller = climb_controller(CLIMB_DURATION).build(dt)
     what = f"{beads.size} beads, {beads.sum():.2f} kg" if beads.size else "straight cables"
+    what += "" if touching else " touching nothing"
     try:
         with Simulation(compiled, controller=controller) as sim:
             series = sim.run(CLIMB_DURATION)
@@ -126,3 +130,4 @@ if __name__ == "__main__":
         for contact, dt in ((None, 1e-3), (CableContact(), 1e-3), (CableContact(), 2.5e-4),
                             (CableContact(mass=0.02), 2.5e-4)):
             print(" ", climb(contact, dt))
+        print(" ", climb(CableContact(mass=0.02), 2.5e-4, touching=False))

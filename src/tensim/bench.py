@@ -199,7 +199,7 @@ def engine_alone(compiled: CompiledModel, state: np.ndarray
 def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, object]:
     """The cases: Tetraspine3 under impedance control and on its CPG gait; a passive six-bar;
     the 12-segment Tetraspine sidewinding on flat ground and on its goal gait over the goal
-    scenario's rough height field."""
+    scenario's rough height field; its wall climb with straight and with contact cables."""
     from tensim.experiments.goal import GOAL_TERRAIN  # 2 cm RMS bumps on a 4 cm grid
 
     cases = [bench_model("tetraspine3", duration, repeats),
