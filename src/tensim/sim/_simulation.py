@@ -264,12 +264,14 @@ def diagnose(m: mujoco.MjModel, d: mujoco.MjData, index: ModelIndex, limits: Sta
         what = f"body {body!r} reached speed {qvel.max():.3g} " \
                f"(limit {limits.max_speed:g} m/s or rad/s)"
     cable = index.cables[int(np.argmax(applied))] if applied.size else "-"
-    beads = f" {', '.join(repr(b) for b in index.beads if b in what)} is a contact cable's " \
-        "bead: give its cable heavier beads (contact: mass) or take a smaller timestep." \
-        if any(repr(b) in what for b in index.beads) else ""
+    advice = "Try a smaller timestep (--dt), lower cable stiffness or pretension, or more " \
+        "cable damping."
+    bead = next((b for b in index.beads if repr(b) in what), None)
+    if bead is not None:  # too light for the step: see tensim.model._beads
+        advice = (f"{bead!r} is a contact cable's bead: give its cable heavier beads "
+                  "(contact: mass) or take a smaller timestep (--dt).")
     return (f"simulation unstable {when}: {what}; {load} {cable!r} at "
-            f"{applied.max(initial=0.0):.4g} N. Try a smaller timestep (--dt), "
-            f"lower cable stiffness or pretension, or more cable damping.{beads}")
+            f"{applied.max(initial=0.0):.4g} N. {advice}")
 
 
 class _Segments:
