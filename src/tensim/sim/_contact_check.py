@@ -43,22 +43,50 @@ class ContactCheck:
                     break
                 self.spans.append((cable.name, k, tendon, cable.contact.radius))
         self.world_geoms = m.geom_bodyid == 0  # ground and terrain
+        self._span_sites = np.array([[m.wrap_objid[m.tendon_adr[t] + j] for j in (0, 1)]
+                                     for _, _, t, _ in self.spans], dtype=int).reshape(-1, 2)
+        self._radius = np.array([r for *_, r in self.spans])[:, None]
+        self._boxes: tuple[np.ndarray, np.ndarray] | None = None
 
     def problem(self, m: mujoco.MjModel, d: mujoco.MjData) -> str | None:
         """What went wrong, or None."""
-        for i in range(d.ncon):
-            contact = d.contact[i]
-            g = contact.geom[0] if self.bead_geom[contact.geom[0]] else contact.geom[1]
-            if self.bead_geom[g] and -contact.dist > SINK_SHARE * m.geom_size[g, 0]:
-                other = contact.geom[1] if g == contact.geom[0] else contact.geom[0]
-                return (f"bead {_name(m, g)!r} is {-contact.dist * 1e3:.3g} mm inside "
-                        f"{_name(m, other)!r}")
-        for cable, k, tendon, radius in self.spans:
+        sunk = self._sunk(m, d)
+        if sunk is not None:
+            return sunk
+        for cable, k, tendon, radius in self._near_obstacles(m, d):
             inside = self._inside(m, d, tendon, radius)
             if inside is not None:
                 return (f"span {k} of contact cable {cable!r} passes through "
                         f"{_name(m, inside[0])!r} ({inside[1] * 1e3:.3g} mm of it inside)")
         return None
+
+    def _sunk(self, m: mujoco.MjModel, d: mujoco.MjData) -> str | None:
+        """A bead whose centre went into what it touches, or None."""
+        if not d.ncon:
+            return None
+        geoms, depth = d.contact.geom, -d.contact.dist
+        bead = np.where(self.bead_geom[geoms[:, 0]], geoms[:, 0], geoms[:, 1])
+        sunk = np.flatnonzero(self.bead_geom[bead] & (depth > SINK_SHARE * m.geom_size[bead, 0]))
+        if not sunk.size:
+            return None
+        i = int(sunk[0])
+        other = geoms[i, 1] if bead[i] == geoms[i, 0] else geoms[i, 0]
+        return (f"bead {_name(m, bead[i])!r} is {depth[i] * 1e3:.3g} mm inside "
+                f"{_name(m, other)!r}")
+
+    def _near_obstacles(self, m: mujoco.MjModel, d: mujoco.MjData
+                        ) -> list[tuple[str, int, int, float]]:
+        """The spans whose bounding boxes meet a world geom's (planes aside: a bead below
+        the ground is found sunk), the only ones a ray needs to test."""
+        if self._boxes is None:  # the world's geoms do not move: their boxes once
+            self._boxes = _world_boxes(m, d)
+        if not self._boxes[0].size or not self.spans:
+            return []
+        ends = d.site_xpos[self._span_sites]  # (n_spans, 2, 3)
+        low, high = ends.min(axis=1) - self._radius, ends.max(axis=1) + self._radius
+        meet = np.all((low[:, None] < self._boxes[1]) & (high[:, None] > self._boxes[0]),
+                      axis=2).any(axis=1)
+        return [self.spans[i] for i in np.flatnonzero(meet)]
 
     def _inside(self, m: mujoco.MjModel, d: mujoco.MjData, tendon: int, radius: float
                 ) -> tuple[int, float] | None:
@@ -83,6 +111,15 @@ class ContactCheck:
 
 
 _WORLD_GROUP = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)  # world geoms are in group 0
+
+
+def _world_boxes(m: mujoco.MjModel, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) world-frame bounding boxes of the world's geoms other than planes, (n, 3)."""
+    geoms = np.flatnonzero((m.geom_bodyid == 0) & (m.geom_type != mujoco.mjtGeom.mjGEOM_PLANE))
+    rot = d.geom_xmat[geoms].reshape(-1, 3, 3)
+    centre = d.geom_xpos[geoms] + np.einsum("nij,nj->ni", rot, m.geom_aabb[geoms, :3])
+    half = np.einsum("nij,nj->ni", np.abs(rot), m.geom_aabb[geoms, 3:])
+    return centre - half, centre + half
 
 
 def _name(m: mujoco.MjModel, geom: int) -> str:
