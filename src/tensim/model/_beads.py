@@ -22,13 +22,13 @@ from tensim.structure import Cable, CableContact, Structure
 
 BEAD_PRIORITY = 3  # outranks the terrain's 2: bead contacts use the beads' own parameters
 BEAD_BIT = 2  # contype bit of the world's geoms that beads touch (robot geoms lack it)
-# Bead mass bound (docs/cables.md): a bead between spans of length l under tension T is a
+# Bead inertia bound (docs/cables.md): a bead between spans of length l under tension T is a
 # transverse spring of 2 T / l; one that bends the path by a right angle takes the cable's
 # stiffness k as about 4 k and its damping b explicitly. Semi-implicit Euler at step dt then
-# needs m >= max(2 T dt^2 / l, 4 k dt^2, b dt / 2) (measured: examples/contact_cables.py); the
-# default mass is SAFETY times that, with T the motor's tension limit.
+# needs an inertia of at least max(2 T dt^2 / l, 4 k dt^2, b dt / 2) (measured:
+# examples/contact_cables.py). Each bead gets SAFETY times that, with T the motor's tension
+# limit: its own mass, and the rest as armature on its slide joints (inertia without weight).
 SAFETY = 4.0
-MIN_BEAD_MASS = 1e-4  # kg: lighter beads gain nothing and make MuJoCo's contacts stiffer
 SPRING_SHARE = 1.0  # a span spring pulls with this many bead weights at the build span
 # Beads are light and the tension presses them hard: MuJoCo's constraints, soft in
 # acceleration, would let them sink; bead contacts and span limits get the stiffest setting
@@ -59,27 +59,25 @@ def shortest_span(cable: Cable, points: tuple[np.ndarray, ...]) -> float:
                zip(itertools.pairwise(points), bead_counts(cable, points), strict=True))
 
 
-def stable_bead_mass(cable: Cable, span: float, timestep: float) -> float:
-    """The default bead mass [kg]: ``SAFETY`` times the stability bound at ``timestep``."""
+def stable_inertia(cable: Cable, span: float, timestep: float) -> float:
+    """The inertia each bead needs at ``timestep`` [kg]: ``SAFETY`` times the bound."""
     bound = max(2 * cable.motor.max_tension / span * timestep**2,
                 4 * cable.stiffness * timestep**2, cable.damping * timestep / 2)
-    return max(MIN_BEAD_MASS, SAFETY * bound)
+    return SAFETY * bound
 
 
-def bead_mass(cable: Cable, points: tuple[np.ndarray, ...], timestep: float) -> float:
-    """The cable's bead mass [kg]: its own, or :func:`stable_bead_mass`."""
-    contact = cable.contact
-    assert contact is not None
-    if contact.mass is not None:
-        return contact.mass
-    return stable_bead_mass(cable, shortest_span(cable, points), timestep)
+def bead_armature(cable: Cable, points: tuple[np.ndarray, ...], timestep: float) -> float:
+    """Armature of each bead's slide joints [kg]: what its mass lacks of the stable inertia."""
+    assert cable.contact is not None
+    need = stable_inertia(cable, shortest_span(cable, points), timestep)
+    return max(0.0, need - cable.contact.mass)
 
 
 def add_beads(spec: mujoco.MjSpec, cable: Cable, points: tuple[np.ndarray, ...],
               timestep: float, contact_timeconst: float) -> list[list[str]]:
     """Adds the cable's beads to ``spec``'s world; returns the bead sites of each span."""
     contact: CableContact = cable.contact  # type: ignore[assignment]
-    mass = bead_mass(cable, points, timestep)
+    armature = bead_armature(cable, points, timestep)
     positions = iter(bead_positions(cable, points))
     sites: list[list[str]] = []
     k = 0
@@ -90,10 +88,12 @@ def add_beads(spec: mujoco.MjSpec, cable: Cable, points: tuple[np.ndarray, ...],
             body = spec.worldbody.add_body(name=name, pos=next(positions).tolist())
             for axis in np.eye(3):
                 body.add_joint(name=f"{name}_{'xyz'[int(np.argmax(axis))]}",
-                               type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis.tolist())
+                               type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis.tolist(),
+                               armature=armature)
             # frictionless: the path slides over what it touches, as a taut string does
             body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                          size=[contact.radius, 0, 0], mass=mass, condim=1, priority=BEAD_PRIORITY,
+                          size=[contact.radius, 0, 0], mass=contact.mass, condim=1,
+                          priority=BEAD_PRIORITY,
                           contype=0, conaffinity=BEAD_BIT,
                           solref=[SOLREF_STEPS * timestep, 1.0], solimp=list(SOLIMP), group=3,
                           rgba=[0.35, 0.35, 0.35, 1])
@@ -107,8 +107,9 @@ def add_span_springs(spec: mujoco.MjSpec, cable: Cable, path_sites: list[str],
                      points: tuple[np.ndarray, ...], timestep: float) -> None:
     """A weak zero-length spring tendon on each span of the bead path (keeps slack beads
     spread and in order); its pull at the build span is ``SPRING_SHARE`` bead weights."""
+    assert cable.contact is not None
     span = shortest_span(cable, points)
-    stiffness = SPRING_SHARE * bead_mass(cable, points, timestep) * 9.81 / span
+    stiffness = SPRING_SHARE * cable.contact.mass * 9.81 / span
     for k, (a, b) in enumerate(itertools.pairwise(path_sites)):
         tendon = spec.add_tendon(name=f"{cable.name}_span{k}", stiffness=stiffness,
                                  springlength=[0.0, 0.0], group=5, rgba=[0, 0, 0, 0],

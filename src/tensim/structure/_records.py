@@ -211,21 +211,22 @@ class CableContact:
             path [m]; each span between path points gets ceil(span / spacing) - 1 beads
             (at least one).
         radius: bead radius: the cable's contact thickness [m].
-        mass: mass of each bead [kg]; None: the lightest mass that the compiler finds stable
-            at the world's timestep for the cable's tension limit (see docs/cables.md).
+        mass: mass of each bead: its share of the cable's weight [kg]. The compiler adds the
+            inertia a bead needs to be stable at the world's timestep as weightless armature
+            (see docs/cables.md).
     """
 
     spacing: float = 0.05
     radius: float = 0.005
-    mass: float | None = None
+    mass: float = 0.001
 
     def __post_init__(self) -> None:
         _real(self, "contact", "spacing", "m")
         _real(self, "contact", "radius", "m")
-        _real(self, "contact", "mass", "kg", optional=True)
+        _real(self, "contact", "mass", "kg")
         for field in ("spacing", "radius", "mass"):
             value = getattr(self, field)
-            _check(value is None or value > 0, "contact", f"{field} must be > 0, got {value}")
+            _check(value > 0, "contact", f"{field} must be > 0, got {value}")
 
 
 @dataclasses.dataclass(frozen=True)
