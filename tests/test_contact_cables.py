@@ -177,7 +177,8 @@ def test_a_cable_whipped_through_a_thin_wall_is_reported():
                  and sim.model.jnt_axis[j, 0] == 1.0]
         sim.data.qvel[sim.model.jnt_dofadr[beads]] = -40.0
         with pytest.raises(SimulationError, match=r"contact cable tunnelled .* inside "
-                           r"'terrain_box_0'.* smaller timestep .* bead spacing"):
+                           r"'terrain_box_0'.* smaller timestep \(--dt\) or a smaller bead "
+                           r"spacing"):
             sim.step(2)  # the first step moves them, the second finds them inside
 
 
@@ -312,8 +313,9 @@ def test_beads_too_light_for_the_timestep_are_named_in_the_error(monkeypatch):
     compiled = compile_structure(_hanging_over_edge(mass=1e-3), WorldOptions(terrain=EDGE_WALL))
     assert not compiled.model.dof_armature.any()
     with Simulation(compiled) as sim, pytest.raises(
-            SimulationError, match=r"'c_bead\d+' is a contact cable's bead: give its cable "
-                                   r"heavier beads \(contact: mass\) or take a smaller timestep"):
+            SimulationError, match=r"'c_bead\d+' is a contact cable's bead \(1 g of inertia\): "
+                                   r"take a smaller timestep \(--dt\), or give its cable beads "
+                                   r"of more mass than that \(contact: mass\)"):
         sim.run(1.0)
 
 

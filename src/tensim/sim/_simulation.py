@@ -227,8 +227,8 @@ class Simulation:
             if problem is None:
                 return  # also False for NaN, which lands below
             raise SimulationError(f"contact cable tunnelled at t = {self.time:.3f} s: {problem}. "
-                                  "Try a smaller timestep (--dt), a smaller bead spacing or "
-                                  "heavier beads (the cable's contact: spacing, mass).")
+                                  "Try a smaller timestep (--dt) or a smaller bead spacing "
+                                  "(the cable's contact: spacing).")
         raise SimulationError(diagnose(self.model, self.data, self.index, self.limits,
                                        self.time, bool(bad_acc),
                                        getattr(self, "_peak_seen", None)))
@@ -266,10 +266,13 @@ def diagnose(m: mujoco.MjModel, d: mujoco.MjData, index: ModelIndex, limits: Sta
     cable = index.cables[int(np.argmax(applied))] if applied.size else "-"
     advice = "Try a smaller timestep (--dt), lower cable stiffness or pretension, or more " \
         "cable damping."
-    bead = next((b for b in index.beads if repr(b) in what), None)
+    bead = next((k for k, b in enumerate(index.beads) if repr(b) in what), None)
     if bead is not None:  # too light for the step: see tensim.model._beads
-        advice = (f"{bead!r} is a contact cable's bead: give its cable heavier beads "
-                  "(contact: mass) or take a smaller timestep (--dt).")
+        body = index.bead[bead]
+        inertia = m.body_mass[body] + m.dof_armature[m.body_dofadr[body]]
+        advice = (f"{index.beads[bead]!r} is a contact cable's bead ({inertia * 1e3:.3g} g of "
+                  "inertia): take a smaller timestep (--dt), or give its cable beads of more "
+                  "mass than that (contact: mass).")
     return (f"simulation unstable {when}: {what}; {load} {cable!r} at "
             f"{applied.max(initial=0.0):.4g} N. {advice}")
 
