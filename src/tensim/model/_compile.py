@@ -5,7 +5,8 @@ as spheres, each cable a spatial tendon between two anchor sites plus an unlimit
 actuator through which the cable law applies its tension. Names are deterministic: bodies after
 their group, geoms after their rod (``mass_<node>`` for point masses), tendons and actuators
 after their cable, anchor sites ``<cable>_0`` and ``<cable>_1`` (and ``<cable>_via<k>`` at the
-via nodes of a routed cable).
+via nodes of a routed cable). A contact cable's tendon also runs over the beads of
+:mod:`tensim.model._beads` (bodies ``<cable>_bead<k>``, span springs ``<cable>_span<k>``).
 """
 
 from __future__ import annotations
