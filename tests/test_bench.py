@@ -20,6 +20,13 @@ def test_a_bench_case_runs_on_a_terrain_and_names_it():
     assert "prism3 on rough" in format_table([{"name": case.name, **case.figures()}], 2)
 
 
+def test_a_bench_case_with_contact_cables_names_them():
+    case = bench_model("prism3", duration=0.05, repeats=1, controlled=False,
+                       contact_tags=("bottom",))
+    assert case.name == "prism3 (passive), contact cables bottom"
+    assert all(math.isfinite(f) and f > 0 for f in case.figures().values())
+
+
 def test_timings_give_best_and_median_per_kind():
     timing = Timing(cpu=(30.0, 10.0, 20.0), wall=(12.0, 40.0, 11.0))
     assert timing.best() == 10.0 and timing.median() == 20.0

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 from tensim.io import import_ntrt
 from tensim.model import compile_structure
 from tensim.sim import simulate
-from tensim.structure import StructureError
+from tensim.structure import CableContact, StructureError
 
 UNIT = """\
     nodes:
@@ -128,6 +128,21 @@ def test_a_pair_declared_both_ways_is_built_twice(tmp_path):
     s = import_ntrt(_write(tmp_path, "square.yaml", SQUARE), "cm").structure
     assert [(c.name, c.nodes) for c in s.cables] == [
         ("string_0", ("a", "c")), ("string_1", ("c", "a")), ("string_2", ("b", "d"))]
+
+
+def test_contact_cable_builders_make_contact_cables(tmp_path):
+    contact = SQUARE.rstrip(" ") + """\
+    builders:
+      string:
+        class: tgBasicContactCableInfo
+        parameters: {stiffness: 500, pretension: 10}
+    """
+    result = import_ntrt(_write(tmp_path, "square.yaml", contact), "cm")
+    assert all(c.contact == CableContact() for c in result.structure.cables)
+    assert any("contact: true" in note and "cable-rod contact is not modelled" in note
+               for note in result.notes)
+    plain = import_ntrt(_write(tmp_path, "plain.yaml", SQUARE), "cm").structure
+    assert all(c.contact is None for c in plain.cables)
 
 
 def test_a_pair_declared_twice_the_same_way_is_refused(tmp_path):

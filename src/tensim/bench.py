@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from tensim.control import load_controller
+from tensim.control import ControllerConfig, load_controller
 from tensim.model import (
     CompiledModel,
     WorldOptions,
@@ -106,7 +106,8 @@ def _interleaved(loops: dict[str, Callable[[], None]], repeats: int, steps: int
 
 def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
                 controlled: bool = True, controller_file: str | None = None,
-                terrain: Terrain | None = None) -> BenchCase:
+                terrain: Terrain | None = None, contact_tags: tuple[str, ...] = (),
+                config: ControllerConfig | None = None) -> BenchCase:
     """Benchmarks preset ``name`` for ``duration`` simulated seconds, ``repeats`` times,
     tensim and MuJoCo alone interleaved.
 
@@ -118,14 +119,21 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
         controller_file: drive them with this controller file's gait instead (its V* table
             is computed before the timed loop, as in any simulation).
         terrain: the ground (None: flat).
+        contact_tags: cables with any of these tags become contact cables (default beads).
+        config: drive the cables with this controller instead (e.g. a scenario's).
     """
     model = preset(name)
     structure = model.build()
+    if contact_tags:
+        structure = dataclasses.replace(structure, cables=tuple(
+            dataclasses.replace(c, contact=True) if set(c.tags) & set(contact_tags) else c
+            for c in structure.cables))
     compiled = compile_structure(structure, WorldOptions(terrain=terrain or Flat()))
     m = compiled.model
     controller = model.controller() if controlled else None
     if controller_file is not None:
         config = load_controller(controller_file, structure)
+    if config is not None:
         controller = config.with_duration(SETTLE_S + duration).build(m.opt.timestep)
     with Simulation(compiled, controller=controller) as sim:
         sim.step(int(SETTLE_S / sim.dt))
@@ -149,9 +157,24 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
             rollout.rollout(engine, data, start, forces, initial_warmstart=warmstart)
 
         timings = _interleaved({"tensim": loop, "engine": engine_run}, repeats, n_steps)
-    label = f" ({controller_file})" if controller_file else "" if controlled else " (passive)"
+    label = f" ({controller_file or config.description})" if controller_file or config \
+        else "" if controlled else " (passive)"
     label += f" on {type(terrain).__name__.lower()}" if terrain else ""
+    label += f", contact cables {'/'.join(contact_tags)}" if contact_tags else ""
     return BenchCase(f"{name}{label}", m.opt.timestep, timings["tensim"], timings["engine"])
+
+
+CONTACT_TAGS = ("outer_left", "outer_right")  # the spine's lowest cables: they meet the wall
+
+
+def climb_cases(duration: float = 10.0, repeats: int = 3) -> list[BenchCase]:
+    """The 12-segment Tetraspine's wall climb with straight cables and with its lowest cables
+    (``CONTACT_TAGS``) as contact cables, interleaved in one set of runs' conditions."""
+    from tensim.experiments.climb import CLIMB_TERRAIN, climb_controller
+
+    config = climb_controller(SETTLE_S + duration)
+    return [bench_model("tetraspine", duration, repeats, config=config, terrain=CLIMB_TERRAIN,
+                        contact_tags=tags) for tags in ((), CONTACT_TAGS)]
 
 
 def engine_alone(compiled: CompiledModel, state: np.ndarray
@@ -176,7 +199,7 @@ def engine_alone(compiled: CompiledModel, state: np.ndarray
 def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, object]:
     """The cases: Tetraspine3 under impedance control and on its CPG gait; a passive six-bar;
     the 12-segment Tetraspine sidewinding on flat ground and on its goal gait over the goal
-    scenario's rough height field."""
+    scenario's rough height field; its wall climb with straight and with contact cables."""
     from tensim.experiments.goal import GOAL_TERRAIN  # 2 cm RMS bumps on a 4 cm grid
 
     cases = [bench_model("tetraspine3", duration, repeats),
@@ -185,6 +208,7 @@ def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, object
              bench_model("tetraspine", duration, repeats, controller_file="tetraspine_sidewind"),
              bench_model("tetraspine", duration, repeats, controller_file="tetraspine_goal",
                          terrain=GOAL_TERRAIN)]
+    cases += climb_cases(duration, repeats)
     return {
         "compiled_callback": compiled_available(),
         "duration_s": duration,

@@ -336,8 +336,10 @@ class _Converter:
                position: dict[str, np.ndarray], bodies: dict[str, list[Rigid]]) -> Cable:
         """A cable in SI: forces, lengths and speeds x s; stiffness and damping as they are."""
         p, s = self._params(builder), self.scale
-        if "Contact" in builder.cls:
-            self._note("contact cables become plain cables (no cable-rod contact)")
+        contact = "Contact" in builder.cls
+        if contact:
+            self._note("contact cables become tensim contact cables (contact: true): they "
+                       "touch the ground and obstacles; cable-rod contact is not modelled")
         if builder.cls.startswith("tgKinematic"):
             self._note("kinematic actuators' motor dynamics (radius, friction, inertia, back "
                        "drive) are not modelled: the motor is a rate-limited rest length")
@@ -359,7 +361,7 @@ class _Converter:
             return Cable(name, ends, p["stiffness"], damping=p["damping"],
                          pretension=p["pretension"] * s,
                          anchor_offset=max(float(offset), 0.0),
-                         motor=motor, tags=_record_tags(pair))
+                         motor=motor, tags=_record_tags(pair), contact=contact)
         except StructureError as err:
             raise StructureError(err.detail, item=f"{err.item} ({pair.label})",
                                  source=str(pair.owner.source)) from None

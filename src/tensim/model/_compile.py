@@ -5,7 +5,8 @@ as spheres, each cable a spatial tendon between two anchor sites plus an unlimit
 actuator through which the cable law applies its tension. Names are deterministic: bodies after
 their group, geoms after their rod (``mass_<node>`` for point masses), tendons and actuators
 after their cable, anchor sites ``<cable>_0`` and ``<cable>_1`` (and ``<cable>_via<k>`` at the
-via nodes of a routed cable).
+via nodes of a routed cable). A contact cable's tendon also runs over the beads of
+:mod:`tensim.model._beads` (bodies ``<cable>_bead<k>``, span springs ``<cable>_span<k>``).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import math
 import mujoco
 import numpy as np
 
+from tensim.model import _beads
 from tensim.structure import Cable, Rod, Structure, mass_properties
 from tensim.structure._mass import MassProperties
 from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain
@@ -128,6 +130,8 @@ class ModelIndex:
         load_nodes: nodes with external force inputs, in input order.
         rest_act: (n_cables,) address in ``act`` of each cable's rest length; its peak tension
             follows it, and a DC motor's line speed follows that.
+        beads: the contact cables' bead bodies, in cable and path order.
+        bead: (n_beads,) MuJoCo body id of each bead.
     """
 
     cables: tuple[str, ...]
@@ -139,6 +143,8 @@ class ModelIndex:
     node_local: dict[str, np.ndarray]
     load_nodes: tuple[str, ...] = ()
     rest_act: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
+    beads: tuple[str, ...] = ()
+    bead: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=np.int32))
 
     def cable_act(self, act: np.ndarray, part: int = 0) -> np.ndarray:
         """Each cable's activation ``part`` (0: rest length, 1: peak tension) from ``act``
@@ -314,17 +320,26 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
             node_body[anchor.name] = "world"
             node_local[anchor.name] = structure.position(anchor.name)
     bodies = {b.name: b for b in spec.bodies}
+    bead_paths: dict[str, list[str]] = {}  # contact cables: every site along the path
     for cable in structure.cables:
         tendon = spec.add_tendon(name=cable.name, rgba=[0.8, 0.1, 0.1, 1], width=0.002)
         # anchor site, a site at each via node (MuJoCo pulls each along both spans), anchor site
         sites = [f"{cable.name}_0", *(f"{cable.name}_via{k}" for k in range(len(cable.via))),
                  f"{cable.name}_1"]
-        for k, (site, node, point) in enumerate(zip(sites, cable.path,
-                                                    structure.cable_points(cable), strict=True)):
+        points = structure.cable_points(cable)
+        # a contact cable also runs over the bead sites of each span (docs/cables.md)
+        beads = _beads.add_beads(spec, cable, points, world.timestep, world.contact_timeconst) \
+            if cable.contact is not None else None
+        for k, (site, node, point) in enumerate(zip(sites, cable.path, points, strict=True)):
             body = bodies[node_body[node]]
             local = point - (structure.position(node) - node_local[node])
             body.add_site(name=site, pos=local.tolist(), size=[0.002, 0, 0])
+            for bead in beads[k - 1] if beads and k else ():
+                tendon.wrap_site(bead)
+                bead_paths.setdefault(cable.name, [sites[0]]).append(bead)
             tendon.wrap_site(site)
+            if beads and k:
+                bead_paths[cable.name].append(site)
             if k == 0:  # between the anchors: the rods the cable wraps around, in order
                 for rod in cable.wrap:
                     tendon.wrap_geom(_wrap_geom(spec, bodies, rods[rod], node_body,
@@ -332,6 +347,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     for cable in structure.cables:  # cable actuators first: ids 0..n_cables-1
         _add_cable_actuator(spec, cable, structure.rest_length(cable))
     _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
+    _add_bead_springs(spec, structure, world, bead_paths)
     rest = [structure.rest_length(c) for c in structure.cables]
     # per cable: rest length, peak tension 0 (and a DC motor's spool at rest)
     act = [v for c, r in zip(structure.cables, rest, strict=True)
@@ -428,6 +444,17 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -
                                  dc.position_time, 1.0 if dc.back_drivable else 0.0]
 
 
+def _add_bead_springs(spec: mujoco.MjSpec, structure: Structure, world: WorldOptions,
+                      paths: dict[str, list[str]]) -> None:
+    """The span springs of the contact cables (after every cable's tendon), and the world's
+    geoms made touchable by their beads."""
+    for name, path in paths.items():
+        cable = structure.cable(name)
+        _beads.add_span_springs(spec, cable, path, structure.cable_points(cable), world.timestep)
+    if paths:
+        _beads.let_world_touch_beads(spec)
+
+
 def _add_load_actuators(spec: mujoco.MjSpec, bodies: dict[str, mujoco.MjsBody],
                         node_body: dict[str, str], node_local: dict[str, np.ndarray],
                         load_nodes: tuple[str, ...]) -> None:
@@ -470,6 +497,8 @@ def _assemble(structure: Structure, world: WorldOptions, model: mujoco.MjModel,
         load_nodes=load_nodes,
         rest_act=model.actuator_actadr[ids(mujoco.mjtObj.mjOBJ_ACTUATOR, names)].astype(
             np.int32),
+        beads=(beads := _beads.bead_bodies(model, structure)),
+        bead=ids(mujoco.mjtObj.mjOBJ_BODY, beads),
     )
 
     def column(get: object) -> np.ndarray:

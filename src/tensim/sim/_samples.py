@@ -31,6 +31,7 @@ class SampleBuffers:
         command: (n, n_cables) the cable commands of the step (V* [m/s] or rest length [m]).
         pos: (n, n_bodies + 1, 3) body positions, then the centre of mass [m].
         quat: (n, n_bodies, 4) body orientations (w, x, y, z).
+        bead: (n, n_beads, 3) positions of the contact cables' beads [m].
     """
 
     time: np.ndarray
@@ -40,6 +41,7 @@ class SampleBuffers:
     command: np.ndarray
     pos: np.ndarray
     quat: np.ndarray
+    bead: np.ndarray
 
     @classmethod
     def empty(cls, compiled: CompiledModel, n: int, lead: tuple[int, ...] = ()) -> SampleBuffers:
@@ -48,7 +50,7 @@ class SampleBuffers:
         shape = (*lead, n)
         return cls(np.zeros(shape), np.zeros((*shape, c)), np.zeros((*shape, c)),
                    np.zeros((*shape, c)), np.zeros((*shape, c)), np.zeros((*shape, b + 1, 3)),
-                   np.zeros((*shape, b, 4)))
+                   np.zeros((*shape, b, 4)), np.zeros((*shape, len(compiled.index.beads), 3)))
 
     def head(self, k: int) -> SampleBuffers:
         """The first k samples."""
@@ -74,6 +76,8 @@ class SampleBuffers:
         self.pos[ids, k, :-1] = fields["xpos"][:, index.body]
         self.pos[ids, k, -1] = fields["subtree_com"][:, 0]
         self.quat[ids, k] = fields["xquat"][:, index.body]
+        if index.beads:
+            self.bead[ids, k] = fields["xpos"][:, index.bead]
 
     def trial(self, i: int) -> SampleBuffers:
         """Trial i's samples, for buffers with a leading trial dimension."""
@@ -110,4 +114,7 @@ def sample_channels(samples: SampleBuffers, index: ModelIndex, dynprm: np.ndarra
     for i, name in enumerate(index.bodies):
         for a, axis in enumerate("wxyz"):
             channels[f"quat_{axis}/{name}"] = samples.quat[:, i, a].copy()
+    for i, name in enumerate(index.beads):  # contact cables' beads: for drawing replays
+        for a, axis in enumerate("xyz"):
+            channels[f"bead_{axis}/{name}"] = samples.bead[:, i, a].copy()
     return TimeSeries(samples.time.copy(), channels)

@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 
 from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
+from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import CableDrive, InputPlan, changes
 from tensim.sim._law import install, installed_backend
 from tensim.sim._loads import NodeLoad
@@ -108,6 +109,8 @@ class Simulation:
         self._loads = tuple(loads)
         self._qvel = self.data.qvel
         self._bad_acc = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
+        self._contact = ContactCheck(compiled) \
+            if any(c.contact for c in compiled.structure.cables) else None
         if controller is not None:
             controller.configure(self)
         self._advance(1)  # the motor update at t = 0
@@ -220,7 +223,12 @@ class Simulation:
         if speed < self.limits.max_speed and force < self.limits.max_tension and not bad_acc:
             # MuJoCo's reset clears the activations: keep the peak tensions for the message
             self._peak_seen = (self.time, self.drive.peak.copy())
-            return  # also False for NaN, which lands below
+            problem = self._contact.problem(self.model, self.data) if self._contact else None
+            if problem is None:
+                return  # also False for NaN, which lands below
+            raise SimulationError(f"contact cable tunnelled at t = {self.time:.3f} s: {problem}. "
+                                  "Try a smaller timestep (--dt) or a smaller bead spacing "
+                                  "(the cable's contact: spacing).")
         raise SimulationError(diagnose(self.model, self.data, self.index, self.limits,
                                        self.time, bool(bad_acc),
                                        getattr(self, "_peak_seen", None)))
@@ -256,9 +264,17 @@ def diagnose(m: mujoco.MjModel, d: mujoco.MjData, index: ModelIndex, limits: Sta
         what = f"body {body!r} reached speed {qvel.max():.3g} " \
                f"(limit {limits.max_speed:g} m/s or rad/s)"
     cable = index.cables[int(np.argmax(applied))] if applied.size else "-"
+    advice = "Try a smaller timestep (--dt), lower cable stiffness or pretension, or more " \
+        "cable damping."
+    bead = next((k for k, b in enumerate(index.beads) if repr(b) in what), None)
+    if bead is not None:  # too light for the step: see tensim.model._beads
+        body = index.bead[bead]
+        inertia = m.body_mass[body] + m.dof_armature[m.body_dofadr[body]]
+        advice = (f"{index.beads[bead]!r} is a contact cable's bead ({inertia * 1e3:.3g} g of "
+                  "inertia): take a smaller timestep (--dt), or give its cable beads of more "
+                  "mass than that (contact: mass).")
     return (f"simulation unstable {when}: {what}; {load} {cable!r} at "
-            f"{applied.max(initial=0.0):.4g} N. Try a smaller timestep (--dt), "
-            "lower cable stiffness or pretension, or more cable damping.")
+            f"{applied.max(initial=0.0):.4g} N. {advice}")
 
 
 class _Segments:
@@ -299,6 +315,8 @@ class _Recorder:
             self._copies.append((b.rest, rest))
         else:
             self._takes.append((b.rest, d.act, sim.index.rest_act))
+        if sim.index.beads:
+            self._takes.append((b.bead, d.xpos, sim.index.bead))
         self._xpos, self._com, self._body = d.xpos, d.subtree_com, sim.index.body
 
     def take(self, sim: Simulation) -> None:

@@ -5,7 +5,7 @@ Nothing here imports MuJoCo; :mod:`tensim.model` compiles a structure into a MuJ
 
 from tensim.structure._errors import StructureError
 from tensim.structure._mass import MassProperties, mass_properties
-from tensim.structure._records import Cable, DCMotor, Motor, Node, PointMass, Rod
+from tensim.structure._records import Cable, CableContact, DCMotor, Motor, Node, PointMass, Rod
 from tensim.structure._structure import RigidGroup, Structure
 from tensim.structure._yaml import (
     load_structure,
@@ -16,6 +16,7 @@ from tensim.structure._yaml import (
 
 __all__ = [
     "Cable",
+    "CableContact",
     "DCMotor",
     "MassProperties",
     "Motor",

@@ -279,6 +279,33 @@ class Motor:
 
 
 @dataclasses.dataclass(frozen=True)
+class CableContact:
+    """How a contact cable touches the world: light beads along its path (see docs/cables.md).
+
+    Attributes:
+        spacing: largest distance between neighbouring beads (and anchors) along the build
+            path [m]; each span between path points gets ceil(span / spacing) - 1 beads
+            (at least one).
+        radius: bead radius: the cable's contact thickness [m].
+        mass: mass of each bead: its share of the cable's weight [kg]. The compiler adds the
+            inertia a bead needs to be stable at the world's timestep as weightless armature
+            (see docs/cables.md).
+    """
+
+    spacing: float = 0.05
+    radius: float = 0.005
+    mass: float = 0.001
+
+    def __post_init__(self) -> None:
+        _real(self, "contact", "spacing", "m")
+        _real(self, "contact", "radius", "m")
+        _real(self, "contact", "mass", "kg")
+        for field in ("spacing", "radius", "mass"):
+            value = getattr(self, field)
+            _check(value > 0, "contact", f"{field} must be > 0, got {value}")
+
+
+@dataclasses.dataclass(frozen=True)
 class Cable:
     """A tension-only spring-cable between two nodes (paper eq. 1-2), wound by a motor.
 
@@ -303,6 +330,9 @@ class Cable:
             path over each (MuJoCo's cylinder wrapping) and the law acts on that length.
             Needs ``rest_length`` (the wrapped build length is not known before compiling)
             and no ``via`` nodes.
+        contact: None for a cable that passes through everything; else the cable's path can
+            touch the ground, terrain, blocks and walls, through light collision beads it runs
+            over (``True`` takes the default :class:`CableContact`). Not with ``wrap``.
     """
 
     name: str
@@ -316,9 +346,26 @@ class Cable:
     tags: tuple[str, ...] = ()
     via: tuple[str, ...] = ()
     wrap: tuple[str, ...] = ()
+    contact: CableContact | None = None
 
     def __post_init__(self) -> None:
         item = f"cable {self.name!r}"
+        if self.contact is True:
+            object.__setattr__(self, "contact", CableContact())
+        elif self.contact is False:
+            object.__setattr__(self, "contact", None)
+        elif isinstance(self.contact, dict):
+            unknown = sorted(set(self.contact) - {f.name for f in
+                                                  dataclasses.fields(CableContact)})
+            _check(not unknown, item, f"contact: unknown field {unknown[:1]}; expected spacing, "
+                   "radius, mass")
+            try:
+                object.__setattr__(self, "contact", CableContact(**self.contact))
+            except StructureError as err:
+                raise StructureError(err.detail, item=f"{item} contact") from None
+        _check(self.contact is None or isinstance(self.contact, CableContact), item,
+               f"contact must be true, false or a mapping of spacing, radius and mass, got "
+               f"{describe(self.contact)}")
         _name(self.name, "cable")
         object.__setattr__(self, "nodes", _ends(self.nodes, item))
         _check(self.nodes[0] != self.nodes[1], item, "a cable needs two different nodes")
@@ -362,6 +409,8 @@ class Cable:
                    "rest_length [m] (its wrapped build length is only known once compiled)")
             _check(len(set(self.wrap)) == len(self.wrap), item,
                    f"wrap names a rod twice: {list(self.wrap)}")
+            _check(self.contact is None, item, "a cable either wraps around rods or touches "
+                   "the world through contact beads, not both")
         path = self.path
         for a, b in itertools.pairwise(path):
             _check(a != b, item, f"node {a!r} follows itself on the cable's path {list(path)}")

@@ -3,8 +3,9 @@
 The file is a mapping with ``name``, ``nodes``, ``rods``, ``cables``, ``point_masses`` (lists of
 mappings whose keys are the record fields) and an optional ``defaults`` mapping with ``rod``,
 ``cable`` and ``point_mass`` entries merged under every item of that kind. Cables take a nested
-``motor`` mapping (in it, a ``dc`` mapping for a DC motor) and, when routed, a ``via`` list
-of the nodes they pass through. All values are SI units (the README lists every field).
+``motor`` mapping (in it, a ``dc`` mapping for a DC motor), when routed a ``via`` list of the
+nodes they pass through, and a ``contact`` that is ``true`` or a mapping of
+:class:`CableContact` fields. All values are SI units (the README lists every field).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import yaml
 from tensim._files import write_text
 from tensim._input import InputError, describe, load_yaml_file
 from tensim.structure._errors import StructureError
-from tensim.structure._records import Cable, DCMotor, Motor, Node, PointMass, Rod
+from tensim.structure._records import Cable, CableContact, DCMotor, Motor, Node, PointMass, Rod
 from tensim.structure._structure import Structure
 
 _SECTIONS = {"nodes": Node, "rods": Rod, "cables": Cable, "point_masses": PointMass}
@@ -44,11 +45,13 @@ def _build(cls: type, raw: Any, item: str) -> Any:
         values["motor"] = _build(Motor, values["motor"], f"{item} motor")
     if cls is Motor and values.get("dc") is not None:
         values["dc"] = _build(DCMotor, values["dc"], f"{item} dc")
+    if cls is Cable and isinstance(values.get("contact"), dict):
+        values["contact"] = _build(CableContact, values["contact"], f"{item} contact")
     try:
         return cls(**values)
-    except StructureError as err:  # a motor has no name of its own: name it by its path
-        own = err.item if cls not in (Motor, DCMotor) else None
-        raise StructureError(err.detail, item=own or item) from None
+    except StructureError as err:  # a nested record has no name of its own: name it by its path
+        nested = cls in (Motor, DCMotor, CableContact) or err.item in ("motor", "contact")
+        raise StructureError(err.detail, item=item if nested else err.item or item) from None
     except TypeError as err:  # a required field is missing
         raise StructureError(f"{err}; expected fields {_fields(cls)}", item=item) from None
 
@@ -112,7 +115,7 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
         for key, value in dataclasses.asdict(record).items():
             if value is None or value == ():
                 continue
-            if isinstance(value, dict):  # a nested record (a cable's motor): no None fields
+            if isinstance(value, dict):  # a nested record (motor, contact): drop its Nones
                 value = {k: v for k, v in value.items() if v is not None}
             out[key] = list(value) if isinstance(value, tuple) else value
         return out

@@ -158,8 +158,11 @@ class CableArtist:
                                 for end in (0, 1)] for c in compiled.index.cables],
                               dtype=int).reshape(-1, 2)
         self.tendons = np.asarray(compiled.index.tendon, dtype=int)
-        # a routed or wrapped cable: one piece per span (each wrap adds up to 2 points)
-        spans = [len(c.via) + 2 * len(c.wrap) + 1 for c in compiled.structure.cables]
+        # a routed, wrapped or contact cable: one piece per span of its tendon's path (each
+        # wrap adds up to 2 points, each contact bead 1)
+        spans = [max(len(c.via) + 2 * len(c.wrap), wraps - 2) + 1 for c, wraps in
+                 zip(compiled.structure.cables, model.tendon_num[compiled.index.tendon],
+                     strict=True)]
         self._most = sum(max(s, self.segments // 2 + 1) for s in spans)
 
     @property

@@ -184,6 +184,11 @@ class PoseReplay:
             start = model.jnt_qposadr[joint]
             pose = np.stack([series[f"{q}/{name}"] for q in _POSE], axis=1)
             self._qpos[:, start:start + 7] = pose
+        for name, body in zip(compiled.index.beads, compiled.index.bead, strict=True):
+            if f"bead_x/{name}" in series.channels:  # slide joints x, y, z from the body's place
+                start = model.jnt_qposadr[model.body_jntadr[body]]
+                self._qpos[:, start:start + 3] = np.stack(
+                    [series[f"bead_{a}/{name}"] for a in "xyz"], axis=1) - model.body_pos[body]
         cables, n = compiled.index.cables, series.time.size
 
         def recorded(quantity: str) -> bool:
