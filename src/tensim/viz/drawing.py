@@ -108,11 +108,14 @@ class FigureDrawer:
 
     def _start(self) -> None:
         ours, theirs = multiprocessing.Pipe()
+        # the child imports this very tensim, wherever this process found it
+        here = str(Path(__file__).resolve().parents[2])
+        path = os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p)
         try:
             process = subprocess.Popen(
                 [sys.executable, "-m", "tensim.viz.drawing", str(theirs.fileno())],
                 pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL)
+                stdout=subprocess.DEVNULL, env={**os.environ, "PYTHONPATH": path})
             ours.send(list(self.plans.values()))
         except OSError as err:
             log.info("figures drawn in this process: no drawing process (%s)", err)
