@@ -316,6 +316,11 @@ def _solve(arrays: _Arrays, duration: float, sample_dt: float,
 _warned_scipy = False
 
 
+def compiled_available() -> bool:
+    """Whether the compiled DOP853 integrator is built (else CPGs integrate through scipy)."""
+    return _cpg_native.available()
+
+
 def _use_compiled(settings: SolverSettings) -> bool:
     """Whether ``settings`` run on the compiled DOP853 (warns once where it is missing)."""
     global _warned_scipy
