@@ -7,6 +7,7 @@ threads, on a warm process pool, one plain simulation after another, and replaye
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import tempfile
 import time
@@ -16,6 +17,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from tensim.control import SolverSettings
 from tensim.learn.executors import ProcessPoolExecutor, ThreadBatchExecutor
 from tensim.learn.families import default_base
 from tensim.learn.optimizers import OptimizerSettings
@@ -58,6 +60,18 @@ def _pool_s(problem: TrialProblem, points: np.ndarray, workers: int, repeats: in
     if done != len(points):
         raise RuntimeError("the pool lost trials")
     return min(walls)
+
+
+def _build_cpu_s(problem: TrialProblem, points: np.ndarray, backend: str) -> float:
+    """CPU time to build one point's gait, its CPG integrated by ``backend`` (``"auto"``: as
+    learning does, compiled where built; ``"scipy"``), averaged over ``points`` [s]."""
+    dt = problem.compiled().model.opt.timestep
+    settings = SolverSettings(backend=backend)
+    start = time.process_time()
+    for unit in points:
+        config = problem.controller(unit)
+        config.with_gait(dataclasses.replace(config.gait, settings=settings)).build(dt)
+    return (time.process_time() - start) / len(points)
 
 
 def _busy(n: int) -> int:
@@ -157,13 +171,10 @@ def bench_learning(duration: float = 10.0, evaluations: int = 20, repeats: int =
         walls["processes"].append(_pool_s(problem, points, 2, 1))
         walls["rollout"].append(_rollout_s(problem, points, 2))
     walls["plain_1_thread"].append(_plain_simulation_s(problem, points, 1))
-    dt = problem.compiled().model.opt.timestep
-    start = time.perf_counter()
-    for unit in points:  # the gaits: what the rollout's ready-made controls cost to make
-        problem.controller(unit).build(dt)
-    build = time.perf_counter() - start
-    walls["rollout_with_gaits"] = [min(walls["rollout"]) + build]
+    # the gaits: what the rollout's ready-made controls cost to make
+    build = min(_build_cpu_s(problem, points, "auto") for _ in range(3))
     n = len(points)
+    walls["rollout_with_gaits"] = [min(walls["rollout"]) + build * n]
     rate = {k: n / min(v) for k, v in walls.items()}
     return {
         "machine_scaling_2_over_1": machine_scaling(),
@@ -174,7 +185,8 @@ def bench_learning(duration: float = 10.0, evaluations: int = 20, repeats: int =
         "threads_over_rollout": rate["threads"] / rate["rollout"],
         "processes_over_rollout": rate["processes"] / rate["rollout"],
         "learn_over_rollout_with_gaits": rate["learn"] / rate["rollout_with_gaits"],
-        "gait_build_s_per_trial": build / n,
+        "gait_build_cpu_s": build,
+        "gait_build_scipy_cpu_s": _build_cpu_s(problem, points, "scipy"),
         "learn_cpu_s_per_evaluation": min(cpus) / n,
     }
 
@@ -190,8 +202,10 @@ def format_learning(report: dict[str, Any]) -> str:
             f"({report['threads_over_rollout']:.2f}); process pool {rate['processes']:.2f} "
             f"({report['processes_over_rollout']:.2f}); one plain simulation after another "
             f"{rate['plain_1_thread']:.2f}\n"
-            f"  building the {report['evaluations']} CPG gaits takes "
-            f"{report['gait_build_s_per_trial'] * 1e3:.1f} ms each on one core; against "
+            f"  building a CPG gait takes {report['gait_build_cpu_s'] * 1e3:.1f} ms of CPU "
+            f"(through scipy in Python {report['gait_build_scipy_cpu_s'] * 1e3:.1f} ms, "
+            f"{report['gait_build_scipy_cpu_s'] / report['gait_build_cpu_s']:.0f}x as much); "
+            f"against "
             f"mujoco.rollout plus those builds ({rate['rollout_with_gaits']:.2f}/s) tensim "
             f"learn runs at {report['learn_over_rollout_with_gaits']:.2f}\n"
             f"  (a pure-Python busy loop scales {report['machine_scaling_2_over_1']:.2f}x on 2 "
