@@ -116,7 +116,7 @@ def test_thread_batches_give_the_inline_evaluations():
     for executor in (ThreadBatchExecutor(problem, 2, batch_size=3),  # 3 batches, 2 threads
                      # the gaits built on worker processes (the default without the compiled
                      # CPG integrator)
-                     ThreadBatchExecutor(problem, 2, batch_size=3, parallel_builds=True),
+                     ThreadBatchExecutor(problem, 2, batch_size=3, process_builds=True),
                      ThreadBatchExecutor(problem, 1, batch_size=7)):  # 1 batch, 1 thread
         with executor:
             batched = sorted(executor.run(tasks), key=lambda e: e.index)
