@@ -9,9 +9,12 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
+import logging
 from typing import NamedTuple
 
 import numpy as np
+
+log = logging.getLogger(__name__)
 
 # status codes of tensim_cpg_dop853
 OK, AMPLITUDE, EVALUATIONS, WALL_TIME, STEP_TOO_SMALL, NO_MEMORY = range(6)
@@ -24,7 +27,12 @@ def _load_library() -> ctypes.CDLL | None:
     spec = importlib.util.find_spec("tensim.control._cpg")
     if spec is None or spec.origin is None:
         return None
-    lib = ctypes.CDLL(spec.origin)
+    try:
+        lib = ctypes.CDLL(spec.origin)
+    except OSError as err:  # built for another platform, or damaged
+        log.warning("compiled CPG integrator %s cannot be loaded (%s); integrating CPGs with "
+                    "scipy (reinstall tensim to rebuild it)", spec.origin, err)
+        return None
     lib.tensim_cpg_dop853.restype = ctypes.c_int
     lib.tensim_cpg_dop853.argtypes = [
         ctypes.c_int, ctypes.c_int, _DOUBLES, _DOUBLES, _DOUBLES, _INTS, _INTS, _DOUBLES,
