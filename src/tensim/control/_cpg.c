@@ -1,13 +1,14 @@
 /* Compiled CPG integrator: eq. 4-5 of cpg.py solved by scipy's DOP853, step for step.
  *
  * The state is y = [θ (n), r (n), dr/dt (n)]. Every stage of the method follows
- * scipy.integrate.solve_ivp(method="DOP853", t_eval=...) as scipy 1.11-1.17 writes it: the
+ * scipy.integrate.solve_ivp(method="DOP853", t_eval=...) as scipy 1.17 writes it: the
  * same initial step choice (Hairer, Nørsett and Wanner, sec. II.4), the same embedded 5th/3rd
  * order error norm and step-size factors (safety 0.9, between 0.2 and 10), the same 7th-order
- * dense output at the sample times, the same guards. So the steps taken, their number and the
- * samples equal scipy's up to rounding (the order of sums, and the coupling's sine, which is
- * taken from the oscillators' sin θ and cos θ rather than per coupling).
- * The tableau is Hairer's dop853.f (Dormand and Prince, 1980), as scipy holds it.
+ * dense output at the sample times, the same guards. So it takes scipy's steps up to rounding
+ * (the order of sums, and the coupling's sine, which is taken from the oscillators' sin θ and
+ * cos θ rather than per coupling); rounding in the error estimate can flip the odd
+ * accept/reject decision, after which the two agree within the method's own error.
+ * The tableau is Hairer's dop853.f (Dormand and Prince's 8(5,3) pair), as scipy holds it.
  * Nothing is kept between calls, so calls from many threads at once are safe.
  */
 #define PY_SSIZE_T_CLEAN
