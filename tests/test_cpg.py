@@ -15,6 +15,7 @@ from tensim.control import (
     CPGNetwork,
     GaitError,
     SolverSettings,
+    _cpg_native,
     integrate,
     shared_body_pairs,
     solve,
@@ -168,21 +169,29 @@ def test_invalid_settings_and_bounds_are_refused():
         Bounds(0.0, 1.0, 2.0)
 
 
-def test_stiff_runaway_coupling_is_stopped_by_the_evaluation_guard():
+# the guards hold on both integrators: the compiled DOP853 and scipy's
+BACKENDS = [pytest.param("compiled", marks=pytest.mark.skipif(
+    not _cpg_native.available(), reason="compiled CPG integrator not built")), "scipy"]
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_stiff_runaway_coupling_is_stopped_by_the_evaluation_guard(backend):
     # w R = 1e6 rad/s makes the phase equations stiff: an explicit method needs steps of
     # ~1e-6 s, i.e. millions of evaluations for 10 s, instead of hanging it must stop
     net = CPGNetwork(("a", "b"), 1.0, 1.0, 20.0, ((0, 1, 1e6, 0.5), (1, 0, 1e6, -0.5)))
     with pytest.raises(GaitError, match="evaluations"):
-        integrate(net, 10.0, 0.01, settings=SolverSettings(max_evaluations=20_000))
+        integrate(net, 10.0, 0.01, settings=SolverSettings(backend=backend,
+                                                           max_evaluations=20_000))
 
 
-def test_amplitude_bound_and_wall_time_guards():
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_amplitude_bound_and_wall_time_guards(backend):
     net = CPGNetwork(("a",), 1.0, 0.05, 20.0)
     with pytest.raises(GaitError, match="amplitude"):
-        integrate(net, 2.0, 0.01, settings=SolverSettings(max_amplitude=0.02))
+        integrate(net, 2.0, 0.01, settings=SolverSettings(backend=backend, max_amplitude=0.02))
     # the wall clock is read on the first evaluation; any real work takes more than 1 ns
     with pytest.raises(GaitError, match="wall time"):
-        integrate(net, 2.0, 0.01, settings=SolverSettings(max_wall_s=1e-9))
+        integrate(net, 2.0, 0.01, settings=SolverSettings(backend=backend, max_wall_s=1e-9))
 
 
 # -- spines --------------------------------------------------------------------------------------

@@ -114,8 +114,12 @@ def test_thread_batches_give_the_inline_evaluations():
     inline = sorted(InlineExecutor(problem).run(tasks), key=lambda e: e.index)
     assert len({e.score for e in inline}) > 1  # the gaits differ
     for executor in (ThreadBatchExecutor(problem, 2, batch_size=3),  # 3 batches, 2 threads
+                     # the gaits built on worker processes (the default without the compiled
+                     # CPG integrator)
+                     ThreadBatchExecutor(problem, 2, batch_size=3, process_builds=True),
                      ThreadBatchExecutor(problem, 1, batch_size=7)):  # 1 batch, 1 thread
-        batched = sorted(executor.run(tasks), key=lambda e: e.index)
+        with executor:
+            batched = sorted(executor.run(tasks), key=lambda e: e.index)
         for a, b in zip(inline, batched, strict=True):
             assert (a.index, a.unit, a.score, a.status, a.metrics) == \
                 (b.index, b.unit, b.score, b.status, b.metrics)

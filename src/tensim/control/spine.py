@@ -24,6 +24,7 @@ gave both the same phase, which can only lock at 0 or π; the negation is this p
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Sequence
 
@@ -35,7 +36,9 @@ from tensim.control.cpg import (
     Coupling,
     CPGNetwork,
     SolverSettings,
-    integrate,
+    _Arrays,
+    _network_arrays,
+    _solve,
 )
 from tensim.control.parameters import Bounds, Parameter, ParameterLayout
 from tensim.control.velocity_table import VelocityTable
@@ -153,9 +156,9 @@ class CPGParameters(ParameterLayout):
         """Number of parameters: 2 per coupling class + amplitude + frequency."""
         return 2 * len(self.classes) + 2
 
-    @property
+    @functools.cached_property
     def parameters(self) -> tuple[Parameter, ...]:
-        """The entries, in vector order."""
+        """The entries, in vector order (made once: every bounds check reads them)."""
         pairs = [(Parameter(f"weight/{c}", self.weight), Parameter(f"phase/{c}", self.phase))
                  for c in self.classes]
         return (*(p for pair in pairs for p in pair), Parameter("amplitude", self.amplitude),
@@ -174,6 +177,21 @@ class CPGParameters(ParameterLayout):
                           for i, j, c, sign in self.edges)
         return CPGNetwork(self.oscillators, float(v[-1]), float(v[-2]), self.convergence,
                           couplings)
+
+    @functools.cached_property
+    def _edge_array(self) -> np.ndarray:
+        return np.array(self.edges, dtype=np.intp).reshape(-1, 4)
+
+    def _arrays(self, values: Sequence[float] | np.ndarray) -> _Arrays:
+        """:meth:`network`'s arrays, the same numbers without a :class:`Coupling` per edge."""
+        v = self.check_bounds(values)
+        if v[-1] < 0 or v[-2] < 0:
+            return _network_arrays(self.network(v))  # CPGNetwork refuses them, naming the field
+        k, n = len(self.classes), len(self.oscillators)
+        i, j, c, sign = self._edge_array.T
+        return _Arrays(np.full(n, 2 * np.pi * float(v[-1])), np.full(n, float(v[-2])),
+                       np.full(n, self.convergence), i, j, v[0:2 * k:2][c],
+                       sign * v[1:2 * k:2][c])
 
     def gait(self, values: Sequence[float] | np.ndarray | None = None, *,
              initial_phase: Sequence[float] | None = None,
@@ -271,6 +289,6 @@ class SpineCPG:
         Raises:
             GaitError: the integration failed or ran away.
         """
-        _, velocity = integrate(self.network(), duration, period, self.initial_phase,
-                                self.initial_amplitude, self.settings)
-        return VelocityTable(self.cables, period, velocity)
+        trajectory = _solve(self.layout._arrays(self.values), duration, period,
+                            self.initial_phase, self.initial_amplitude, self.settings)
+        return VelocityTable(self.cables, period, trajectory.velocity)

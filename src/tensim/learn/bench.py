@@ -7,6 +7,8 @@ threads, on a warm process pool, one plain simulation after another, and replaye
 
 from __future__ import annotations
 
+import dataclasses
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -15,6 +17,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from tensim.control import SolverSettings
 from tensim.learn.executors import ProcessPoolExecutor, ThreadBatchExecutor
 from tensim.learn.families import default_base
 from tensim.learn.optimizers import OptimizerSettings
@@ -59,6 +62,18 @@ def _pool_s(problem: TrialProblem, points: np.ndarray, workers: int, repeats: in
     return min(walls)
 
 
+def _build_cpu_s(problem: TrialProblem, points: np.ndarray, backend: str) -> float:
+    """CPU time to build one point's gait, its CPG integrated by ``backend`` (``"auto"``: as
+    learning does, compiled where built; ``"scipy"``), averaged over ``points`` [s]."""
+    dt = problem.compiled().model.opt.timestep
+    settings = SolverSettings(backend=backend)
+    start = time.process_time()
+    for unit in points:
+        config = problem.controller(unit)
+        config.with_gait(dataclasses.replace(config.gait, settings=settings)).build(dt)
+    return (time.process_time() - start) / len(points)
+
+
 def _busy(n: int) -> int:
     total = 0
     for i in range(n):
@@ -87,7 +102,7 @@ def machine_scaling(repeats: int = 3, n: int = 4_000_000) -> float:
 def _threads_s(problem: TrialProblem, points: np.ndarray, workers: int) -> float:
     """Wall time of the trials as batches on ``workers`` threads [s]."""
     start = time.perf_counter()
-    with ThreadBatchExecutor(problem, workers) as executor:  # its gait builders start here
+    with ThreadBatchExecutor(problem, workers) as executor:  # any gait builders start here
         done = sum(1 for _ in executor.run(list(enumerate(points))))
     if done != len(points):
         raise RuntimeError("the batch lost trials")
@@ -108,20 +123,27 @@ def _rollout_s(problem: TrialProblem, points: np.ndarray, workers: int) -> float
     return time.perf_counter() - start
 
 
-def _learn_run_s(problem: TrialProblem, evaluations: int, workers: int) -> tuple[float, np.ndarray]:
-    """Wall time of a whole CMA-ES ``learn`` run on ``workers`` threads, from the call to the
-    written run folder, and the points it evaluated."""
+def _cpu_s() -> float:
+    """CPU time of this process and its finished child processes [s]."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def _learn_run_s(problem: TrialProblem, evaluations: int, workers: int
+                 ) -> tuple[float, float, np.ndarray]:
+    """Wall and CPU time of a whole CMA-ES ``learn`` run on ``workers`` threads, from the call
+    to the written run folder, and the points it evaluated."""
     from tensim.learn.run import LearningSettings, learn
     from tensim.learn.store import RunStore
 
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder) / "run"
         settings = LearningSettings(OptimizerSettings("cma"), evaluations, seed=0)
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), _cpu_s()
         learn(problem, settings, out, executor=lambda p: ThreadBatchExecutor(p, workers))
-        wall = time.perf_counter() - start
+        wall, cpu = time.perf_counter() - start, _cpu_s() - cpu
         points = np.array([e.unit for _, e in sorted(RunStore(out).evaluations().items())])
-    return wall, points
+    return wall, cpu, points
 
 
 def bench_learning(duration: float = 10.0, evaluations: int = 20, repeats: int = 2
@@ -140,20 +162,19 @@ def bench_learning(duration: float = 10.0, evaluations: int = 20, repeats: int =
     walls: dict[str, list[float]] = {"learn": [], "threads": [], "processes": [],
                                      "rollout": [], "plain_1_thread": []}
     points = np.empty((0, problem.dimension))
+    cpus = []
     for _ in range(repeats):
-        wall, points = _learn_run_s(problem, evaluations, 2)
+        wall, cpu, points = _learn_run_s(problem, evaluations, 2)
         walls["learn"].append(wall)
+        cpus.append(cpu)
         walls["threads"].append(_threads_s(problem, points, 2))
         walls["processes"].append(_pool_s(problem, points, 2, 1))
         walls["rollout"].append(_rollout_s(problem, points, 2))
     walls["plain_1_thread"].append(_plain_simulation_s(problem, points, 1))
-    dt = problem.compiled().model.opt.timestep
-    start = time.perf_counter()
-    for unit in points:  # the gaits: what the rollout's ready-made controls cost to make
-        problem.controller(unit).build(dt)
-    build = time.perf_counter() - start
-    walls["rollout_with_gaits"] = [min(walls["rollout"]) + build]
+    # the gaits: what the rollout's ready-made controls cost to make
+    build = min(_build_cpu_s(problem, points, "auto") for _ in range(3))
     n = len(points)
+    walls["rollout_with_gaits"] = [min(walls["rollout"]) + build * n]
     rate = {k: n / min(v) for k, v in walls.items()}
     return {
         "machine_scaling_2_over_1": machine_scaling(),
@@ -164,7 +185,9 @@ def bench_learning(duration: float = 10.0, evaluations: int = 20, repeats: int =
         "threads_over_rollout": rate["threads"] / rate["rollout"],
         "processes_over_rollout": rate["processes"] / rate["rollout"],
         "learn_over_rollout_with_gaits": rate["learn"] / rate["rollout_with_gaits"],
-        "gait_build_s_per_trial": build / n,
+        "gait_build_cpu_s": build,
+        "gait_build_scipy_cpu_s": _build_cpu_s(problem, points, "scipy"),
+        "learn_cpu_s_per_evaluation": min(cpus) / n,
     }
 
 
@@ -173,13 +196,16 @@ def format_learning(report: dict[str, Any]) -> str:
     rate = report["evaluations_per_s"]
     return (f"learning ({report['case']}, 2 threads or workers):\n"
             f"  tensim learn {rate['learn']:.2f} evaluations/s "
-            f"({report['learn_over_rollout']:.2f} of mujoco.rollout's "
+            f"({report['learn_cpu_s_per_evaluation']:.2f} s of CPU each; "
+            f"{report['learn_over_rollout']:.2f} of mujoco.rollout's "
             f"{rate['rollout']:.2f}); bare batches {rate['threads']:.2f} "
             f"({report['threads_over_rollout']:.2f}); process pool {rate['processes']:.2f} "
             f"({report['processes_over_rollout']:.2f}); one plain simulation after another "
             f"{rate['plain_1_thread']:.2f}\n"
-            f"  building the {report['evaluations']} CPG gaits takes "
-            f"{report['gait_build_s_per_trial'] * 1e3:.0f} ms each on one core; against "
+            f"  building a CPG gait takes {report['gait_build_cpu_s'] * 1e3:.1f} ms of CPU "
+            f"(through scipy in Python {report['gait_build_scipy_cpu_s'] * 1e3:.1f} ms, "
+            f"{report['gait_build_scipy_cpu_s'] / report['gait_build_cpu_s']:.0f}x as much); "
+            f"against "
             f"mujoco.rollout plus those builds ({rate['rollout_with_gaits']:.2f}/s) tensim "
             f"learn runs at {report['learn_over_rollout_with_gaits']:.2f}\n"
             f"  (a pure-Python busy loop scales {report['machine_scaling_2_over_1']:.2f}x on 2 "

@@ -27,6 +27,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from tensim._files import pid_alive
+from tensim.control.cpg import compiled_available as compiled_cpg_available
 from tensim.learn.problem import (
     Evaluation,
     Problem,
@@ -85,28 +86,40 @@ class ThreadBatchExecutor:
     A problem with ``evaluate_batch`` (a simulated gait) runs up to ``batch_size`` trials per
     call of the batch engine, its trials spread over ``workers`` threads; others run inline.
     With ``engine="warp"`` a call is one MuJoCo Warp batch (one world per trial; a GPU holds
-    thousands, so the default batch size is a whole generation).
+    thousands, so the default batch size is a whole generation). A batch's gaits are built
+    first, on ``workers`` threads, or with ``process_builds`` on as many worker processes (the
+    default only where CPGs integrate in Python).
     """
 
     def __init__(self, problem: Problem, workers: int, batch_size: int | None = None,
-                 engine: str = "cpu", parallel_builds: bool = True):
+                 engine: str = "cpu", process_builds: bool | None = None):
         self.problem, self.workers, self.engine = problem, max(1, workers), engine
         self.batch_size = batch_size or (32 if engine == "cpu" else 4096)
         self.backend = "threads" if engine == "cpu" else "warp"
-        # a gait is a CPG integration in Python: a generation's are built in parallel on
-        # worker processes (started at the first batch), then simulated on the threads
-        self._builders: cf.ProcessPoolExecutor | None = None
-        self._parallel = parallel_builds and self.workers > 1 and hasattr(problem,
-                                                                            "build_gaits")
+        # a CPG gait is an ODE integration, built before its batch on ``workers`` threads of
+        # this process when it runs compiled (~1.5 ms; the C call releases the GIL), and on
+        # worker processes when it runs in Python (~25 ms; process_builds None without the
+        # compiled integrator, or True): their start (~0.7 s) and transfers only pay off then
+        self._processes = not compiled_cpg_available() if process_builds is None \
+            else process_builds
+        self._builders: cf.Executor | None = None
+        self._parallel = self.workers > 1 and hasattr(problem, "build_gaits")
 
     def _build(self, units: Sequence[np.ndarray]) -> list[Any]:
-        if self._builders is None:
-            self._builders = cf.ProcessPoolExecutor(self.workers, _context(),
-                                                    initializer=_init_worker,
-                                                    initargs=(self.problem, os.getpid()))
         share = max(1, -(-len(units) // self.workers))
         parts = [list(units[k:k + share]) for k in range(0, len(units), share)]
-        return [g for part in self._builders.map(_build_gaits, parts) for g in part]
+        if self._processes:
+            if self._builders is None:
+                self._builders = cf.ProcessPoolExecutor(self.workers, _context(),
+                                                        initializer=_init_worker,
+                                                        initargs=(self.problem, os.getpid()))
+            built = self._builders.map(_build_gaits, parts)
+        else:
+            if self._builders is None:
+                self._builders = cf.ThreadPoolExecutor(self.workers,
+                                                       thread_name_prefix="tensim-gaits")
+            built = self._builders.map(self.problem.build_gaits, parts)  # type: ignore[attr-defined]
+        return [g for part in built for g in part]
 
     def run(self, tasks: Sequence[Task]) -> Iterator[Evaluation]:
         """Evaluates the tasks, a batch at a time."""
@@ -133,7 +146,7 @@ class ThreadBatchExecutor:
                 yield evaluation_of(self.problem, index, unit, outcome, wall)
 
     def close(self) -> None:
-        """Stops the gait-building processes (the batch's threads end with each call)."""
+        """Stops the gait builders (the batch's threads end with each call)."""
         if self._builders is not None:
             self._builders.shutdown(wait=True, cancel_futures=True)
             self._builders = None
