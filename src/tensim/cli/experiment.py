@@ -69,7 +69,12 @@ def _timestep(args: argparse.Namespace, out: Path) -> dict[str, Any]:
 
 def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[str, Any]]:
     def run(args: argparse.Namespace, out: Path) -> dict[str, Any]:
-        from tensim.experiments.gait import gait_figures, run_gait, write_gait
+        from tensim.experiments.gait import (
+            draw_velocity_input,
+            gait_figures,
+            run_gait,
+            write_gait,
+        )
         from tensim.models import preset
 
         structure = _structure(args)
@@ -78,7 +83,10 @@ def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[
             result, summary, config = run_gait(
                 name, args.controller or default, structure=structure,
                 duration=args.duration, world=world_from_args(args),
-                progress=Progress(name, args.quiet))
+                progress=Progress(name, args.quiet),
+                # V* is known before the run: drawn while it simulates
+                before=lambda config, duration, dt: draw_velocity_input(
+                    drawer, config, duration, dt, out))
             write_gait(out, result, summary, config, structure, drawer)
         print(f"moved {summary['planar_displacement_m']:.3f} m toward "
               f"{summary['direction']} ({summary['direction_deg']:.0f} deg from +x)")

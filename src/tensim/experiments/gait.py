@@ -93,7 +93,8 @@ def _body_frame(series: TimeSeries, k0: int, item: str) -> dict[str, Any]:
 def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tetraspine3",
              structure: Structure | None = None,
              duration: float | None = None, world: WorldOptions | None = None,
-             progress: Callable[[float, float], None] | None = None
+             progress: Callable[[float, float], None] | None = None,
+             before: Callable[[ControllerConfig, float, float], None] | None = None
              ) -> tuple[SimulationResult, dict[str, Any], ControllerConfig]:
     """Runs a gait from a controller file (or config) on a preset.
 
@@ -119,8 +120,10 @@ def run_gait(name: str, controller: str | ControllerConfig, *, model: str = "tet
         config = config.with_duration(duration)  # the gait runs as long as asked
     duration = duration or config.duration
     compiled = compile_structure(structure, world or WorldOptions())
-    result = simulate(compiled, duration, controller=config.build(compiled.model.opt.timestep),
-                      progress=progress)
+    dt = compiled.model.opt.timestep
+    if before is not None:
+        before(config, duration, dt)
+    result = simulate(compiled, duration, controller=config.build(dt), progress=progress)
     summary: dict[str, Any] = {
         "experiment": name, "model": model,
         "controller": controller if isinstance(controller, str) else "(in memory)",
@@ -147,6 +150,15 @@ def gait_figures(name: str, cables: Sequence[str]) -> list[FigurePlan]:
             FigurePlan("path.png", "path")]
 
 
+def draw_velocity_input(drawer: FigureDrawer, config: ControllerConfig, duration: float,
+                        dt: float, out: Path) -> None:
+    """Hands the gait's V* inputs (known before it runs) to ``drawer`` for velocity_input.png,
+    if it has a V* table."""
+    table = config.velocity_table(dt)
+    if table is not None:
+        drawer.draw("velocity_input.png", table, out, until=duration)
+
+
 def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
                config: ControllerConfig, structure: Structure | None = None,
                drawer: FigureDrawer | None = None) -> Path:
@@ -159,10 +171,9 @@ def write_gait(out: Path, result: SimulationResult, summary: dict[str, Any],
     drawer = drawer or FigureDrawer(gait_figures(summary.get("experiment", "gait"),
                                                  result.cables))
     drawer.draw("tensions.png", result.trajectory, out)
-    table = config.velocity_table(result.dt_s)
     figures = ["tensions.png", "velocity_input.png", "lengths.png", "path.png"]
-    if table is not None:
-        drawer.draw("velocity_input.png", table, out, until=result.duration_s)
+    if "velocity_input.png" not in drawer.handed:
+        draw_velocity_input(drawer, config, result.duration_s, result.dt_s, out)
     drawer.draw("lengths.png", result.trajectory, out)
     drawer.draw("path.png", result.trajectory, out,
                 items=[*(b for b in result.trajectory.items("pos_x") if b != COM), COM],

@@ -101,6 +101,7 @@ class FigureDrawer:
         if len(self.plans) != len(plans):
             raise ValueError("two figure plans share a file name")
         self._pending: dict[str, tuple[Any, Path, dict[str, Any]]] = {}
+        self.handed: set[str] = set()  # the files handed to draw() so far
         self._conn: Connection | None = None
         self._process: subprocess.Popen[bytes] | None = None
         if background:
@@ -143,6 +144,7 @@ class FigureDrawer:
         """
         plan = self.plans[file]
         path = Path(folder) / file
+        self.handed.add(file)
         if self._conn is not None:
             try:
                 self._conn.send((file, data, path, late))
