@@ -5,6 +5,7 @@ the straight one) and the tunnelling check."""
 from __future__ import annotations
 
 import math
+import re
 
 import mujoco
 import numpy as np
@@ -330,3 +331,28 @@ def test_the_batch_engine_runs_contact_cables_as_a_single_run_does():
     assert trial.ok, trial.error
     for name, values in single.trajectory.channels.items():  # beads' channels included
         np.testing.assert_array_equal(values, trial.result.trajectory[name], err_msg=name)
+
+
+def test_the_batch_engine_fails_a_trial_whose_beads_went_through_a_wall():
+    # the whipped cable of the test above, as one trial of a batch beside an undisturbed one:
+    # only the whipped trial fails, with the single run's message
+    from tensim.sim import Trial, compiled_available, run_batch
+
+    if not compiled_available():
+        pytest.skip("the batch engine needs the compiled cable law")
+    s = Structure(
+        "whip", (Node("a", (0.15, -0.1, R), fixed=True), Node("b", (0.15, 0.1, R), fixed=True)),
+        cables=(Cable("c", ("a", "b"), K, damping=5.0, pretension=5.0,
+                      contact=CableContact(spacing=0.03, radius=R)),))
+    wall = Wall(height=0.05, distance=0.09, thickness=0.03, width=0.4)
+    compiled = compile_structure(s, WorldOptions(terrain=wall))
+    with Simulation(compiled) as sim:
+        m = sim.model
+        beads = [j for j in range(m.njnt) if m.jnt_type[j] == 2 and m.jnt_axis[j, 0] == 1.0]
+        sim.data.qvel[m.jnt_dofadr[beads]] = -40.0
+        whipped = sim.get_state()
+    calm, flung = run_batch(compiled, [Trial(None), Trial(None, initial_state=whipped)], 0.2)
+    assert calm.ok, calm.error
+    assert not flung.ok
+    assert re.search(r"trial 1: contact cable tunnelled at t = .* inside 'terrain_box_0'.* "
+                     r"smaller timestep \(--dt\) or a smaller bead spacing", flung.error)

@@ -23,11 +23,13 @@ from mujoco import batch as mjbatch
 
 from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
 from tensim.sim import _law
+from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import CableDrive, InputPlan
 from tensim.sim._loads import NodeLoad
 from tensim.sim._samples import SampleBuffers, sample_channels
 from tensim.sim._simulation import (
     _CHECK_EVERY,
+    TUNNEL_ADVICE,
     Controller,
     SimulationResult,
     StabilityLimits,
@@ -213,6 +215,8 @@ class _BatchRun:
         self.samples: SampleBuffers | None = None
         self.count = np.zeros(n, dtype=int)
         self._template = mujoco.MjData(m)
+        self._contact = ContactCheck(compiled) \
+            if any(c.contact for c in compiled.structure.cables) else None
         self._bound = {name: self.batch.bind(name) for name in _RECORD}  # refreshed per call
         self._out: dict[tuple[int, int], dict[str, np.ndarray]] = {}
 
@@ -312,6 +316,24 @@ class _BatchRun:
             self.error[i] = f"trial {i}: " + diagnose(
                 self.compiled.model, d, self.compiled.index, self.limits, time,
                 bool(bad_acc[row]))
+        if self._contact is not None:
+            self._check_contact(ids[fine])
+
+    def _check_contact(self, ids: np.ndarray) -> None:
+        """Fails the trials whose contact cables went through an obstacle, as
+        :meth:`Simulation.check` does: each trial's state is placed on a scratch copy of its
+        model's data (its contacts and sites computed) and checked by the same
+        :class:`ContactCheck`."""
+        assert self._contact is not None and self.samples is not None
+        for i in map(int, ids):
+            model, d = self.models[i], self._template
+            mujoco.mj_setState(model, d, self.batch.state[i], _STATE)
+            mujoco.mj_forward(model, d)
+            problem = self._contact.problem(model, d)
+            if problem is not None:
+                time = float(self.samples.time[i, self.count[i] - 1])
+                self.error[i] = (f"trial {i}: contact cable tunnelled at t = {time:.3f} s: "
+                                 f"{problem}. {TUNNEL_ADVICE}")
 
     # -- results -----------------------------------------------------------------------------
 

@@ -21,6 +21,8 @@ from tensim.sim._samples import COM, SampleBuffers, sample_channels
 from tensim.sim._timeseries import TimeSeries
 
 _CHECK_EVERY = 5  # records between stability checks in run()
+TUNNEL_ADVICE = ("Try a smaller timestep (--dt) or a smaller bead spacing (the cable's "
+                 "contact: spacing).")
 _BLOCK_STEPS = 20_000  # physics steps of inputs computed at once
 
 
@@ -227,8 +229,7 @@ class Simulation:
             if problem is None:
                 return  # also False for NaN, which lands below
             raise SimulationError(f"contact cable tunnelled at t = {self.time:.3f} s: {problem}. "
-                                  "Try a smaller timestep (--dt) or a smaller bead spacing "
-                                  "(the cable's contact: spacing).")
+                                  + TUNNEL_ADVICE)
         raise SimulationError(diagnose(self.model, self.data, self.index, self.limits,
                                        self.time, bool(bad_acc),
                                        getattr(self, "_peak_seen", None)))
