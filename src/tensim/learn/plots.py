@@ -82,5 +82,7 @@ def _finish(fig: Figure, ax: Axes, path: Path, xlabel: str, ylabel: str, title: 
     ax.legend(fontsize=8, loc="lower right")
     if title:
         ax.set_title(title, fontsize=9)
-    fig.tight_layout()
+    # fixed margins [fraction of 7.5 x 4.2 in] instead of a layout pass (a tenth of a second)
+    lines = title.count("\n") + 1 if title else 0
+    fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.96 - 0.045 * lines)
     return save_figure(fig, Path(path))
