@@ -64,7 +64,9 @@ class Outcome:
 class Problem(Protocol):
     """What an optimizer's executor needs from a problem."""
 
-    penalty: float
+    @property
+    def penalty(self) -> float:
+        """Score given to a trial that raises."""
 
     @property
     def dimension(self) -> int:
