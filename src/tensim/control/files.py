@@ -420,9 +420,10 @@ def controller_from_dict(data: Any, structure: Structure, base: Path | None = No
     if data.get("gait") is not None:
         raw = _mapping(data["gait"], "gait", "'type', 'duration' and the gait's fields")
         kind = raw.get("type")
-        readers: dict[str, Callable[[], Gait]] = {"cpg": lambda: _cpg(raw, structure, "gait"),
-                   "sine": lambda: _sine(raw, structure, "gait"),
-                   "table": lambda: _table(raw, base, "gait")}
+        readers: dict[str, Callable[[], Gait]] = {
+            "cpg": lambda: _cpg(raw, structure, "gait"),
+            "sine": lambda: _sine(raw, structure, "gait"),
+            "table": lambda: _table(raw, base, "gait")}
         if not isinstance(kind, str) or kind not in readers:
             raise ControllerFileError(f"unknown gait type {kind!r}; expected one of "
                                       f"{list(readers)}", field="gait.type")
