@@ -87,8 +87,8 @@ def per_item(value: float | Sequence[float], n: int, what: str, item: str = "cab
     Raises:
         ValueError: wrong count or a non-finite value, naming ``what``.
     """
-    array = np.asarray(value)
-    values = (float(array),) * n if array.ndim == 0 else tuple(float(v) for v in array)
+    array = np.asarray(value)  # as np.ndim would; tolist() hands back the items as given
+    values = (float(array),) * n if array.ndim == 0 else tuple(float(v) for v in array.tolist())
     if len(values) != n:
         raise ValueError(f"{what} needs one value per {item} ({n}), got {len(values)}")
     if not all(math.isfinite(v) for v in values):
