@@ -15,6 +15,7 @@ import dataclasses
 import statistics
 import time
 from collections.abc import Callable
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -29,7 +30,8 @@ from tensim.model import (
     without_cable_law,
 )
 from tensim.models import preset
-from tensim.sim import Simulation, compiled_available
+from tensim.sim import Controller, Simulation, compiled_available
+from tensim.structure import CableContact
 from tensim.terrain import Flat, Terrain
 
 SETTLE_S = 1.0
@@ -126,11 +128,11 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
     structure = model.build()
     if contact_tags:
         structure = dataclasses.replace(structure, cables=tuple(
-            dataclasses.replace(c, contact=True) if set(c.tags) & set(contact_tags) else c
+            dataclasses.replace(c, contact=CableContact()) if set(c.tags) & set(contact_tags) else c
             for c in structure.cables))
     compiled = compile_structure(structure, WorldOptions(terrain=terrain or Flat()))
     m = compiled.model
-    controller = model.controller() if controlled else None
+    controller: Controller | None = model.controller() if controlled else None
     if controller_file is not None:
         config = load_controller(controller_file, structure)
     if config is not None:
@@ -157,7 +159,7 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
             rollout.rollout(engine, data, start, forces, initial_warmstart=warmstart)
 
         timings = _interleaved({"tensim": loop, "engine": engine_run}, repeats, n_steps)
-    label = f" ({controller_file or config.description})" if controller_file or config \
+    label = f" ({controller_file})" if controller_file else f" ({config.description})" if config \
         else "" if controlled else " (passive)"
     label += f" on {type(terrain).__name__.lower()}" if terrain else ""
     label += f", contact cables {'/'.join(contact_tags)}" if contact_tags else ""
@@ -196,7 +198,7 @@ def engine_alone(compiled: CompiledModel, state: np.ndarray
     return engine, start, data.qacc_warmstart[None].copy()
 
 
-def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, object]:
+def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, Any]:
     """The cases: Tetraspine3 under impedance control and on its CPG gait; a passive six-bar;
     the 12-segment Tetraspine sidewinding on flat ground and on its goal gait over the goal
     scenario's rough height field; its wall climb with straight and with contact cables."""

@@ -34,11 +34,12 @@ def run(args: argparse.Namespace) -> int:
 
     structure = load_model(args.model)
     config = load_controller(args.controller, structure)
-    if config.gait is None:
+    gait = config.gait
+    if gait is None:
         raise ValueError(f"{args.controller}: has no gait, so there is no V* to export")
     if args.duration is not None:
         config = config.with_duration(args.duration)
-    table = sampled_table(config.gait, config.duration, args.period)
+    table = sampled_table(gait, config.duration, args.period)
     out = Path(args.out)
     save_velocity_table(table, out, hardware_scale=args.hardware_scale, comments=(
         f"model: {args.model}", f"controller: {args.controller}",

@@ -87,9 +87,15 @@ def per_item(value: float | Sequence[float], n: int, what: str, item: str = "cab
     Raises:
         ValueError: wrong count or a non-finite value, naming ``what``.
     """
-    values = (float(value),) * n if np.ndim(value) == 0 else tuple(float(v) for v in value)
+    array = np.asarray(value)  # as np.ndim would; tolist() hands back the items as given
+    values = (float(array),) * n if array.ndim == 0 else tuple(float(v) for v in array.tolist())
     if len(values) != n:
         raise ValueError(f"{what} needs one value per {item} ({n}), got {len(values)}")
     if not all(math.isfinite(v) for v in values):
         raise ValueError(f"{what} must be finite, got {values}")
     return values
+
+
+def as_tuple(value: float | tuple[float, ...]) -> tuple[float, ...]:
+    """A per-item record field as the tuple its ``__post_init__`` made of it."""
+    return value if isinstance(value, tuple) else (value,)

@@ -96,9 +96,9 @@ class CPGNetwork:
     """
 
     names: tuple[str, ...]
-    frequency: float | tuple[float, ...]
-    amplitude: float | tuple[float, ...]
-    convergence: float | tuple[float, ...] = 20.0
+    frequency: float | Sequence[float]
+    amplitude: float | Sequence[float]
+    convergence: float | Sequence[float] = 20.0
     couplings: tuple[Coupling, ...] = ()
 
     def __post_init__(self) -> None:
@@ -107,13 +107,15 @@ class CPGNetwork:
             raise ValueError(f"oscillator names must be unique and non-empty, got {names}")
         n = len(names)
         object.__setattr__(self, "names", names)
-        for field in ("frequency", "amplitude", "convergence"):
-            object.__setattr__(self, field, _per_oscillator(getattr(self, field), n, field))
-        if min(self.frequency) < 0:
+        values = {field: _per_oscillator(getattr(self, field), n, field)
+                  for field in ("frequency", "amplitude", "convergence")}
+        for field, value in values.items():
+            object.__setattr__(self, field, value)
+        if min(values["frequency"]) < 0:
             raise ValueError(f"frequency must be >= 0 Hz, got {self.frequency}")
-        if min(self.amplitude) < 0:
+        if min(values["amplitude"]) < 0:
             raise ValueError(f"amplitude must be >= 0 m/s, got {self.amplitude}")
-        if min(self.convergence) <= 0:
+        if min(values["convergence"]) <= 0:
             raise ValueError(f"convergence constant a must be > 0 1/s for r to converge to R, "
                              f"got {self.convergence}")
         couplings = tuple(c if isinstance(c, Coupling) else Coupling(*c) for c in self.couplings)

@@ -46,6 +46,7 @@ import functools
 import json
 import math
 import os
+from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -57,7 +58,15 @@ from tensim._input import InputError, describe, load_json, load_yaml, read_text
 from tensim.control.impedance import ImpedanceController, ImpedanceGains
 from tensim.control.parameters import Bounds
 from tensim.control.sine import SineGait, tetraspine_sine
-from tensim.control.spine import CPGParameters, SpineCPG, spine_parameters
+from tensim.control.spine import (
+    DEFAULT_AMPLITUDE,
+    DEFAULT_FREQUENCY,
+    DEFAULT_PHASE,
+    DEFAULT_WEIGHT,
+    CPGParameters,
+    SpineCPG,
+    spine_parameters,
+)
 from tensim.control.velocity_table import (
     TableController,
     VelocityFileError,
@@ -304,7 +313,12 @@ def _cpg(raw: dict[str, Any], structure: Structure, field: str) -> SpineCPG:
     bounds = _bounds(raw.get("bounds"), f"{field}.bounds")
     convergence = _number(raw.get("convergence", 20.0), f"{field}.convergence", positive=True)
     try:
-        layout = spine_parameters(structure, cables, **bounds, convergence=convergence)
+        layout = spine_parameters(structure, cables,
+                                  weight=bounds.get("weight", DEFAULT_WEIGHT),
+                                  phase=bounds.get("phase", DEFAULT_PHASE),
+                                  amplitude=bounds.get("amplitude", DEFAULT_AMPLITUDE),
+                                  frequency=bounds.get("frequency", DEFAULT_FREQUENCY),
+                                  convergence=convergence)
     except KeyError as err:
         raise ControllerFileError(str(err.args[0]), field=f"{field}.cables") from None
     except ValueError as err:  # a cable listed twice, or the bounds
@@ -406,9 +420,10 @@ def controller_from_dict(data: Any, structure: Structure, base: Path | None = No
     if data.get("gait") is not None:
         raw = _mapping(data["gait"], "gait", "'type', 'duration' and the gait's fields")
         kind = raw.get("type")
-        readers = {"cpg": lambda: _cpg(raw, structure, "gait"),
-                   "sine": lambda: _sine(raw, structure, "gait"),
-                   "table": lambda: _table(raw, base, "gait")}
+        readers: dict[str, Callable[[], Gait]] = {
+            "cpg": lambda: _cpg(raw, structure, "gait"),
+            "sine": lambda: _sine(raw, structure, "gait"),
+            "table": lambda: _table(raw, base, "gait")}
         if not isinstance(kind, str) or kind not in readers:
             raise ControllerFileError(f"unknown gait type {kind!r}; expected one of "
                                       f"{list(readers)}", field="gait.type")

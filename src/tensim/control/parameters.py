@@ -13,8 +13,13 @@ import abc
 import dataclasses
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:  # the gaits import this module
+    from tensim.control.sine import SineGait
+    from tensim.control.spine import SpineCPG
 
 
 @dataclasses.dataclass(frozen=True)
@@ -151,5 +156,5 @@ class ParameterLayout(ParameterVector):
     """A gait family's parameter vector: its values make a gait."""
 
     @abc.abstractmethod
-    def gait(self, values: Sequence[float] | np.ndarray | None = None) -> object:
+    def gait(self, values: Sequence[float] | np.ndarray | None = None) -> SineGait | SpineCPG:
         """The gait for a parameter vector (None: the nominal values)."""

@@ -59,9 +59,11 @@ class SineGait:
         if len(set(cables)) != len(cables):
             raise ValueError(f"duplicate cable names in {cables}")
         object.__setattr__(self, "cables", cables)
-        for field in ("amplitude", "frequency", "phase", "offset"):
-            object.__setattr__(self, field, per_item(getattr(self, field), len(cables), field))
-        if min(self.frequency) < 0:
+        values = {field: per_item(getattr(self, field), len(cables), field)
+                  for field in ("amplitude", "frequency", "phase", "offset")}
+        for field, value in values.items():
+            object.__setattr__(self, field, value)
+        if min(values["frequency"]) < 0:
             raise ValueError(f"frequency must be >= 0 Hz, got {self.frequency}")
 
     def table(self, times: np.ndarray) -> np.ndarray:

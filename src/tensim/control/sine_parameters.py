@@ -19,7 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from tensim.control._common import joint_index
+from tensim.control._common import as_tuple, joint_index
 from tensim.control.parameters import Bounds, Parameter, ParameterLayout
 from tensim.control.sine import SineGait
 from tensim.structure import Structure
@@ -103,7 +103,8 @@ def sine_parameters(structure: Structure, cables: Sequence[str] | None = None, *
     if start is not None:
         if set(start.cables) != set(names):
             raise ValueError(f"start gait drives {start.cables}, the layout {names}")
-        if len(set(start.frequency)) != 1:
+        frequencies = as_tuple(start.frequency)
+        if len(set(frequencies)) != 1:
             raise ValueError(f"start gait has differing frequencies {start.frequency}; this "
                              "layout shares one")
         column = {c: i for i, c in enumerate(start.cables)}
@@ -113,7 +114,7 @@ def sine_parameters(structure: Structure, cables: Sequence[str] | None = None, *
         ph = np.array([_wrap(p + (math.pi if x < 0 else 0.0)) for p, x in
                        zip(np.asarray(start.phase)[order], a, strict=True)])
         ph = np.clip(ph, phase.low, phase.high)
-        freq = float(np.clip(start.frequency[0], frequency.low, frequency.high))
+        freq = float(np.clip(frequencies[0], frequency.low, frequency.high))
         offset = tuple(float(o) for o in np.asarray(start.offset)[order])
     entries: list[Parameter] = []
     for name, a0, p0 in zip(names, amp, ph, strict=True):

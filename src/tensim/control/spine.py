@@ -262,7 +262,7 @@ class SpineCPG:
 
     layout: CPGParameters
     values: tuple[float, ...]
-    initial_phase: tuple[float, ...] | None = None
+    initial_phase: Sequence[float] | None = None
     initial_amplitude: float = 0.0
     settings: SolverSettings = DEFAULT_SETTINGS
 

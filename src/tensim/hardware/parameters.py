@@ -14,13 +14,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
+from typing import Literal
 
 import numpy as np
 
 from tensim.control import Bounds, Parameter, ParameterVector
 from tensim.hardware.sensor import SensorModel
 from tensim.model import WorldOptions
-from tensim.structure import Cable, Structure
+from tensim.structure import Cable, DCMotor, Structure
 
 PHYSICAL, MEASUREMENT = "physical", "measurement"
 
@@ -48,7 +49,7 @@ class Definition:
     nominal: Callable[[Structure], float]
     span: Callable[[float], tuple[float, float]]
     apply: Callable[[Structure, float], Structure] | None = None
-    world_field: str | None = None
+    world_field: Literal["torsional_friction", "rolling_friction"] | None = None
 
     def nominal_in(self, structure: Structure, world: WorldOptions | None) -> float:
         """The nominal value: the world's for world parameters, else the structure's."""
@@ -63,11 +64,25 @@ def _mean(values: Sequence[float]) -> float:
     return float(np.mean(values))
 
 
+# how each scaled cable or DC motor field is set: by keyword, so that each one is type-checked
+_CABLE_FIELDS: dict[str, Callable[[Cable, float], Cable]] = {
+    "stiffness": lambda c, v: dataclasses.replace(c, stiffness=v),
+    "damping": lambda c, v: dataclasses.replace(c, damping=v),
+}
+_DC_FIELDS: dict[str, Callable[[DCMotor, float], DCMotor]] = {
+    "stall_torque": lambda d, v: dataclasses.replace(d, stall_torque=v),
+    "no_load_speed": lambda d, v: dataclasses.replace(d, no_load_speed=v),
+    "rotor_inertia": lambda d, v: dataclasses.replace(d, rotor_inertia=v),
+    "coulomb_friction": lambda d, v: dataclasses.replace(d, coulomb_friction=v),
+    "viscous_friction": lambda d, v: dataclasses.replace(d, viscous_friction=v),
+}
+
+
 def _cable_scale(field: str) -> Callable[[Structure, float], Structure]:
     def apply(structure: Structure, value: float) -> Structure:
         factor = value / _mean([getattr(c, field) for c in structure.cables])
         return dataclasses.replace(structure, cables=tuple(
-            dataclasses.replace(c, **{field: float(getattr(c, field) * factor)})
+            _CABLE_FIELDS[field](c, float(getattr(c, field) * factor))
             for c in structure.cables))
     return apply
 
@@ -104,7 +119,7 @@ def _dc_scale(field: str) -> Callable[[Structure, float], Structure]:
                 return c
             new = float(getattr(dc, field) * factor) if mean > 0 else float(value)
             return dataclasses.replace(c, motor=dataclasses.replace(
-                c.motor, dc=dataclasses.replace(dc, **{field: new})))
+                c.motor, dc=_DC_FIELDS[field](dc, new)))
         return dataclasses.replace(structure, cables=tuple(motor(c) for c in structure.cables))
     return apply
 
@@ -192,7 +207,10 @@ def apply_world(world: WorldOptions | None, values: Mapping[str, float]) -> Worl
     ignored)."""
     fields = {d.world_field: float(v) for d, v in
               ((definition(n), v) for n, v in values.items()) if d.world_field is not None}
-    return dataclasses.replace(world or WorldOptions(), **fields)
+    world = world or WorldOptions()
+    return dataclasses.replace(
+        world, torsional_friction=fields.get("torsional_friction", world.torsional_friction),
+        rolling_friction=fields.get("rolling_friction", world.rolling_friction))
 
 
 def check_world(names: Sequence[str], world: WorldOptions | None) -> None:
@@ -213,7 +231,9 @@ def check_world(names: Sequence[str], world: WorldOptions | None) -> None:
 def apply_measurement(sensor: SensorModel, values: Mapping[str, float]) -> SensorModel:
     """``sensor`` with the named measurement parameters set (others are ignored)."""
     fields = {n: float(v) for n, v in values.items() if definition(n).kind == MEASUREMENT}
-    return dataclasses.replace(sensor, **fields)
+    return dataclasses.replace(sensor, offset=fields.get("offset", sensor.offset),
+                               gain=fields.get("gain", sensor.gain),
+                               delay=fields.get("delay", sensor.delay))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -32,6 +32,7 @@ from tensim.io._ntrt_parts import Builder, Pair, Part
 from tensim.io._ntrt_tree import read_tree
 from tensim.structure import (
     Cable,
+    CableContact,
     Motor,
     Node,
     PointMass,
@@ -361,7 +362,8 @@ class _Converter:
             return Cable(name, ends, p["stiffness"], damping=p["damping"],
                          pretension=p["pretension"] * s,
                          anchor_offset=max(float(offset), 0.0),
-                         motor=motor, tags=_record_tags(pair), contact=contact)
+                         motor=motor, tags=_record_tags(pair),
+                         contact=CableContact() if contact else None)
         except StructureError as err:
             raise StructureError(err.detail, item=f"{err.item} ({pair.label})",
                                  source=str(pair.owner.source)) from None

@@ -17,7 +17,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from tensim.control import SolverSettings
+from tensim.control import SolverSettings, SpineCPG
 from tensim.learn.executors import ProcessPoolExecutor, ThreadBatchExecutor
 from tensim.learn.families import default_base
 from tensim.learn.optimizers import OptimizerSettings
@@ -70,6 +70,8 @@ def _build_cpu_s(problem: TrialProblem, points: np.ndarray, backend: str) -> flo
     start = time.process_time()
     for unit in points:
         config = problem.controller(unit)
+        if not isinstance(config.gait, SpineCPG):
+            raise TypeError(f"a CPG problem's gait is a SpineCPG, got {type(config.gait)}")
         config.with_gait(dataclasses.replace(config.gait, settings=settings)).build(dt)
     return (time.process_time() - start) / len(points)
 

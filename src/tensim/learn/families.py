@@ -23,6 +23,7 @@ from tensim.control import (
     spine_parameters,
     spine_wave_parameters,
 )
+from tensim.control._common import as_tuple
 from tensim.control.sine_parameters import sine_parameters, tetraspine_sine_parameters
 from tensim.structure import Structure
 
@@ -62,9 +63,10 @@ def gait_layout(family: str, structure: Structure, base: ControllerConfig
         layout = spine_parameters(structure, cables)
         return layout, layout.nominal
     if family == "sine":
-        start = gait if isinstance(gait, SineGait) and len(set(gait.frequency)) == 1 else None
-        layout = sine_parameters(structure, None if start else cables, start=start)
-        return layout, layout.nominal
+        start = gait if isinstance(gait, SineGait) \
+            and len(set(as_tuple(gait.frequency))) == 1 else None
+        sine_layout = sine_parameters(structure, None if start else cables, start=start)
+        return sine_layout, sine_layout.nominal
     if family == "wave":
         waves = spine_wave_parameters(structure)
         return waves, waves.nominal

@@ -64,7 +64,9 @@ class Outcome:
 class Problem(Protocol):
     """What an optimizer's executor needs from a problem."""
 
-    penalty: float
+    @property
+    def penalty(self) -> float:
+        """Score given to a trial that raises."""
 
     @property
     def dimension(self) -> int:
@@ -400,7 +402,8 @@ class Evaluation:
                    float(data["wall_s"]), dict(data.get("metrics", {})))
 
 
-def evaluate_task(problem: Problem, index: int, unit: Sequence[float]) -> Evaluation:
+def evaluate_task(problem: Problem, index: int, unit: Sequence[float] | np.ndarray
+                  ) -> Evaluation:
     """Runs one trial; an exception becomes a failed evaluation, never a lost one."""
     u = np.asarray(unit, dtype=float)
     start = time.perf_counter()
@@ -420,7 +423,7 @@ def evaluation_of(problem: Problem, index: int, unit: Sequence[float] | np.ndarr
                       outcome.status, outcome.reason, wall, outcome.metrics)
 
 
-def lost_evaluation(problem: Problem, index: int, unit: Sequence[float], reason: str
+def lost_evaluation(problem: Problem, index: int, unit: Sequence[float] | np.ndarray, reason: str
                     ) -> Evaluation:
     """The record of a trial whose worker died every time it was tried."""
     u = np.asarray(unit, dtype=float)

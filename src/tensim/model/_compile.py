@@ -341,8 +341,8 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
             if beads and k:
                 bead_paths[cable.name].append(site)
             if k == 0:  # between the anchors: the rods the cable wraps around, in order
-                for rod in cable.wrap:
-                    tendon.wrap_geom(_wrap_geom(spec, bodies, rods[rod], node_body,
+                for wrapped in cable.wrap:
+                    tendon.wrap_geom(_wrap_geom(spec, bodies, rods[wrapped], node_body,
                                                 node_local), "")
     for cable in structure.cables:  # cable actuators first: ids 0..n_cables-1
         _add_cable_actuator(spec, cable, structure.rest_length(cable))

@@ -1,3 +1,6 @@
+# mypy: disable-error-code="valid-type, misc"
+# (Warp kernel signatures annotate arguments with calls such as wp.array(dtype=float), and
+# wp.tid() returns a tuple inside a kernel: mypy reads both as plain Python and cannot follow.)
 """The cable law as a Warp kernel for MuJoCo Warp (the optional ``tensim[gpu]`` extra).
 
 MuJoCo Warp calls a model's ``act_dyn`` callback once per step for all worlds, after its own

@@ -9,6 +9,7 @@ import dataclasses
 import itertools
 import math
 from collections.abc import Sequence
+from typing import TypedDict, Unpack
 
 import numpy as np
 
@@ -173,6 +174,17 @@ class PointMass:
         _check(self.radius > 0, item, f"radius must be > 0 m, got {self.radius}")
 
 
+class _MotorFields(TypedDict, total=False):
+    """The DCMotor fields that DCMotor.from_constants takes as keywords."""
+
+    spool_radius: float
+    rotor_inertia: float
+    viscous_friction: float
+    coulomb_friction: float
+    back_drivable: bool
+    position_time: float
+
+
 @dataclasses.dataclass(frozen=True)
 class DCMotor:
     """A DC motor with gearbox and spool that winds the cable (instead of the kinematic motor).
@@ -224,7 +236,7 @@ class DCMotor:
 
     @classmethod
     def from_constants(cls, torque_constant: float, resistance: float, voltage: float,
-                       gear_ratio: float, **fields: float) -> DCMotor:
+                       gear_ratio: float, **fields: Unpack[_MotorFields]) -> DCMotor:
         """The motor of a torque constant K_t [N m/A] (= back-EMF constant [V s/rad]), an
         armature resistance [ohm] and a supply voltage [V] behind a gear ratio N [-]:
         stall_torque = N K_t V / R_a, no_load_speed = V / (N K_t). Other fields as keywords."""

@@ -58,7 +58,8 @@ class Structure:
         _unique((c.name for c in self.cables), "cable")
         _unique((p.node for p in self.point_masses), "point mass at node")
         known = {n.name for n in self.nodes}
-        members = [(f"rod {r.name!r}", r.nodes) for r in self.rods]
+        members: list[tuple[str, tuple[str, ...]]] = [(f"rod {r.name!r}", r.nodes)
+                                                      for r in self.rods]
         members += [(f"cable {c.name!r}", c.path) for c in self.cables]
         members += [(f"point mass at {p.node!r}", (p.node,)) for p in self.point_masses]
         for item, ends in members:

@@ -98,7 +98,8 @@ def structure_from_dict(data: Any) -> Structure:
         if len(items) > MAX_ITEMS:
             raise StructureError(f"{len(items)} {section} is more than the limit of "
                                  f"{MAX_ITEMS}", item=section)
-        default = next((d for k, d in defaults.items() if _DEFAULTS[k] == section), {})
+        default: dict[str, Any] = next(
+            (d for k, d in defaults.items() if _DEFAULTS[k] == section), {})
         sections[section] = tuple(
             _build(cls, _merge(default, raw), f"{section}[{i}]"
                    + (f" {raw.get('name')!r}" if isinstance(raw, dict) and "name" in raw else ""))

@@ -347,7 +347,7 @@ class HeightField(Surface):
 
 
 Terrain = Flat | Slope | Hills | Rough | Stairs | Blocks | Wall | HeightField
-KINDS: dict[str, type[Surface]] = {k.kind: k for k in (Flat, Slope, Hills, Rough, Stairs,
+KINDS: dict[str, type[Terrain]] = {k.kind: k for k in (Flat, Slope, Hills, Rough, Stairs,
                                                          Blocks, Wall, HeightField)}
 _MAX_SAMPLES = MAX_GRID_CELLS  # height-field samples; MuJoCo holds them as float32
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import typing
+from typing import Any
 
 from tensim.terrain._errors import TerrainError
 from tensim.terrain._kinds import KINDS, Surface, Terrain
@@ -29,7 +30,7 @@ def parse_terrain(text: str) -> Terrain:
                            f"{', '.join(KINDS)}")
     hints = typing.get_type_hints(cls)
     fields = [f.name for f in _fields(cls)]
-    values: dict[str, object] = {}
+    values: dict[str, Any] = {}
     for item in filter(None, (p.strip() for p in rest.split(","))):
         key, eq, raw = (s.strip() for s in item.partition("="))
         if not eq or not raw:
@@ -41,7 +42,7 @@ def parse_terrain(text: str) -> Terrain:
             raise TerrainError(f"terrain {text!r}: {key!r} given twice")
         values[key] = _convert(raw, hints[key], f"terrain {text!r}: {key}")
     try:
-        return cls(**values)  # type: ignore[return-value]
+        return cls(**values)
     except TerrainError as err:
         raise TerrainError(f"{err} (in {text!r})") from None
 
