@@ -12,6 +12,7 @@ Warp's ``set_const`` per world), and CUDA graph capture of the record loop.
 from __future__ import annotations
 
 import copy
+import logging
 import time as _time
 from collections.abc import Callable, Sequence
 
@@ -33,9 +34,9 @@ def warp_available() -> bool:
     try:
         import warp
 
-        # before MuJoCo Warp initialises Warp: no banner (Warp 1.19 no longer declares the
-        # setting, so mypy does not know it; assigning it is harmless and kept as it was)
-        warp.config.quiet = True  # type: ignore[attr-defined]
+        # before MuJoCo Warp initialises Warp: its banner (devices, cache folder) is logged
+        # at INFO; warnings (e.g. no CUDA driver) still show
+        warp.config.log_level = max(warp.config.log_level, logging.WARNING)
         import mujoco_warp  # noqa: F401
     except ImportError:
         return False
