@@ -165,13 +165,18 @@ def test_cables_without_contact_compile_as_before():
     assert all(m.geom_contype[g] == 1 for g in range(m.ngeom) if m.geom_bodyid[g] == 0)
 
 
+
+def _taut_along_y(name: str) -> Structure:
+    """A taut contact cable along y at x = 0.15 m between fixed anchors, beads 3 cm apart."""
+    return Structure(
+        name, (Node("a", (0.15, -0.1, R), fixed=True), Node("b", (0.15, 0.1, R), fixed=True)),
+        cables=(Cable("c", ("a", "b"), K, damping=5.0, pretension=5.0,
+                      contact=CableContact(spacing=0.03, radius=R)),))
+
 def test_a_cable_whipped_through_a_thin_wall_is_reported():
     # a taut cable along y, 3 cm beside a 3 cm wall; its beads are flung at the wall at
     # 40 m/s, 4 cm per step: they land inside it, which the check reports with what to change
-    s = Structure(
-        "whip", (Node("a", (0.15, -0.1, R), fixed=True), Node("b", (0.15, 0.1, R), fixed=True)),
-        cables=(Cable("c", ("a", "b"), K, damping=5.0, pretension=5.0,
-                      contact=CableContact(spacing=0.03, radius=R)),))
+    s = _taut_along_y("whip")
     wall = Wall(height=0.05, distance=0.09, thickness=0.03, width=0.4)
     with Simulation(compile_structure(s, WorldOptions(terrain=wall))) as sim:
         beads = [j for j in range(sim.model.njnt) if sim.model.jnt_type[j] == 2
@@ -187,10 +192,7 @@ def test_a_cable_whose_beads_jumped_a_thin_plate_is_reported():
     # a taut cable along y, 4.5 cm beside a 5 mm plate; its beads put 2 cm past the plate
     # (as a step of 7 cm would, too fast to meet it): the spans from the anchors to the
     # outer beads now run through the plate, which the check reports
-    s = Structure(
-        "jump", (Node("a", (0.15, -0.1, R), fixed=True), Node("b", (0.15, 0.1, R), fixed=True)),
-        cables=(Cable("c", ("a", "b"), K, damping=5.0, pretension=5.0,
-                      contact=CableContact(spacing=0.03, radius=R)),))
+    s = _taut_along_y("jump")
     plate = Wall(height=0.05, distance=0.1, thickness=0.005, width=0.4)
     with Simulation(compile_structure(s, WorldOptions(terrain=plate))) as sim:
         m = sim.model
@@ -340,10 +342,7 @@ def test_the_batch_engine_fails_a_trial_whose_beads_went_through_a_wall():
 
     if not compiled_available():
         pytest.skip("the batch engine needs the compiled cable law")
-    s = Structure(
-        "whip", (Node("a", (0.15, -0.1, R), fixed=True), Node("b", (0.15, 0.1, R), fixed=True)),
-        cables=(Cable("c", ("a", "b"), K, damping=5.0, pretension=5.0,
-                      contact=CableContact(spacing=0.03, radius=R)),))
+    s = _taut_along_y("whip")
     wall = Wall(height=0.05, distance=0.09, thickness=0.03, width=0.4)
     compiled = compile_structure(s, WorldOptions(terrain=wall))
     with Simulation(compiled) as sim:
