@@ -95,3 +95,18 @@ def test_warp_runs_dc_motors_as_the_cpu_engine():
     # float32 rounding only: measured 5.9e-7 m and 4.8e-4 N at most (of 25 N); about ten times
     np.testing.assert_allclose(b["rest_length/c"], a["rest_length/c"], atol=1e-5)
     np.testing.assert_allclose(b["tension/c"], a["tension/c"], atol=5e-3)
+
+
+def test_loading_warp_keeps_its_start_up_banner_quiet():
+    # the banner (devices, kernel cache folder) is logged at INFO: a command using the Warp
+    # back-end prints only Warp's warnings
+    import logging
+    import subprocess
+    import sys
+
+    probe = ("import warp; warp.config.log_level = 10; "
+             "from tensim.sim._warp_batch import warp_available; "
+             "print(warp_available(), warp.config.log_level)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == ["True", str(logging.WARNING)]

@@ -13,6 +13,7 @@ from tensim.sim import (
 )
 from tensim.structure import (
     Cable,
+    CableContact,
     DCMotor,
     Motor,
     Node,
@@ -28,6 +29,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Cable",
+    "CableContact",
     "CompiledModel",
     "DCMotor",
     "ImpedanceController",

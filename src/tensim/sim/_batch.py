@@ -217,6 +217,7 @@ class _BatchRun:
         self._template = mujoco.MjData(m)
         self._contact = ContactCheck(compiled) \
             if any(c.contact for c in compiled.structure.cables) else None
+        self._scratch = mujoco.MjData(m) if self._contact is not None else None
         self._bound = {name: self.batch.bind(name) for name in _RECORD}  # refreshed per call
         self._out: dict[tuple[int, int], dict[str, np.ndarray]] = {}
 
@@ -324,9 +325,10 @@ class _BatchRun:
         :meth:`Simulation.check` does: each trial's state is placed on a scratch copy of its
         model's data (its contacts and sites computed) and checked by the same
         :class:`ContactCheck`."""
-        assert self._contact is not None and self.samples is not None
+        assert self._contact is not None and self._scratch is not None
+        assert self.samples is not None
         for i in map(int, ids):
-            model, d = self.models[i], self._template
+            model, d = self.models[i], self._scratch
             mujoco.mj_setState(model, d, self.batch.state[i], _STATE)
             mujoco.mj_forward(model, d)
             problem = self._contact.problem(model, d)
