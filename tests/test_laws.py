@@ -205,3 +205,24 @@ def test_motor_step_force_floor_is_exact_static_limit():
     held = motor_step(np.array([0.35]), np.array([0.0]), x, k, np.array([10.0]), tmax,
                       np.array([0.0]), np.array([0.0]), 1.0)
     assert held[0] == 0.35  # exact: the rest length is kept as is
+
+
+def test_a_compiled_part_that_cannot_be_loaded_falls_back_with_a_warning(tmp_path, monkeypatch,
+                                                                          caplog):
+    import importlib.machinery
+    import importlib.util
+    import logging
+
+    from tensim._native import load_library
+
+    damaged = tmp_path / "_cable.so"
+    damaged.write_bytes(b"not a shared library")
+    spec = importlib.machinery.ModuleSpec("tensim.sim._cable", None, origin=str(damaged))
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name: spec)
+    with caplog.at_level(logging.WARNING, logger="tensim._native"):
+        assert load_library("tensim.sim._cable", "compiled cable law",
+                            "using the slower Python law") is None
+    assert "compiled cable law" in caplog.text and str(damaged) in caplog.text
+    assert "using the slower Python law" in caplog.text
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)  # not built: quiet
+    assert load_library("tensim.sim._cable", "x", "y") is None

@@ -8,13 +8,11 @@ without it.
 from __future__ import annotations
 
 import ctypes
-import importlib.util
-import logging
 from typing import NamedTuple
 
 import numpy as np
 
-log = logging.getLogger(__name__)
+from tensim._native import load_library
 
 # status codes of tensim_cpg_dop853
 OK, AMPLITUDE, EVALUATIONS, WALL_TIME, STEP_TOO_SMALL, NO_MEMORY = range(6)
@@ -24,14 +22,9 @@ _INTS = ctypes.POINTER(ctypes.c_int)
 
 
 def _load_library() -> ctypes.CDLL | None:
-    spec = importlib.util.find_spec("tensim.control._cpg")
-    if spec is None or spec.origin is None:
-        return None
-    try:
-        lib = ctypes.CDLL(spec.origin)
-    except OSError as err:  # built for another platform, or damaged
-        log.warning("compiled CPG integrator %s cannot be loaded (%s); integrating CPGs with "
-                    "scipy (reinstall tensim to rebuild it)", spec.origin, err)
+    lib = load_library("tensim.control._cpg", "compiled CPG integrator",
+                       "integrating CPGs with scipy")
+    if lib is None:
         return None
     lib.tensim_cpg_dop853.restype = ctypes.c_int
     lib.tensim_cpg_dop853.argtypes = [

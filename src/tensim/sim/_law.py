@@ -14,7 +14,6 @@ and hands actuators that are not tensim cables to a compiled callback installed 
 from __future__ import annotations
 
 import ctypes
-import importlib.util
 import logging
 import threading
 from typing import Any, NamedTuple
@@ -22,6 +21,7 @@ from typing import Any, NamedTuple
 import mujoco
 import numpy as np
 
+from tensim._native import load_library
 from tensim.model import CABLE_MARKER
 from tensim.sim import _laws
 
@@ -61,10 +61,9 @@ _ACT = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctype
 
 
 def _load_library() -> ctypes.CDLL | None:
-    spec = importlib.util.find_spec("tensim.sim._cable")
-    if spec is None or spec.origin is None:
+    lib = load_library("tensim.sim._cable", "compiled cable law", "using the slower Python law")
+    if lib is None:
         return None
-    lib = ctypes.CDLL(spec.origin)
     header = lib.tensim_header_version()
     if header != mujoco.mj_version():
         log.warning("compiled cable law was built for MuJoCo %s but %s is installed; using the "
