@@ -37,3 +37,15 @@ def test_the_sysid_help_lists_every_parameter_with_its_unit():
     from tensim.hardware.parameters import DEFINITIONS
 
     assert SYSID_PARAMETERS == ", ".join(f"{d.name} [{d.unit}]" for d in DEFINITIONS.values())
+
+
+def test_output_cut_short_by_its_reader_is_not_an_error():
+    # `tensim models | head -1`: the reader leaves before tensim has printed everything
+    proc = subprocess.Popen([sys.executable, "-c", "import sys; from tensim.cli import main; "
+                             "sys.exit(main(['models']))"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.close()  # the reader is gone before tensim writes
+    error = proc.stderr.read().decode()
+    assert proc.wait() == 0, error
+    assert "Broken pipe" not in error and "BrokenPipeError" not in error

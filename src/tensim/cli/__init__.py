@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import sys
 from collections.abc import Callable, Sequence
 
@@ -57,11 +58,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     run: Callable[[argparse.Namespace], int] = args.run
     try:
-        return run(args)
+        status = run(args)
+        sys.stdout.flush()  # a reader that left (a broken pipe) shows here, not at exit
+        return status
     except KeyboardInterrupt:  # every file tensim writes is complete or absent
         print("tensim: interrupted; the files written so far are complete, the rest were not "
               "written", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of our output left (`tensim ... | head`): not an error
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second complaint
+        return 0
     except (StructureError, ModelError, SimulationError, ControllerFileError, GaitError,
             KeyError, ValueError, OSError) as err:
         message = err.args[0] if isinstance(err, KeyError) and err.args else err
