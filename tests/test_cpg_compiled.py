@@ -48,14 +48,17 @@ def test_compiled_is_as_accurate_as_scipy_on_the_closed_form(seed):
     theta = np.array(phase) + 2 * np.pi * np.array(net.frequency) * t
     # θ is linear in t, which the method integrates exactly: rounding only (|θ| < 130 rad)
     np.testing.assert_allclose(fast.phase, theta, rtol=0, atol=1e-12)
-    # the same method errs alike; rounding in the error estimate (a difference of nearly equal
-    # stage sums) can flip an accept/reject decision, so not to the digit: within 2x of scipy's
-    # own error (measured 0.6-1.3x), which is 2e-7 m/s at most here
-    error_fast = np.abs(fast.amplitude - r).max()
-    assert error_fast <= 2 * np.abs(slow.amplitude - r).max() + 1e-12
+    # the same method errs alike, but not to the digit: rounding in the error estimate (a
+    # difference of nearly equal stage sums) can flip an accept/reject decision, and numpy's
+    # SIMD kernels round scipy's own sums differently on different CPUs. Measured global errors
+    # over 10 s at rtol = atol = 1e-10: 8e-10 to 1.3e-7 m/s on both paths, on two machines; so
+    # both within 3e-7 m/s (a wrong coefficient costs the method its order: the evaluation
+    # count below then moves by far more than a few flipped steps)
+    for trajectory in (fast, slow):
+        assert np.abs(trajectory.amplitude - r).max() <= 3e-7
     # the same step control: a few flipped decisions at most (12 evaluations each; measured
-    # 0-4 %), where another controller or a wrong error estimator takes far more or fewer steps
-    assert fast.evaluations == pytest.approx(slow.evaluations, rel=0.05)
+    # 0-6 %), where another controller or a wrong error estimator takes far more or fewer steps
+    assert fast.evaluations == pytest.approx(slow.evaluations, rel=0.1)
 
 
 @pytest.mark.parametrize("seed", range(4))
