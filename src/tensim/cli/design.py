@@ -32,6 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--modes", type=int, default=4, help="softest modes to list and draw")
     s.add_argument("--out", default=None, help="output folder (modes.png, stiffness.json)")
     s.set_defaults(run=run_stiffness)
+    register_size(steps)
 
 
 def run_prestress(args: argparse.Namespace) -> int:
@@ -87,4 +88,72 @@ def run_stiffness(args: argparse.Namespace) -> int:
                                                   result.frequencies],
                                "stable_timestep_s": limit})
         print(f"wrote {args.out}/ (modes.png, summary.json)")
+    return 0
+
+
+def register_size(steps: argparse._SubParsersAction) -> None:
+    z = steps.add_parser("size", help="motor sizing from run folders: per-cable tension, "
+                         "speed, power, work; shaft torque and speed; catalogue pass/fail")
+    z.add_argument("runs", nargs="+", metavar="RUN", help="run folders (trajectory.parquet)")
+    z.add_argument("--spool-radius", type=positive, required=True, metavar="M",
+                   help="spool radius [m]")
+    z.add_argument("--gear", type=positive, default=1.0, help="gear ratio N [-] (default 1)")
+    z.add_argument("--safety", type=positive, default=1.15,
+                   help="safety factor on tension and speed (default 1.15, the paper's)")
+    z.add_argument("--period", type=positive, default=None, metavar="S",
+                   help="gait cycle [s]: report work per cycle (default: over the run)")
+    z.add_argument("--motors", default=None, metavar="FILE.yaml",
+                   help="catalogue: motors: [{name, stall_torque [N m], no_load_speed [rad/s]}]")
+    z.add_argument("--out", default="runs/size", help="output folder")
+    z.set_defaults(run=run_size)
+
+
+def run_size(args: argparse.Namespace) -> int:
+    """Prints and writes the sizing; exits 1 when no catalogue motor suffices."""
+    from tensim.design import motors
+    from tensim.design.report import save, sizing_figure, table
+    from tensim.runs import STRUCTURE_FILE, check_run_folder, finish_run, replace_folder
+    from tensim.sim import TimeSeries
+    from tensim.structure import load_structure
+
+    check_run_folder(Path(args.out))
+    catalogue = motors.load_catalogue(args.motors) if args.motors else []
+    runs = []
+    for folder in map(Path, args.runs):
+        limits = {}
+        if (folder / STRUCTURE_FILE).exists():
+            limits = {c.name: (c.motor.max_speed, c.motor.max_tension)
+                      for c in load_structure(folder / STRUCTURE_FILE).cables}
+        runs.append(motors.cable_duty(TimeSeries.from_parquet(folder / "trajectory.parquet"),
+                                      limits))
+    duties = motors.merge(runs)
+    needs = motors.requirements(duties, args.spool_radius, args.gear, args.safety)
+    period = args.period
+    rows = [(d.cable, d.peak_tension, d.rms_tension, d.peak_speed, d.peak_power, d.mean_power,
+             d.work_per_cycle(period) if period else d.work, 100 * d.at_speed_limit,
+             100 * d.at_force_limit, n.torque, n.speed) for d, n in zip(duties, needs, strict=True)]
+    header = ("cable", "peak T [N]", "rms T [N]", "peak u [m/s]", "peak P [W]", "mean P [W]",
+              "W/cycle [J]" if period else "W [J]", "at u lim [%]", "at T lim [%]",
+              "tau [N m]", "omega [rad/s]")
+    print(table(rows, header))
+    print(f"shaft needs (safety {args.safety:g}, spool {args.spool_radius:g} m, gear "
+          f"{args.gear:g}): {max(n.torque for n in needs):.4g} N m, "
+          f"{max(n.speed for n in needs):.4g} rad/s")
+    verdicts = {m.name: min(motors.margin(d, m, args.spool_radius, args.gear, args.safety)
+                            for d in duties) for m in catalogue}
+    for name, value in verdicts.items():
+        print(f"motor {name}: {'pass' if value >= 0 else 'FAIL'}, margin {100 * value:.1f} %")
+    with replace_folder(Path(args.out)) as stage:
+        save(sizing_figure(duties, catalogue, args.spool_radius, args.gear, args.safety),
+             stage / "operating_points.png")
+        finish_run(stage, {"runs": [str(r) for r in args.runs], "safety_factor": args.safety,
+                           "spool_radius_m": args.spool_radius, "gear_ratio": args.gear,
+                           "cables": [dict(zip(header, row, strict=True)) for row in rows],
+                           "motor_margins": verdicts})
+    print(f"wrote {args.out}/ (operating_points.png, summary.json)")
+    if catalogue and max(verdicts.values()) < 0:
+        best = max(verdicts, key=lambda k: verdicts[k])
+        print(f"tensim: no motor in {args.motors} is strong enough; the strongest of them "
+              f"({best}) falls short by {-100 * verdicts[best]:.0f} % of its torque-speed line")
+        return 1
     return 0

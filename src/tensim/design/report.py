@@ -15,6 +15,7 @@ from matplotlib.figure import Figure
 
 from tensim._files import atomic_path
 from tensim.design._bodies import bodies
+from tensim.design.motors import CableDuty, DriveMotor
 from tensim.design.stiffness import Stiffness
 from tensim.structure import Structure
 
@@ -68,6 +69,31 @@ def _draw(ax: object, structure: Structure, pose: dict[str, np.ndarray] | None, 
     for cable in structure.cables:
         points = np.array([at(n) for n in cable.path])
         ax.plot(*points.T, color=colour, lw=0.6 * width)  # type: ignore[attr-defined]
+
+
+def sizing_figure(duties: Sequence[CableDuty], catalogue: Sequence[DriveMotor],
+                  spool_radius: float, gear_ratio: float, safety: float) -> Figure:
+    """Shaft operating points (speed, torque) of every cable with each motor's torque-speed
+    line: a motor suffices where all points lie under its line."""
+    fig = Figure(figsize=(6.4, 4.4))
+    ax = fig.add_subplot(1, 1, 1)
+    for duty in duties:
+        ax.plot(safety * np.abs(duty.speed) * gear_ratio / spool_radius,
+                safety * np.maximum(duty.tension, 0.0) * spool_radius / gear_ratio, ".", ms=2,
+                label=duty.cable if len(duties) <= 12 else None)
+    for motor in catalogue:
+        ax.plot([0.0, motor.no_load_speed], [motor.stall_torque, 0.0], "k--", lw=1)
+        ax.annotate(motor.name, (0.5 * motor.no_load_speed, 0.5 * motor.stall_torque),
+                    fontsize=8)
+    ax.set_xlabel("shaft speed [rad/s]")
+    ax.set_ylabel("shaft torque [N m]")
+    ax.set_title(f"operating points x {safety:g} (spool {spool_radius:g} m, gear "
+                 f"{gear_ratio:g})", fontsize=10)
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+    if len(duties) <= 12:
+        ax.legend(fontsize=6, markerscale=4, ncol=2)
+    return fig
 
 
 def table(rows: Sequence[Sequence[object]], header: Sequence[str]) -> str:
