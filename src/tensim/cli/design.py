@@ -33,6 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--out", default=None, help="output folder (modes.png, stiffness.json)")
     s.set_defaults(run=run_stiffness)
     register_size(steps)
+    register_pull(steps)
 
 
 def run_prestress(args: argparse.Namespace) -> int:
@@ -157,3 +158,92 @@ def run_size(args: argparse.Namespace) -> int:
               f"({best}) falls short by {-100 * verdicts[best]:.0f} % of its torque-speed line")
         return 1
     return 0
+
+
+def _move(text: str) -> tuple[str, tuple[float, float, float]]:
+    """``NODE=DX,DY,DZ`` as (node, displacement [m])."""
+    node, _, rest = text.partition("=")
+    try:
+        values = tuple(float(v) for v in rest.split(","))
+    except ValueError:
+        values = ()
+    if not node or len(values) != 3:
+        raise argparse.ArgumentTypeError(f"expected NODE=DX,DY,DZ in metres, got {text!r}")
+    return node, values
+
+
+def register_pull(steps: argparse._SubParsersAction) -> None:
+    u = steps.add_parser("pull", help="which cables to pull: rest lengths that hold nodes "
+                         "displaced, standing on the ground (inverse statics)")
+    u.add_argument("model", help="preset name or structure .yaml file")
+    u.add_argument("--move", type=_move, action="append", required=True,
+                   metavar="NODE=DX,DY,DZ", help="displace NODE by (DX, DY, DZ) [m]; repeatable")
+    u.add_argument("--min-tension", type=positive, default=1.0,
+                   help="every cable keeps at least this tension [N] (default 1)")
+    u.add_argument("--tolerance", type=positive, default=1e-3,
+                   help="distance from a target that counts as reached [m] (default 0.001)")
+    u.add_argument("--verify", type=positive, default=None, metavar="S",
+                   help="simulate S seconds of the motors winding there and report the error")
+    u.add_argument("--out", default="runs/pull", help="output folder")
+    u.set_defaults(run=run_pull)
+
+
+def run_pull(args: argparse.Namespace) -> int:
+    import numpy as np
+    import yaml
+
+    from tensim._files import write_text
+    from tensim.design.inverse import inverse_statics
+    from tensim.design.report import table
+    from tensim.runs import check_run_folder, finish_run, replace_folder
+    from tensim.structure import save_structure
+
+    check_run_folder(Path(args.out))
+    structure = load_model(args.model)
+    moves = dict(args.move)
+    result = inverse_statics(structure, moves, min_tension=args.min_tension,
+                             tolerance=args.tolerance)
+    print(table([(n, r, 1e3 * d, t) for n, r, d, t in zip(
+        result.cables, result.rest_lengths, result.change, result.tensions, strict=True)],
+        ("cable", "rest [m]", "change [mm]", "tension [N]")))
+    print("friction needed at the feet: " + ", ".join(
+        f"{n} {v:.2f}" for n, v in result.friction_needed.items()))
+    errors = {}
+    if args.verify:
+        errors = _verify(structure, result, args.verify)
+        print(f"simulated {args.verify:g} s of the motors winding there; distance from the "
+              "static answer [mm]: " + ", ".join(f"{n} {1e3 * e:.2f}" for n, e in errors.items()))
+    with replace_folder(Path(args.out)) as stage:
+        write_text(stage / "rest_lengths.yaml", yaml.safe_dump({
+            "description": "commanded rest lengths [m] from tensim design pull",
+            "rest_lengths": {n: float(r) for n, r in zip(result.cables, result.rest_lengths,
+                                                         strict=True)}}, sort_keys=False))
+        save_structure(result.target, stage / "target.yaml")
+        finish_run(stage, {"model": args.model,
+                           "moves_m": {n: list(d) for n, d in moves.items()},
+                           "rest_lengths_m": dict(zip(result.cables,
+                                                      map(float, result.rest_lengths),
+                                                      strict=True)),
+                           "tensions_N": dict(zip(result.cables, map(float, result.tensions),
+                                                  strict=True)),
+                           "verify_error_m": {n: float(e) for n, e in errors.items()},
+                           "max_verify_error_m": float(np.max(list(errors.values())))
+                           if errors else None})
+    print(f"wrote {args.out}/ (rest_lengths.yaml, target.yaml, summary.json)")
+    return 0
+
+
+def _verify(structure: object, result: object, duration: float) -> dict[str, float]:
+    """Each moved node's distance from the static answer after simulating the motors [m]."""
+    import numpy as np
+
+    import tensim
+    from tensim.hardware import node_positions
+
+    compiled = tensim.compile_structure(structure)  # type: ignore[arg-type]
+    run = tensim.simulate(compiled, duration, controller=result.command())  # type: ignore[attr-defined]
+    nodes = [n.name for n in compiled.structure.nodes
+             if compiled.index.node_body.get(n.name, 0) != 0]
+    settled = node_positions(run.trajectory, compiled, nodes)
+    target = result.target  # type: ignore[attr-defined]
+    return {n: float(np.linalg.norm(settled[n][-1] - target.position(n))) for n in nodes}
