@@ -159,59 +159,76 @@ class CableGeometry:
     Attributes:
         lengths: (n_cables,) anchor-to-anchor path lengths L [m].
         gradients: (n_cables, n_dof) dL/dq.
-        hessians: (n_cables, n_dof, n_dof) d2L/dq2 [1/m for translations].
         node_forces: node name -> (3, n_cables) force on that node per newton of each cable's
             tension (unit vectors toward the neighbouring points of its path) [-].
+        spans: per span (cable index, full-coordinate indices (<= 12,), local d2L/dq2 block).
+        basis: (6 n_bodies, n_dof) the bodies' coordinate basis T.
     """
 
     lengths: np.ndarray
     gradients: np.ndarray
-    hessians: np.ndarray
     node_forces: dict[str, np.ndarray]
+    spans: tuple[tuple[int, np.ndarray, np.ndarray], ...]
+    basis: np.ndarray
+
+    def geometric(self, tensions: np.ndarray) -> np.ndarray:
+        """(n_dof, n_dof) sum_c t_c d2L_c/dq2 for tensions (n_cables,) [N]."""
+        full = np.zeros((self.basis.shape[0],) * 2)
+        for cable, index, block in self.spans:
+            full[np.ix_(index, index)] += tensions[cable] * block
+        return self.basis.T @ full @ self.basis
 
 
 def cable_geometry(structure: Structure, body_set: Bodies) -> CableGeometry:
     """Lengths, dL/dq and d2L/dq2 of every cable (each span summed) at the build pose."""
     n = len(structure.cables)
     grads = np.zeros((n, body_set.n_full))
-    hess = np.zeros((n, body_set.n_full, body_set.n_full))
     lengths = np.zeros(n)
     node_forces = {name: np.zeros((3, n)) for name in body_set.node_body}
+    spans = []
     for c, cable in enumerate(structure.cables):
         points = structure.cable_points(cable)
         owners = [body_set.node_body[name] for name in cable.path]
         for j in range(len(points) - 1):
-            g, h, length, unit = _span(body_set, owners[j], points[j], owners[j + 1],
-                                       points[j + 1])
-            grads[c] += g
-            hess[c] += h
+            index, g, h, length, unit = _span(body_set, owners[j], points[j], owners[j + 1],
+                                              points[j + 1])
+            grads[c, index] += g
+            spans.append((c, index, h))
             lengths[c] += length
             node_forces[cable.path[j]][:, c] += unit
             node_forces[cable.path[j + 1]][:, c] -= unit
-    basis = body_set.basis
-    return CableGeometry(lengths, grads @ basis, basis.T @ hess @ basis, node_forces)
+    return CableGeometry(lengths, grads @ body_set.basis, node_forces, tuple(spans),
+                         body_set.basis)
 
 
-def _span(body_set: Bodies, body_a: int, a: np.ndarray, body_b: int,
-          b: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
-    """Gradient and Hessian of one span's length |b - a| in full twist coordinates.
+def _span(body_set: Bodies, body_a: int, a: np.ndarray, body_b: int, b: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
+    """Gradient and Hessian of one span's length |b - a| on the twists of its (<= 2) bodies.
 
     dL = e . dd with d = b - a; d2L = dd^T (I - e e^T) dd / L + sum_k e_k d2(d_k), where a
     point at r on body i contributes d2(e . p) = (e r^T + r e^T) / 2 - (e . r) I to body i's
     rotation block (the exponential map's second-order term).
+
+    Returns:
+        (full-coordinate indices, gradient, Hessian block, length [m], unit vector a -> b).
     """
     diff = b - a
     length = float(np.linalg.norm(diff))
     unit = diff / length
-    jac = body_set.point_jacobian(body_b, b) - body_set.point_jacobian(body_a, a)
-    hess = jac.T @ (np.eye(3) - np.outer(unit, unit)) @ jac / length
-    for body, point, sign in ((body_b, b, 1.0), (body_a, a, -1.0)):
-        if body >= 0:
-            r = point - body_set.com[body]
-            block = 0.5 * (np.outer(unit, r) + np.outer(r, unit)) - (unit @ r) * np.eye(3)
-            rot = slice(6 * body + 3, 6 * body + 6)
-            hess[rot, rot] += sign * block
-    return unit @ jac, hess, length, unit
+    ends = [(body, point, sign) for body, point, sign in ((body_a, a, -1.0), (body_b, b, 1.0))
+            if body >= 0]
+    index = np.concatenate([np.arange(6 * body, 6 * body + 6) for body, _, _ in ends]) \
+        if ends else np.zeros(0, dtype=int)
+    jac = np.zeros((3, len(index)))
+    hess_points = np.zeros((len(index), len(index)))
+    for k, (body, point, sign) in enumerate(ends):
+        r = point - body_set.com[body]
+        jac[:, 6 * k:6 * k + 3] = sign * np.eye(3)
+        jac[:, 6 * k + 3:6 * k + 6] = -sign * skew(r)
+        block = 0.5 * (np.outer(unit, r) + np.outer(r, unit)) - (unit @ r) * np.eye(3)
+        hess_points[6 * k + 3:6 * k + 6, 6 * k + 3:6 * k + 6] = sign * block
+    hess = jac.T @ (np.eye(3) - np.outer(unit, unit)) @ jac / length + hess_points
+    return index, unit @ jac, hess, length, unit
 
 
 def cable_tensions(structure: Structure, lengths: np.ndarray) -> np.ndarray:

@@ -77,7 +77,7 @@ def check_structure(structure: Structure, timestep: float = 1e-3) -> list[Findin
 def _timestep(structure: Structure, timestep: float) -> list[Finding]:
     if not structure.cables:
         return []
-    limit, frequency, zeta = stable_timestep(stiffness(structure))
+    limit, frequency, zeta = stable_timestep(stiffness(structure, count=False))
     needed = nice_step(limit / 2)
     text = (f"its hardest mode to integrate is at {frequency:.4g} Hz (damping ratio "
             f"{zeta:.3g}); the Euler step is stable below {limit * 1e3:.4g} ms")

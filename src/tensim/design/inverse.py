@@ -144,8 +144,7 @@ def _linearise(pose: Structure, anchors: dict[str, np.ndarray], gravity: float) 
     taut = geometry.lengths > rest
     tensions = k * np.maximum(geometry.lengths - rest, 0.0)
     grads = geometry.gradients
-    stiffness = (grads.T * (k * taut)) @ grads + np.einsum("c,cij->ij", tensions,
-                                                          geometry.hessians)
+    stiffness = (grads.T * (k * taut)) @ grads + geometry.geometric(tensions)
     force = grads.T @ tensions - body_set.gravity_force(gravity)
     for name, anchor in anchors.items():
         jac = body_set.point_jacobian(body_set.node_body[name], pose.position(name)) \

@@ -70,8 +70,13 @@ class Stiffness:
         return np.linalg.eigvalsh(self.matrix)
 
 
-def stiffness(structure: Structure) -> Stiffness:
+def stiffness(structure: Structure, count: bool = True) -> Stiffness:
     """K_m, K_g, M and the natural frequencies at the build pose (slack cables carry nothing).
+
+    Args:
+        structure: the structure at its build pose.
+        count: also count rigid motions and (stiffened) mechanisms (an SVD more); else they
+            are reported as 0.
     """
     body_set = bodies(structure)
     geometry = cable_geometry(structure, body_set)
@@ -81,16 +86,18 @@ def stiffness(structure: Structure) -> Stiffness:
     k = np.array([c.stiffness for c in structure.cables]) * taut
     grads = geometry.gradients
     material = (grads.T * k) @ grads
-    geometric = np.einsum("c,cij->ij", tensions, geometry.hessians)
+    geometric = geometry.geometric(tensions)
     mass = body_set.mass_matrix()
     damping = (grads.T * np.array([c.damping for c in structure.cables]) * taut) @ grads
     values, modes = eigh(material + geometric, mass)
     frequencies = np.sqrt(np.clip(values, 0.0, None)) / (2 * np.pi)
-    eq = equilibrium(structure, RANK_TOLERANCE)
+    counts = (0, 0, 0)
+    if count:
+        eq = equilibrium(structure, RANK_TOLERANCE)
+        counts = (eq.n_rigid, eq.internal_mechanisms,
+                  _stiffened(eq.mechanisms, body_set.rigid_motions(), geometric))
     return Stiffness(body_set.names, body_set.dof_body, material, geometric, mass, damping,
-                     tensions,
-                     frequencies, modes, eq.n_rigid, eq.internal_mechanisms,
-                     _stiffened(eq.mechanisms, body_set.rigid_motions(), geometric))
+                     tensions, frequencies, modes, *counts)
 
 
 def _stiffened(mechanisms: np.ndarray, rigid: np.ndarray, geometric: np.ndarray) -> int:
