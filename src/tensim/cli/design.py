@@ -182,8 +182,9 @@ def register_pull(steps: argparse._SubParsersAction) -> None:
                    help="every cable keeps at least this tension [N] (default 1)")
     u.add_argument("--tolerance", type=positive, default=1e-3,
                    help="distance from a target that counts as reached [m] (default 0.001)")
-    u.add_argument("--verify", type=positive, default=None, metavar="S",
-                   help="simulate S seconds of the motors winding there and report the error")
+    u.add_argument("--verify", action="store_true",
+                   help="simulate the motors winding there slowly (0.01 m/s) and resting 2 s; "
+                        "report each node's distance from the static answer")
     u.add_argument("--out", default="runs/pull", help="output folder")
     u.set_defaults(run=run_pull)
 
@@ -208,11 +209,14 @@ def run_pull(args: argparse.Namespace) -> int:
         ("cable", "rest [m]", "change [mm]", "tension [N]")))
     print("friction needed at the feet: " + ", ".join(
         f"{n} {v:.2f}" for n, v in result.friction_needed.items()))
-    errors = {}
+    errors: dict[str, float] = {}
     if args.verify:
-        errors = _verify(structure, result, args.verify)
-        print(f"simulated {args.verify:g} s of the motors winding there; distance from the "
-              "static answer [mm]: " + ", ".join(f"{n} {1e3 * e:.2f}" for n, e in errors.items()))
+        from tensim.design.verify import settle_errors
+
+        errors, duration = settle_errors(structure, result)
+        print(f"simulated {duration:g} s (motors winding at 0.01 m/s, then resting); distance "
+              "from the static answer [mm]: "
+              + ", ".join(f"{n} {1e3 * e:.2f}" for n, e in errors.items()))
     with replace_folder(Path(args.out)) as stage:
         write_text(stage / "rest_lengths.yaml", yaml.safe_dump({
             "description": "commanded rest lengths [m] from tensim design pull",
@@ -232,18 +236,3 @@ def run_pull(args: argparse.Namespace) -> int:
     print(f"wrote {args.out}/ (rest_lengths.yaml, target.yaml, summary.json)")
     return 0
 
-
-def _verify(structure: object, result: object, duration: float) -> dict[str, float]:
-    """Each moved node's distance from the static answer after simulating the motors [m]."""
-    import numpy as np
-
-    import tensim
-    from tensim.hardware import node_positions
-
-    compiled = tensim.compile_structure(structure)  # type: ignore[arg-type]
-    run = tensim.simulate(compiled, duration, controller=result.command())  # type: ignore[attr-defined]
-    nodes = [n.name for n in compiled.structure.nodes
-             if compiled.index.node_body.get(n.name, 0) != 0]
-    settled = node_positions(run.trajectory, compiled, nodes)
-    target = result.target  # type: ignore[attr-defined]
-    return {n: float(np.linalg.norm(settled[n][-1] - target.position(n))) for n in nodes}

@@ -41,6 +41,8 @@ GROUND_TOLERANCE = 1e-3  # m: nodes this close to the lowest node's height are f
 PIN_STIFFNESS = 1e6  # N/m: the spring that holds each foot (it moves ~ force / 1e6 m)
 TOLERANCE = 1e-3  # m: default of how close the static pose must bring each target node
 TRUST = 5e-3  # m: largest rest-length change of one linearised step
+FRICTION_USE = 0.5  # the statics may use this fraction of the feet's friction (the rest is
+# margin for the motion there and MuJoCo's soft, slightly sliding contacts)
 MISS_WEIGHT = 1e3  # a metre of target miss costs as much as this many metres of rest change
 
 
@@ -219,7 +221,8 @@ def _step(lin: _Linear, structure: Structure, targets: dict[str, np.ndarray],
 
 def _friction_rows(lin: _Linear, structure: Structure,
                    pull: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Linearised friction pyramid at the feet, |f_x|, |f_y| <= mu f_z / sqrt(2), as rows
+    """Linearised friction pyramid at the feet, |f_x|, |f_y| <= FRICTION_USE mu f_z / sqrt(2),
+    as rows
     ``rows @ dl0 <= slack`` (the ground force f = -K_pin (foot - anchor) moves with dl0 as
     -K_pin J_foot K^-1 A diag(k) dl0, the feet's springs included in K)."""
     if not lin.feet:
@@ -231,7 +234,7 @@ def _friction_rows(lin: _Linear, structure: Structure,
             @ lin.body_set.basis
         force = -PIN_STIFFNESS * (lin.pose.position(foot) - lin.anchors[foot])
         rate = -PIN_STIFFNESS * jac @ sens  # (3, n_cables) d force / d l0
-        mu = _friction(structure, foot) / np.sqrt(2)
+        mu = FRICTION_USE * _friction(structure, foot) / np.sqrt(2)
         for axis in (0, 1):
             for sign in (1.0, -1.0):
                 rows.append(sign * rate[axis] - mu * rate[2])

@@ -27,6 +27,7 @@ from tensim.design._errors import DesignError
 from tensim.sim import TimeSeries
 
 SAFETY_FACTOR = 1.15  # the paper's, from its simulated-versus-measured tensions
+SPEED_FLOOR = 1e-9  # m/s: slower line speeds are the round-off of a rest length that holds
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,6 +87,7 @@ def cable_duty(series: TimeSeries, limits: dict[str, tuple[float, float]] | None
     for cable in cables:
         tension = series[f"tension/{cable}"]
         speed = np.gradient(series[f"rest_length/{cable}"], time)
+        speed[np.abs(speed) < SPEED_FLOOR] = 0.0  # round-off of a rest length that holds
         power = -tension * speed
         max_speed, max_tension = (limits or {}).get(cable, (np.inf, np.inf))
         out.append(CableDuty(

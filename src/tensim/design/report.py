@@ -107,5 +107,5 @@ def table(rows: Sequence[Sequence[object]], header: Sequence[str]) -> str:
 
 def _cell(value: object) -> str:
     if isinstance(value, float | np.floating):
-        return f"{value:.4g}"
+        return f"{value + 0.0:.4g}"  # + 0.0: no "-0"
     return str(value)
