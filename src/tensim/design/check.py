@@ -169,4 +169,4 @@ def _units(structure: Structure) -> list[Finding]:
 def warn_findings(structure: Structure, timestep: float) -> None:
     """Logs every finding as a warning (``simulate`` runs the check before it starts)."""
     for finding in check_structure(structure, timestep):
-        _log.warning("%s", finding)
+        _log.warning("%s: %s; %s", finding.item, finding.message, finding.fix)
