@@ -55,6 +55,11 @@ def test_findings_name_what_to_change(tmp_path) -> None:
     assert "far from equilibrium" in text
     scaled = check_structure(dataclasses.replace(base, nodes=nodes))
     assert any("centimetres" in str(f) for f in scaled)
+    # a bare 0.5 m rod of 1 mm radius: axial / transverse inertia = 6 r^2 / L^2 = 2.4e-5
+    bare = dataclasses.replace(base, rods=tuple(dataclasses.replace(r, radius=0.001)
+                                                for r in base.rods), point_masses=())
+    thin = [f for f in check_structure(bare) if f.item.startswith("rod")]
+    assert len(thin) == 3 and "use a radius of at least" in thin[0].fix
 
 
 def test_check_command_exit_status(tmp_path, capsys) -> None:

@@ -12,7 +12,7 @@ import statics
 from tensim.design import DesignError, equilibrium, prestressed, residuals, self_stress
 from tensim.models.prisms import prism
 from tensim.models.six_bar import six_bar
-from tensim.structure import Cable, Node, PointMass, Structure
+from tensim.structure import Cable, Node, PointMass, Structure, load_structure
 
 
 def _wrong(structure: Structure, seed: int = 0) -> Structure:
@@ -123,3 +123,21 @@ def test_level_options() -> None:
         self_stress(structure, cable="nope", tension=1.0)
     with pytest.raises(DesignError, match="one prestress level"):
         self_stress(structure)
+
+
+def test_prestress_command_writes_nothing_without_a_self_stress(tmp_path, capsys) -> None:
+    from tensim.cli import main
+    from tensim.structure import save_structure
+
+    braced = dataclasses.replace(prism(3), cables=prism(3).cables[:-1])
+    path, out = tmp_path / "braced.yaml", tmp_path / "out.yaml"
+    save_structure(braced, path)
+    assert main(["design", "prestress", str(path), "--min-tension", "5", "--out",
+                 str(out)]) == 2
+    assert "no state of self-stress" in capsys.readouterr().err
+    assert not out.exists()
+    save_structure(prism(3), path)
+    assert main(["design", "prestress", str(path), "--cable", "top_0", "--tension", "8",
+                 "--out", str(out)]) == 0
+    written = self_stress(load_structure(out), cable="top_0", tension=8.0)
+    assert written.tensions == pytest.approx([c.pretension for c in load_structure(out).cables])

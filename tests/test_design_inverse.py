@@ -64,3 +64,13 @@ def test_unreachable_target_says_how_far_it_goes() -> None:
         inverse_statics(structure, {"b0": (0.01, 0.0, 0.0)})
     with pytest.raises(DesignError, match="unknown node 'zz'"):
         inverse_statics(structure, {"zz": (0.01, 0.0, 0.0)})
+
+
+def test_pull_command_refuses_an_unreachable_target_and_writes_nothing(tmp_path,
+                                                                        capsys) -> None:
+    from tensim.cli import main
+
+    out = tmp_path / "pull"
+    assert main(["design", "pull", "prism3", "--move", "t0=0.2,0,0", "--out", str(out)]) == 2
+    assert "unreachable" in capsys.readouterr().err
+    assert not out.exists()

@@ -94,3 +94,13 @@ def test_prestress_stiffens_the_prism_mechanism() -> None:
     slack = dataclasses.replace(prism(3), cables=tuple(
         dataclasses.replace(c, pretension=0.0) for c in prism(3).cables))
     assert stiffness(slack).frequencies[6] < 1e-6 * result.frequencies[-1]
+
+
+def test_stiffness_command_draws_the_softest_modes(tmp_path, capsys) -> None:
+    from tensim.cli import main
+
+    out = tmp_path / "stiffness"
+    assert main(["design", "stiffness", "prism3", "--modes", "3", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "1 internal mechanisms, 1 of them stiffened by prestress" in text
+    assert (out / "modes.png").stat().st_size > 10_000 and (out / "summary.json").exists()
