@@ -6,12 +6,13 @@ import dataclasses
 import itertools
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from tensim.design._bodies import bodies
 from tensim.design.stiffness import stiffness
 from tensim.models.prisms import prism
-from tensim.structure import Cable, Node, PointMass, Structure
+from tensim.structure import Cable, Node, PointMass, Rod, Structure
 
 
 def _tether(k: float, tension: float, length: float, mass: float) -> Structure:
@@ -104,3 +105,28 @@ def test_stiffness_command_draws_the_softest_modes(tmp_path, capsys) -> None:
     text = capsys.readouterr().out
     assert "1 internal mechanisms, 1 of them stiffened by prestress" in text
     assert (out / "modes.png").stat().st_size > 10_000 and (out / "summary.json").exists()
+
+
+def test_rod_between_two_cables_has_the_pin_jointed_geometric_stiffness() -> None:
+    # a rigid rod of length 2a on the z axis, pulled at each end by a cable of tension T and
+    # length d to a fixed anchor on the axis. Pin-jointed, its ends move by +-a theta when it
+    # turns by theta: the cables give T/d each across, the rod (axial force N = T) its
+    # geometric stiffness N/(2a) on the ends' relative motion 2 a theta, so
+    #     K_theta = 2 T a^2 / d + (T / 2a)(2a)^2 = 2 T a (a + d) / d,   K_x = 2 T / d,
+    # and along the axis the rigid rod stretches one cable and eases the other: 2 k.
+    a, d, k, tension = 0.25, 0.1, 500.0, 20.0
+    nodes = (Node("f1", (0.0, 0.0, -d), fixed=True), Node("a", (0.0, 0.0, 0.0)),
+             Node("b", (0.0, 0.0, 2 * a)), Node("f2", (0.0, 0.0, 2 * a + d), fixed=True))
+    structure = Structure(
+        "rod", nodes, (Rod("r", ("a", "b"), 0.01, linear_density=0.2),),
+        (Cable("c1", ("f1", "a"), k, pretension=tension),
+         Cable("c2", ("b", "f2"), k, pretension=tension)))
+    result = stiffness(structure)
+    basis = bodies(structure).basis  # translations x, y, z, then the two turns across
+    matrix = basis @ result.matrix @ basis.T  # back to (v, w) of the rod's centre
+    assert matrix[0, 0] == pytest.approx(2 * tension / d, rel=1e-12)
+    assert matrix[2, 2] == pytest.approx(2 * k, rel=1e-12)
+    assert matrix[3, 3] == pytest.approx(2 * tension * a * (a + d) / d, rel=1e-12)
+    assert matrix[4, 4] == pytest.approx(2 * tension * a * (a + d) / d, rel=1e-12)
+    # sideways shift and turn do not couple: the two ends' pulls cancel by symmetry
+    assert abs(matrix[0, 4]) < 1e-9 * matrix[0, 0]

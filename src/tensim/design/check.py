@@ -78,6 +78,8 @@ def _timestep(structure: Structure, timestep: float) -> list[Finding]:
     if not structure.cables:
         return []
     limit, frequency, zeta = stable_timestep(stiffness(structure, count=False))
+    if not np.isfinite(limit):
+        return []
     needed = nice_step(limit / 2)
     text = (f"its hardest mode to integrate is at {frequency:.4g} Hz (damping ratio "
             f"{zeta:.3g}); the Euler step is stable below {limit * 1e3:.4g} ms")
@@ -144,8 +146,10 @@ def _equilibrium(structure: Structure) -> list[Finding]:
     mean = float(np.mean(tensions)) if tensions else 0.0
     if mean <= 0:
         return []
-    worst = max(residuals(structure).items(), key=lambda kv: kv[1][0])
-    name, (force, _) = worst
+    forces = residuals(structure)
+    if not forces:  # every body is held by the world
+        return []
+    name, (force, _) = max(forces.items(), key=lambda kv: kv[1][0])
     if force <= RESIDUAL_FRACTION * mean:
         return []
     return [Finding("warning", f"body {name!r}",

@@ -127,6 +127,8 @@ def stable_timestep(result: Stiffness) -> tuple[float, float, float]:
         (dt_max [s], that mode's frequency [Hz], its damping ratio [-]).
     """
     omega = 2 * np.pi * result.frequencies
+    if not omega.size or omega.max() <= 0:  # nothing moves, or nothing springs
+        return np.inf, 0.0, 0.0
     modal = np.einsum("ik,ij,jk->k", result.modes, result.damping, result.modes)
     live = omega > 1e-9 * max(omega.max(), 1.0)
     zeta = np.where(live, modal / (2 * np.where(live, omega, 1.0)), 0.0)
