@@ -5,13 +5,14 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import yaml
 
 import tensim
 from tensim.cli import main
 from tensim.design.check import check_structure
 from tensim.design.stiffness import stable_timestep, stiffness
 from tensim.models.prisms import prism
-from tensim.structure import Motor, save_structure
+from tensim.structure import Motor, load_structure, save_structure
 
 
 def _peak_tension_change(structure: tensim.Structure, dt: float) -> float:
@@ -42,7 +43,6 @@ def test_findings_name_what_to_change(tmp_path) -> None:
     base = prism(3)
     cables = list(base.cables)
     cables[0] = dataclasses.replace(cables[0], pretension=0.0)
-    cables[1] = dataclasses.replace(cables[1], motor=Motor())
     cables[2] = dataclasses.replace(cables[2], pretension=30.0,
                                     motor=Motor(max_speed=0.1, max_tension=20.0))
     nodes = tuple(dataclasses.replace(n, position=tuple(100 * np.array(n.position)))
@@ -50,7 +50,6 @@ def test_findings_name_what_to_change(tmp_path) -> None:
     found = check_structure(dataclasses.replace(base, cables=tuple(cables)))
     text = "\n".join(map(str, found))
     assert "cable 'bottom_0': slack at the build pose" in text
-    assert "keep the default motor" in text and "bottom_1" in text
     assert "exceeds its motor's max_tension 20 N" in text
     assert "far from equilibrium" in text
     scaled = check_structure(dataclasses.replace(base, nodes=nodes))
@@ -60,6 +59,20 @@ def test_findings_name_what_to_change(tmp_path) -> None:
                                                 for r in base.rods), point_masses=())
     thin = [f for f in check_structure(bare) if f.item.startswith("rod")]
     assert len(thin) == 3 and "use a radius of at least" in thin[0].fix
+
+
+def test_cables_without_a_motor_in_their_file_are_named(tmp_path) -> None:
+    path = tmp_path / "prism.yaml"
+    save_structure(prism(3), path)
+    text = path.read_text()
+    assert text.count("motor:") == 9
+    # drop bottom_1's motor from the file: it inherits the default one
+    data = yaml.safe_load(text)
+    del data["cables"][1]["motor"]
+    path.write_text(yaml.safe_dump(data))
+    found = [str(f) for f in check_structure(load_structure(path), source=path)]
+    assert any("bottom_1 give no motor, so they inherit the default one" in f for f in found)
+    assert check_structure(prism(3), source="prism3") == []  # a preset: no file to read
 
 
 def test_check_command_exit_status(tmp_path, capsys) -> None:

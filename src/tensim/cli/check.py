@@ -19,7 +19,7 @@ def run(args: argparse.Namespace) -> int:
     """Prints each finding; exits 1 when one of them is an error."""
     from tensim.design.check import check_structure
 
-    findings = check_structure(load_model(args.model), args.dt)
+    findings = check_structure(load_model(args.model), args.dt, source=args.model)
     for finding in findings:
         print(finding)
     if not findings:

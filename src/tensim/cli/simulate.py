@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
 
     prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     structure = load_model(args.model)
-    warn_findings(structure, args.dt)  # tensim check's findings, as warnings
+    warn_findings(structure, args.dt, args.model)  # tensim check's findings, as warnings
     config = resolve_controller(args.model, structure, args.controller)
     if args.velocity_input:
         if config is None:

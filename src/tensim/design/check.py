@@ -11,7 +11,8 @@ Each finding names the item, what is wrong and the change that fixes it:
 - slack cables at the build pose (rest length at or above the length);
 - a build pose far from equilibrium: the cables' net force on a body above 5 % of the mean
   tension (the robot jumps when released);
-- motors left at the default limits, or a pretension above the motor's tension limit;
+- cables whose file gives no motor (they inherit the default one), or a pretension above the
+  motor's tension limit;
 - sizes that look like centimetres or decimetres (tensim reads metres).
 """
 
@@ -19,9 +20,12 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import os
+from pathlib import Path
 
 import numpy as np
 
+from tensim._input import load_yaml_file
 from tensim.design._bodies import bodies
 from tensim.design.equilibrium import residuals
 from tensim.design.stiffness import stable_timestep, stiffness
@@ -32,6 +36,7 @@ _log = logging.getLogger(__name__)
 INERTIA_RATIO = 1e-4  # smallest axial / transverse inertia of a rod body that integrates well
 RESIDUAL_FRACTION = 0.05  # net cable force on a body, of the mean tension, that counts as far
 LARGEST_SIZE = 10.0  # m: a robot larger than this was probably written in cm or dm
+MAX_DOF = 2000  # the time-step check solves a dense eigenproblem: skipped above this size
 
 
 @dataclasses.dataclass(frozen=True)
@@ -63,9 +68,18 @@ def nice_step(limit: float) -> float:
     return float(10 ** (exponent - 1) * 5)
 
 
-def check_structure(structure: Structure, timestep: float = 1e-3) -> list[Finding]:
-    """Every finding for ``structure`` simulated with the physics step ``timestep`` [s]."""
-    findings = _units(structure) + _slack(structure) + _motors(structure) + _thin(structure)
+def check_structure(structure: Structure, timestep: float = 1e-3,
+                    source: str | os.PathLike[str] | None = None) -> list[Finding]:
+    """Every finding for ``structure`` simulated with the physics step ``timestep`` [s].
+
+    Args:
+        structure: the structure.
+        timestep: the physics step to check [s].
+        source: the YAML file it was read from, if any: cables whose motor the file leaves out
+            (so they inherit tensim's default motor) are then named too.
+    """
+    findings = (_units(structure) + _slack(structure) + _motors(structure, source)
+                + _thin(structure))
     try:
         bodies(structure)
     except StructureError as err:  # wrapped cables: the analyses need straight paths
@@ -77,6 +91,9 @@ def check_structure(structure: Structure, timestep: float = 1e-3) -> list[Findin
 def _timestep(structure: Structure, timestep: float) -> list[Finding]:
     if not structure.cables:
         return []
+    if bodies(structure).n_dof > MAX_DOF:
+        return [Finding("warning", "timestep", f"not checked: more than {MAX_DOF} degrees of "
+                        "freedom", "compare runs at two values of --dt")]
     limit, frequency, zeta = stable_timestep(stiffness(structure, count=False))
     if not np.isfinite(limit):
         return []
@@ -120,15 +137,29 @@ def _slack(structure: Structure) -> list[Finding]:
             if structure.rest_length(c) >= structure.cable_length(c)]
 
 
-def _motors(structure: Structure) -> list[Finding]:
-    default = [c.name for c in structure.cables if c.motor == Motor()]
+def _inherited(source: str | os.PathLike[str] | None) -> list[str]:
+    """Cables of a structure file that give no motor, here or in the file's defaults."""
+    path = Path(source) if source is not None else None
+    if path is None or path.suffix not in (".yaml", ".yml") or not path.is_file():
+        return []
+    data = load_yaml_file(path)
+    defaults = (data.get("defaults") or {}).get("cable") or {}
+    if "motor" in defaults:
+        return []
+    return [c.get("name", "?") for c in data.get("cables") or []
+            if isinstance(c, dict) and "motor" not in c]
+
+
+def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list[Finding]:
+    default = _inherited(source)
     out = []
     if default:
         names = ", ".join(default[:4]) + (" ..." if len(default) > 4 else "")
         out.append(Finding(
             "warning", f"{len(default)} cable(s)",
-            f"{names} keep the default motor (max_speed {Motor().max_speed} m/s, max_tension "
-            f"{Motor().max_tension} N)", "give each cable the motor it will have"))
+            f"{names} give no motor, so they inherit the default one (max_speed "
+            f"{Motor().max_speed} m/s, max_tension {Motor().max_tension} N)",
+            "give each cable the motor it will have"))
     for cable in structure.cables:
         tension = cable.stiffness * max(0.0, structure.cable_length(cable)
                                         - structure.rest_length(cable))
@@ -170,7 +201,8 @@ def _units(structure: Structure) -> list[Finding]:
                     "positions are in metres: scale the file (imports take --units)")]
 
 
-def warn_findings(structure: Structure, timestep: float) -> None:
+def warn_findings(structure: Structure, timestep: float,
+                  source: str | os.PathLike[str] | None = None) -> None:
     """Logs every finding as a warning (``simulate`` runs the check before it starts)."""
-    for finding in check_structure(structure, timestep):
+    for finding in check_structure(structure, timestep, source):
         _log.warning("%s: %s; %s", finding.item, finding.message, finding.fix)
