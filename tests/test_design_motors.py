@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import pytest
 
@@ -83,3 +84,26 @@ def test_too_weak_motor_and_bad_catalogue(run_folder, tmp_path, capsys) -> None:
                  str(bad), "--out", str(other)]) == 2
     assert "stall_torque must be a number > 0" in capsys.readouterr().err
     assert not other.exists()  # nothing written
+
+
+def test_batch_of_unscaled_robots_equals_a_single_run() -> None:
+    # fast path against the reference: one robot with every factor 1 through the batch engine
+    # gives the same duty as tensim.simulate (the CPU batch is bit-identical to single runs)
+    import tensim
+    from tensim.control import load_controller
+    from tensim.design.motors import cable_duty
+    from tensim.design.robots import gait_duties, random_scales
+    from tensim.structure import load_structure
+
+    examples = Path(__file__).resolve().parent.parent / "examples" / "design"
+    structure = load_structure(examples / "hopper.yaml")
+    config = load_controller(examples / "hopper_roll.yaml", structure)
+    compiled = tensim.compile_structure(structure)
+    single = cable_duty(tensim.simulate(compiled, 1.0, controller=config.build(1e-3)).trajectory)
+    batch, done = gait_duties(compiled, lambda: config.build(1e-3), 1.0, random_scales(1, 0.0, 0))
+    assert done == 1
+    for a, b in zip(single, batch, strict=True):
+        assert (a.cable, a.peak_tension, a.work) == (b.cable, b.peak_tension, b.work)
+    scales = random_scales(3, 0.2, seed=7)
+    assert scales == random_scales(3, 0.2, seed=7)  # seeded
+    assert all(0.8 <= s.stiffness <= 1.2 and 0.8 <= s.mass <= 1.2 for s in scales)

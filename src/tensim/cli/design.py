@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tensim.cli._common import load_model, positive
+
+if TYPE_CHECKING:
+    from tensim.design.motors import CableDuty
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -95,7 +99,18 @@ def run_stiffness(args: argparse.Namespace) -> int:
 def register_size(steps: argparse._SubParsersAction) -> None:
     z = steps.add_parser("size", help="motor sizing from run folders: per-cable tension, "
                          "speed, power, work; shaft torque and speed; catalogue pass/fail")
-    z.add_argument("runs", nargs="+", metavar="RUN", help="run folders (trajectory.parquet)")
+    z.add_argument("runs", nargs="*", metavar="RUN", help="run folders (trajectory.parquet)")
+    z.add_argument("--model", default=None, help="instead of run folders: run this preset or "
+                   "structure file under --controller on --robots randomised robots")
+    z.add_argument("--controller", default=None, help="controller file or shipped name for "
+                   "--model (default: the preset's own)")
+    z.add_argument("--robots", type=int, default=8, help="randomised robots for --model "
+                   "(default 8)")
+    z.add_argument("--spread", type=float, default=0.1, help="each robot's stiffness, "
+                   "damping, masses and friction scaled by U[1 - s, 1 + s] (default 0.1)")
+    z.add_argument("--seed", type=int, default=0, help="seed of the randomisation")
+    z.add_argument("--duration", type=positive, default=None, metavar="S",
+                   help="simulated time per robot [s] (default: the gait's duration)")
     z.add_argument("--spool-radius", type=positive, required=True, metavar="M",
                    help="spool radius [m]")
     z.add_argument("--gear", type=positive, default=1.0, help="gear ratio N [-] (default 1)")
@@ -118,16 +133,21 @@ def run_size(args: argparse.Namespace) -> int:
     from tensim.structure import load_structure
 
     check_run_folder(Path(args.out))
+    if bool(args.runs) == bool(args.model):
+        raise ValueError("give run folders or --model (with --controller), not both")
     catalogue = motors.load_catalogue(args.motors) if args.motors else []
-    runs = []
-    for folder in map(Path, args.runs):
-        limits = {}
-        if (folder / STRUCTURE_FILE).exists():
-            limits = {c.name: (c.motor.max_speed, c.motor.max_tension)
-                      for c in load_structure(folder / STRUCTURE_FILE).cables}
-        runs.append(motors.cable_duty(TimeSeries.from_parquet(folder / "trajectory.parquet"),
-                                      limits))
-    duties = motors.merge(runs)
+    if args.model:
+        duties = _robot_duties(args)
+    else:
+        runs = []
+        for folder in map(Path, args.runs):
+            limits = {}
+            if (folder / STRUCTURE_FILE).exists():
+                limits = {c.name: (c.motor.max_speed, c.motor.max_tension)
+                          for c in load_structure(folder / STRUCTURE_FILE).cables}
+            runs.append(motors.cable_duty(
+                TimeSeries.from_parquet(folder / "trajectory.parquet"), limits))
+        duties = motors.merge(runs)
     needs = motors.requirements(duties, args.spool_radius, args.gear, args.safety)
     period = args.period
     rows = [(d.cable, d.peak_tension, d.rms_tension, d.peak_speed, d.peak_power, d.mean_power,
@@ -147,7 +167,9 @@ def run_size(args: argparse.Namespace) -> int:
     with replace_folder(Path(args.out)) as stage:
         save(sizing_figure(duties, catalogue, args.spool_radius, args.gear, args.safety),
              stage / "operating_points.png")
-        finish_run(stage, {"runs": [str(r) for r in args.runs], "safety_factor": args.safety,
+        finish_run(stage, {"runs": [str(r) for r in args.runs], "model": args.model,
+                           "robots": args.robots if args.model else None,
+                           "safety_factor": args.safety,
                            "spool_radius_m": args.spool_radius, "gear_ratio": args.gear,
                            "cables": [dict(zip(header, row, strict=True)) for row in rows],
                            "motor_margins": verdicts})
@@ -236,3 +258,24 @@ def run_pull(args: argparse.Namespace) -> int:
     print(f"wrote {args.out}/ (rest_lengths.yaml, target.yaml, summary.json)")
     return 0
 
+
+
+def _robot_duties(args: argparse.Namespace) -> list[CableDuty]:
+    """The cables' worst duties over the gait on --robots randomised robots."""
+    from tensim.control import resolve_controller
+    from tensim.design.robots import gait_duties, random_scales
+    from tensim.model import compile_structure
+
+    structure = load_model(args.model)
+    config = resolve_controller(args.model, structure, args.controller)
+    if config is None:
+        raise ValueError(f"--model {args.model}: no controller; give --controller")
+    compiled = compile_structure(structure)
+    duration = args.duration or (config.duration if config.gait else 10.0)
+    limits = {c.name: (c.motor.max_speed, c.motor.max_tension) for c in structure.cables}
+    duties, finished = gait_duties(
+        compiled, lambda: config.build(compiled.model.opt.timestep), duration,
+        random_scales(args.robots, args.spread, args.seed), limits)
+    print(f"{finished} of {args.robots} randomised robots ran {duration:g} s "
+          f"(spread {args.spread:g}, seed {args.seed})")
+    return duties
