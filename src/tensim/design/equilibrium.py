@@ -24,7 +24,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy.linalg import null_space, svd
+from scipy.linalg import svd
 from scipy.optimize import linprog
 
 from tensim.design._bodies import Bodies, CableGeometry, bodies, cable_geometry, cable_tensions
@@ -94,18 +94,18 @@ def equilibrium(structure: Structure, tolerance: float = RANK_TOLERANCE) -> Equi
         tolerance: singular values below ``tolerance`` x the largest count as zero [-].
     """
     body_set = bodies(structure)
-    rows, scale = _row_scale(body_set, cable_geometry(structure, body_set))
-    matrix = cable_geometry(structure, body_set).gradients.T * rows[:, None]
-    values = svd(matrix, compute_uv=False) if matrix.size else np.zeros(0)
-    cutoff = tolerance * (values.max() if values.size else 1.0)
-    rank = int(np.sum(values > cutoff))
-    rcond = cutoff / values.max() if values.size and values.max() > 0 else None
-    stresses = null_space(matrix, rcond=rcond) if matrix.shape[1] else np.zeros((0, 0))
-    mechanisms = null_space(matrix.T, rcond=rcond) if matrix.shape[0] else np.zeros((0, 0))
-    if not matrix.shape[1]:
-        mechanisms = np.eye(body_set.n_dof)
+    geometry = cable_geometry(structure, body_set)
+    rows, scale = _row_scale(body_set, geometry)
+    matrix = geometry.gradients.T * rows[:, None]
+    # one full SVD, A = U S V^T: the last columns of V span the self-stresses, of U the
+    # mechanisms (Pellegrino 1993)
+    left, values, right = svd(matrix) if matrix.size else (
+        np.eye(matrix.shape[0]), np.zeros(0), np.eye(matrix.shape[1]))
+    rank = int(np.sum(values > tolerance * (values.max() if values.size else 1.0)))
+    stresses = right[rank:].T
     # a null vector v of (D A)^T is the motion D v of the unscaled coordinates
-    mechanisms = np.linalg.qr(mechanisms * rows[:, None])[0] if mechanisms.size else mechanisms
+    mechanisms = left[:, rank:] * rows[:, None]
+    mechanisms = np.linalg.qr(mechanisms)[0] if mechanisms.size else mechanisms
     return Equilibrium(tuple(c.name for c in structure.cables), matrix, values, rank,
                        body_set.n_dof, body_set.rigid_motions().shape[1], stresses,
                        mechanisms, scale)
