@@ -20,7 +20,8 @@ import dataclasses
 import numpy as np
 from scipy.linalg import null_space
 
-from tensim.structure import Cable, Structure, StructureError, mass_properties
+from tensim.sim._laws import cable_tension
+from tensim.structure import Structure, StructureError, mass_properties
 
 GRAVITY = 9.81  # m/s^2
 
@@ -231,11 +232,12 @@ def _span(body_set: Bodies, body_a: int, a: np.ndarray, body_b: int, b: np.ndarr
     return index, unit @ jac, hess, length, unit
 
 
-def cable_tensions(structure: Structure, lengths: np.ndarray) -> np.ndarray:
-    """(n_cables,) static tensions k (L - l0), zero where slack [N], at the given lengths."""
-    return np.array([_tension(structure, c, L) for c, L in zip(structure.cables, lengths,
-                                                               strict=True)])
-
-
-def _tension(structure: Structure, cable: Cable, length: float) -> float:
-    return max(0.0, cable.stiffness * (length - structure.rest_length(cable)))
+def cable_tensions(structure: Structure, lengths: np.ndarray | None = None) -> np.ndarray:
+    """(n_cables,) static tensions k max(0, L - l0) [N] (the cable law at rest, paper eq. 1-2),
+    at the given lengths [m] or the build pose's."""
+    if lengths is None:
+        lengths = np.array([structure.cable_length(c) for c in structure.cables])
+    rest = np.array([structure.rest_length(c) for c in structure.cables])
+    stiffness = np.array([c.stiffness for c in structure.cables])
+    zeros = np.zeros(len(rest))
+    return cable_tension(np.asarray(lengths, dtype=float), zeros, rest, stiffness, zeros)[0]

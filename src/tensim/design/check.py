@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from tensim._input import load_yaml_file
-from tensim.design._bodies import bodies
+from tensim.design._bodies import bodies, cable_tensions
 from tensim.design.equilibrium import residuals
 from tensim.design.stiffness import stable_timestep, stiffness
 from tensim.structure import Motor, Structure, StructureError, mass_properties
@@ -160,9 +160,7 @@ def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list
             f"{names} give no motor, so they inherit the default one (max_speed "
             f"{Motor().max_speed} m/s, max_tension {Motor().max_tension} N)",
             "give each cable the motor it will have"))
-    for cable in structure.cables:
-        tension = cable.stiffness * max(0.0, structure.cable_length(cable)
-                                        - structure.rest_length(cable))
+    for cable, tension in zip(structure.cables, cable_tensions(structure), strict=True):
         if tension > cable.motor.max_tension:
             out.append(Finding(
                 "error", f"cable {cable.name!r}",
@@ -172,9 +170,8 @@ def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list
 
 
 def _equilibrium(structure: Structure) -> list[Finding]:
-    tensions = [c.stiffness * max(0.0, structure.cable_length(c) - structure.rest_length(c))
-                for c in structure.cables]
-    mean = float(np.mean(tensions)) if tensions else 0.0
+    tensions = cable_tensions(structure)
+    mean = float(np.mean(tensions)) if tensions.size else 0.0
     if mean <= 0:
         return []
     forces = residuals(structure)

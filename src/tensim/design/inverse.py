@@ -30,7 +30,7 @@ from scipy.linalg import null_space
 from scipy.optimize import linprog
 from scipy.spatial.transform import Rotation
 
-from tensim.design._bodies import GRAVITY, Bodies, bodies, cable_geometry
+from tensim.design._bodies import GRAVITY, Bodies, bodies, cable_geometry, cable_tensions
 from tensim.design._errors import DesignError
 from tensim.structure import Structure
 
@@ -141,10 +141,10 @@ class _Linear:
 def _linearise(pose: Structure, anchors: dict[str, np.ndarray], gravity: float) -> _Linear:
     body_set = bodies(pose)
     geometry = cable_geometry(pose, body_set)
-    rest = np.array([c.rest_length for c in pose.cables], dtype=float)
+    rest = np.array([pose.rest_length(c) for c in pose.cables])
     k = np.array([c.stiffness for c in pose.cables])
     taut = geometry.lengths > rest
-    tensions = k * np.maximum(geometry.lengths - rest, 0.0)
+    tensions = cable_tensions(pose, geometry.lengths)
     grads = geometry.gradients
     stiffness = (grads.T * (k * taut)) @ grads + geometry.geometric(tensions)
     force = grads.T @ tensions - body_set.gravity_force(gravity)
