@@ -262,6 +262,7 @@ def run_pull(args: argparse.Namespace) -> int:
 
 def _robot_duties(args: argparse.Namespace) -> list[CableDuty]:
     """The cables' worst duties over the gait on --robots randomised robots."""
+    from tensim.cli._common import Progress
     from tensim.control import resolve_controller
     from tensim.design.robots import gait_duties, random_scales
     from tensim.model import compile_structure
@@ -275,7 +276,8 @@ def _robot_duties(args: argparse.Namespace) -> list[CableDuty]:
     limits = {c.name: (c.motor.max_speed, c.motor.max_tension) for c in structure.cables}
     duties, finished = gait_duties(
         compiled, lambda: config.build(compiled.model.opt.timestep), duration,
-        random_scales(args.robots, args.spread, args.seed), limits)
+        random_scales(args.robots, args.spread, args.seed), limits,
+        progress=Progress(f"{args.robots} robots", args.quiet))
     print(f"{finished} of {args.robots} randomised robots ran {duration:g} s "
           f"(spread {args.spread:g}, seed {args.seed})")
     return duties

@@ -30,8 +30,9 @@ def random_scales(robots: int, spread: float, seed: int) -> list[PhysicsScale]:
 
 def gait_duties(compiled: CompiledModel, controller: Callable[[], Controller | None],
                 duration: float, scales: list[PhysicsScale],
-                limits: dict[str, tuple[float, float]] | None = None,
-                threads: int = 1) -> tuple[list[CableDuty], int]:
+                limits: dict[str, tuple[float, float]] | None = None, threads: int = 1,
+                progress: Callable[[float, float], None] | None = None
+                ) -> tuple[list[CableDuty], int]:
     """Each cable's worst duty over the trials, and how many trials finished.
 
     Args:
@@ -41,12 +42,14 @@ def gait_duties(compiled: CompiledModel, controller: Callable[[], Controller | N
         scales: one physics scale per trial.
         limits: cable -> (max_speed [m/s], max_tension [N]), for the time at limit.
         threads: worker threads.
+        progress: called as progress(done_s, total_s) while the batch runs.
 
     Raises:
         DesignError: every trial failed.
     """
     trials = [Trial(controller=controller(), physics=scale) for scale in scales]
-    done = [r.result for r in run_batch(compiled, trials, duration, threads=threads)
+    done = [r.result for r in run_batch(compiled, trials, duration, threads=threads,
+                                                progress=progress)
             if r.result is not None]
     if not done:
         raise DesignError("every randomised robot's run failed; check the gait with "
