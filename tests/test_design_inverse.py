@@ -74,3 +74,15 @@ def test_pull_command_refuses_an_unreachable_target_and_writes_nothing(tmp_path,
     assert main(["design", "pull", "prism3", "--move", "t0=0.2,0,0", "--out", str(out)]) == 2
     assert "unreachable" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_verify_winds_slowly_and_reports_small_errors() -> None:
+    from tensim.design.verify import settle_errors
+
+    structure = _standing()
+    result = inverse_statics(structure, {"t0": tuple(_turn(structure, 4.0))})
+    errors, duration = settle_errors(structure, result)
+    # the slowest motor winds |change| / 0.01 m/s, then 2 s of rest
+    assert duration == pytest.approx(round(np.abs(result.change).max() / 0.01 + 2.0, 1))
+    assert set(errors) == set(NODES)
+    assert max(errors.values()) < 2.5e-3  # m, as in the fast-wind test above
