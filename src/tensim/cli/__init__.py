@@ -29,6 +29,8 @@ COMMAND_MODULES = (
     "tensim.cli.learn",
     "tensim.cli.hardware",
     "tensim.cli.bench",
+    "tensim.cli.design",
+    "tensim.cli.check",
 )
 
 

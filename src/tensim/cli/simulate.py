@@ -35,6 +35,7 @@ def run(args: argparse.Namespace) -> int:
     from tensim.control import load_velocity_table, resolve_controller
     from tensim.control.files import check_table_columns
     from tensim.control.velocity_table import VelocityFileError
+    from tensim.design.check import warn_findings
     from tensim.limits import check_run
     from tensim.model import compile_structure
     from tensim.runs import (
@@ -49,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
 
     prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     structure = load_model(args.model)
+    warn_findings(structure, args.dt, args.model)  # tensim check's findings, as warnings
     config = resolve_controller(args.model, structure, args.controller)
     if args.velocity_input:
         if config is None:

@@ -1,0 +1,283 @@
+"""``tensim design``: self-stress, stiffness, inverse statics and motor sizing of a structure."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from tensim.cli._common import load_model, positive
+
+if TYPE_CHECKING:
+    from tensim.design.motors import CableDuty
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("design", help="design a structure: prestress, stiffness, which cable to "
+                       "pull, motor sizing (see docs/design.md)")
+    steps = p.add_subparsers(dest="step", required=True)
+    q = steps.add_parser("prestress", help="states of self-stress and mechanisms; write an "
+                         "all-tension prestressed structure")
+    q.add_argument("model", help="preset name or structure .yaml file")
+    level = q.add_mutually_exclusive_group(required=True)
+    level.add_argument("--min-tension", type=positive, metavar="N",
+                       help="smallest cable tension [N]")
+    level.add_argument("--tension", type=positive, metavar="N",
+                       help="tension of the cable named by --cable [N]")
+    level.add_argument("--force-density", type=positive, metavar="Q",
+                       help="mean cable force density t/L [N/m]")
+    q.add_argument("--cable", default=None, help="the cable that --tension sets")
+    q.add_argument("--out", default=None, metavar="FILE.yaml",
+                   help="write the prestressed structure here")
+    q.set_defaults(run=run_prestress)
+    s = steps.add_parser("stiffness", help="tangent stiffness, mechanisms stiffened by "
+                         "prestress, natural frequencies and the softest modes")
+    s.add_argument("model", help="preset name or structure .yaml file")
+    s.add_argument("--modes", type=int, default=4, help="softest modes to list and draw")
+    s.add_argument("--out", default=None, help="output folder (modes.png, stiffness.json)")
+    s.set_defaults(run=run_stiffness)
+    register_size(steps)
+    register_pull(steps)
+
+
+def run_prestress(args: argparse.Namespace) -> int:
+    from tensim.design import equilibrium, prestressed, self_stress
+    from tensim.design.report import table
+    from tensim.structure import save_structure
+
+    structure = load_model(args.model)
+    if (args.cable is None) != (args.tension is None):
+        raise ValueError("--tension needs --cable NAME (and --cable needs --tension)")
+    eq = equilibrium(structure)
+    print(f"{structure.name}: {len(eq.cables)} cables, {eq.n_dof} degrees of freedom, "
+          f"rank(A) = {eq.rank}")
+    print(f"states of self-stress s = {eq.s}; mechanisms m = {eq.m} ({eq.n_rigid} rigid-body "
+          f"motions, {eq.internal_mechanisms} internal)")
+    stress = self_stress(structure, min_tension=args.min_tension, cable=args.cable,
+                         tension=args.tension, force_density=args.force_density)
+    rest = stress.lengths - stress.tensions / [c.stiffness for c in structure.cables]
+    print(table([(n, t, q, L, r) for n, t, q, L, r in zip(
+        stress.cables, stress.tensions, stress.force_densities, stress.lengths, rest,
+        strict=True)], ("cable", "tension [N]", "q [N/m]", "length [m]", "rest [m]")))
+    if stress.rod_forces:
+        print(table(sorted(stress.rod_forces.items()), ("rod", "axial force [N]")))
+    if args.out:
+        save_structure(prestressed(structure, stress), Path(args.out))
+        print(f"wrote {args.out}")
+    return 0
+
+
+def run_stiffness(args: argparse.Namespace) -> int:
+    from tensim.design.report import modes_figure, save, table
+    from tensim.design.stiffness import stable_timestep, stiffness
+    from tensim.runs import finish_run, replace_folder
+
+    structure = load_model(args.model)
+    result = stiffness(structure)
+    print(f"{structure.name}: {len(result.frequencies)} degrees of freedom, {result.rigid} "
+          f"rigid-body motions, {result.mechanisms} internal mechanisms, {result.stiffened} "
+          "of them stiffened by prestress")
+    live = [k for k in range(len(result.frequencies)) if result.frequencies[k] > 1e-6]
+    rows = [(k + 1, float(result.frequencies[k])) for k in live[:args.modes]]
+    print(table(rows, ("mode", "frequency [Hz]")))
+    limit, frequency, zeta = stable_timestep(result)
+    print(f"highest frequency {result.frequencies[-1]:.4g} Hz; Euler step stable below "
+          f"{limit * 1e3:.4g} ms (bound set by the {frequency:.4g} Hz mode, damping ratio "
+          f"{zeta:.3g})")
+    if args.out:
+        with replace_folder(Path(args.out)) as stage:
+            save(modes_figure(structure, result, args.modes), stage / "modes.png")
+            finish_run(stage, {"model": args.model, "rigid": result.rigid,
+                               "mechanisms": result.mechanisms, "stiffened": result.stiffened,
+                               "frequencies_Hz": [round(float(f), 6) for f in
+                                                  result.frequencies],
+                               "stable_timestep_s": limit})
+        print(f"wrote {args.out}/ (modes.png, summary.json)")
+    return 0
+
+
+def register_size(steps: argparse._SubParsersAction) -> None:
+    z = steps.add_parser("size", help="motor sizing from run folders: per-cable tension, "
+                         "speed, power, work; shaft torque and speed; catalogue pass/fail")
+    z.add_argument("runs", nargs="*", metavar="RUN", help="run folders (trajectory.parquet)")
+    z.add_argument("--model", default=None, help="instead of run folders: run this preset or "
+                   "structure file under --controller on --robots randomised robots")
+    z.add_argument("--controller", default=None, help="controller file or shipped name for "
+                   "--model (default: the preset's own)")
+    z.add_argument("--robots", type=int, default=8, help="randomised robots for --model "
+                   "(default 8)")
+    z.add_argument("--spread", type=float, default=0.1, help="each robot's stiffness, "
+                   "damping, masses and friction scaled by U[1 - s, 1 + s] (default 0.1)")
+    z.add_argument("--seed", type=int, default=0, help="seed of the randomisation")
+    z.add_argument("--duration", type=positive, default=None, metavar="S",
+                   help="simulated time per robot [s] (default: the gait's duration)")
+    z.add_argument("--spool-radius", type=positive, required=True, metavar="M",
+                   help="spool radius [m]")
+    z.add_argument("--gear", type=positive, default=1.0, help="gear ratio N [-] (default 1)")
+    z.add_argument("--safety", type=positive, default=1.15,
+                   help="safety factor on tension and speed (default 1.15, the paper's)")
+    z.add_argument("--period", type=positive, default=None, metavar="S",
+                   help="gait cycle [s]: report work per cycle (default: over the run)")
+    z.add_argument("--motors", default=None, metavar="FILE.yaml",
+                   help="catalogue: motors: [{name, stall_torque [N m], no_load_speed [rad/s]}]")
+    z.add_argument("--out", default="runs/size", help="output folder")
+    z.set_defaults(run=run_size)
+
+
+def run_size(args: argparse.Namespace) -> int:
+    """Prints and writes the sizing; exits 1 when no catalogue motor suffices."""
+    from tensim.design import motors
+    from tensim.design.report import save, sizing_figure, table
+    from tensim.runs import STRUCTURE_FILE, check_run_folder, finish_run, replace_folder
+    from tensim.sim import TimeSeries
+    from tensim.structure import load_structure
+
+    check_run_folder(Path(args.out))
+    if bool(args.runs) == bool(args.model):
+        raise ValueError("give run folders or --model (with --controller), not both")
+    catalogue = motors.load_catalogue(args.motors) if args.motors else []
+    if args.model:
+        duties = _robot_duties(args)
+    else:
+        runs = []
+        for folder in map(Path, args.runs):
+            limits = {}
+            if (folder / STRUCTURE_FILE).exists():
+                limits = {c.name: (c.motor.max_speed, c.motor.max_tension)
+                          for c in load_structure(folder / STRUCTURE_FILE).cables}
+            runs.append(motors.cable_duty(
+                TimeSeries.from_parquet(folder / "trajectory.parquet"), limits))
+        duties = motors.merge(runs)
+    needs = motors.requirements(duties, args.spool_radius, args.gear, args.safety)
+    period = args.period
+    rows = [(d.cable, d.peak_tension, d.rms_tension, d.peak_speed, d.peak_power, d.mean_power,
+             d.work_per_cycle(period) if period else d.work, 100 * d.at_speed_limit,
+             100 * d.at_force_limit, n.torque, n.speed) for d, n in zip(duties, needs, strict=True)]
+    header = ("cable", "peak T [N]", "rms T [N]", "peak u [m/s]", "peak P [W]", "mean P [W]",
+              "W/cycle [J]" if period else "W [J]", "at u lim [%]", "at T lim [%]",
+              "tau [N m]", "omega [rad/s]")
+    print(table(rows, header))
+    print(f"shaft needs (safety {args.safety:g}, spool {args.spool_radius:g} m, gear "
+          f"{args.gear:g}): {max(n.torque for n in needs):.4g} N m, "
+          f"{max(n.speed for n in needs):.4g} rad/s")
+    verdicts = {m.name: min(motors.margin(d, m, args.spool_radius, args.gear, args.safety)
+                            for d in duties) for m in catalogue}
+    for name, value in verdicts.items():
+        print(f"motor {name}: {'pass' if value >= 0 else 'FAIL'}, margin {100 * value:.1f} %")
+    with replace_folder(Path(args.out)) as stage:
+        save(sizing_figure(duties, catalogue, args.spool_radius, args.gear, args.safety),
+             stage / "operating_points.png")
+        finish_run(stage, {"runs": [str(r) for r in args.runs], "model": args.model,
+                           "robots": args.robots if args.model else None,
+                           "safety_factor": args.safety,
+                           "spool_radius_m": args.spool_radius, "gear_ratio": args.gear,
+                           "cables": [dict(zip(header, row, strict=True)) for row in rows],
+                           "motor_margins": verdicts})
+    print(f"wrote {args.out}/ (operating_points.png, summary.json)")
+    if catalogue and max(verdicts.values()) < 0:
+        best = max(verdicts, key=lambda k: verdicts[k])
+        print(f"tensim: no motor in {args.motors} is strong enough; the strongest of them "
+              f"({best}) falls short by {-100 * verdicts[best]:.0f} % of its torque-speed line")
+        return 1
+    return 0
+
+
+def _move(text: str) -> tuple[str, tuple[float, float, float]]:
+    """``NODE=DX,DY,DZ`` as (node, displacement [m])."""
+    node, _, rest = text.partition("=")
+    try:
+        values = tuple(float(v) for v in rest.split(","))
+    except ValueError:
+        values = ()
+    if not node or len(values) != 3:
+        raise argparse.ArgumentTypeError(f"expected NODE=DX,DY,DZ in metres, got {text!r}")
+    return node, values
+
+
+def register_pull(steps: argparse._SubParsersAction) -> None:
+    u = steps.add_parser("pull", help="which cables to pull: rest lengths that hold nodes "
+                         "displaced, standing on the ground (inverse statics)")
+    u.add_argument("model", help="preset name or structure .yaml file")
+    u.add_argument("--move", type=_move, action="append", required=True,
+                   metavar="NODE=DX,DY,DZ", help="displace NODE by (DX, DY, DZ) [m]; repeatable")
+    u.add_argument("--min-tension", type=positive, default=1.0,
+                   help="every cable keeps at least this tension [N] (default 1)")
+    u.add_argument("--tolerance", type=positive, default=1e-3,
+                   help="distance from a target that counts as reached [m] (default 0.001)")
+    u.add_argument("--verify", action="store_true",
+                   help="simulate the motors winding there slowly (0.01 m/s) and resting 2 s; "
+                        "report each node's distance from the static answer")
+    u.add_argument("--out", default="runs/pull", help="output folder")
+    u.set_defaults(run=run_pull)
+
+
+def run_pull(args: argparse.Namespace) -> int:
+    import numpy as np
+    import yaml
+
+    from tensim._files import write_text
+    from tensim.design.inverse import inverse_statics
+    from tensim.design.report import table
+    from tensim.runs import check_run_folder, finish_run, replace_folder
+    from tensim.structure import save_structure
+
+    check_run_folder(Path(args.out))
+    structure = load_model(args.model)
+    moves = dict(args.move)
+    result = inverse_statics(structure, moves, min_tension=args.min_tension,
+                             tolerance=args.tolerance)
+    print(table([(n, r, 1e3 * d, t) for n, r, d, t in zip(
+        result.cables, result.rest_lengths, result.change, result.tensions, strict=True)],
+        ("cable", "rest [m]", "change [mm]", "tension [N]")))
+    print("friction needed at the feet: " + ", ".join(
+        f"{n} {v:.2f}" for n, v in result.friction_needed.items()))
+    errors: dict[str, float] = {}
+    if args.verify:
+        from tensim.design.verify import settle_errors
+
+        errors, duration = settle_errors(structure, result)
+        print(f"simulated {duration:g} s (motors winding at 0.01 m/s, then resting); distance "
+              "from the static answer [mm]: "
+              + ", ".join(f"{n} {1e3 * e:.2f}" for n, e in errors.items()))
+    with replace_folder(Path(args.out)) as stage:
+        write_text(stage / "rest_lengths.yaml", yaml.safe_dump({
+            "description": "commanded rest lengths [m] from tensim design pull",
+            "rest_lengths": {n: float(r) for n, r in zip(result.cables, result.rest_lengths,
+                                                         strict=True)}}, sort_keys=False))
+        save_structure(result.target, stage / "target.yaml")
+        finish_run(stage, {"model": args.model,
+                           "moves_m": {n: list(d) for n, d in moves.items()},
+                           "rest_lengths_m": dict(zip(result.cables,
+                                                      map(float, result.rest_lengths),
+                                                      strict=True)),
+                           "tensions_N": dict(zip(result.cables, map(float, result.tensions),
+                                                  strict=True)),
+                           "verify_error_m": {n: float(e) for n, e in errors.items()},
+                           "max_verify_error_m": float(np.max(list(errors.values())))
+                           if errors else None})
+    print(f"wrote {args.out}/ (rest_lengths.yaml, target.yaml, summary.json)")
+    return 0
+
+
+
+def _robot_duties(args: argparse.Namespace) -> list[CableDuty]:
+    """The cables' worst duties over the gait on --robots randomised robots."""
+    from tensim.cli._common import Progress
+    from tensim.control import resolve_controller
+    from tensim.design.robots import gait_duties, random_scales
+    from tensim.model import compile_structure
+
+    structure = load_model(args.model)
+    config = resolve_controller(args.model, structure, args.controller)
+    if config is None:
+        raise ValueError(f"--model {args.model}: no controller; give --controller")
+    compiled = compile_structure(structure)
+    duration = args.duration or (config.duration if config.gait else 10.0)
+    limits = {c.name: (c.motor.max_speed, c.motor.max_tension) for c in structure.cables}
+    duties, finished = gait_duties(
+        compiled, lambda: config.build(compiled.model.opt.timestep), duration,
+        random_scales(args.robots, args.spread, args.seed), limits,
+        progress=Progress(f"{args.robots} robots", args.quiet))
+    print(f"{finished} of {args.robots} randomised robots ran {duration:g} s "
+          f"(spread {args.spread:g}, seed {args.seed})")
+    return duties

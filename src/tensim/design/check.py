@@ -1,0 +1,205 @@
+"""A model check: what in a structure makes its runs fail, or lie, and what to change.
+
+Each finding names the item, what is wrong and the change that fixes it:
+
+- time step: the vibration modes of the cables on the bodies' masses (K v = omega^2 M v,
+  :mod:`tensim.design.stiffness`) with their damping ratios zeta. MuJoCo's Euler step applies
+  the cable forces explicitly; for x'' = -omega^2 x - 2 zeta omega x' it is stable only for
+  dt < 2 (sqrt(1 + zeta^2) - zeta) / omega (2 / omega_max undamped), and above half of that
+  it rings and damps wrongly;
+- thin rods: a rod body whose axial inertia is under 1e-4 of its transverse one;
+- slack cables at the build pose (rest length at or above the length);
+- a build pose far from equilibrium: the cables' net force on a body above 5 % of the mean
+  tension (the robot jumps when released);
+- cables whose file gives no motor (they inherit the default one), or a pretension above the
+  motor's tension limit;
+- sizes that look like centimetres or decimetres (tensim reads metres).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import os
+from pathlib import Path
+
+import numpy as np
+
+from tensim._input import load_yaml_file
+from tensim.design._bodies import bodies, cable_tensions
+from tensim.design.equilibrium import residuals
+from tensim.design.stiffness import stable_timestep, stiffness
+from tensim.structure import Motor, Structure, StructureError, mass_properties
+
+_log = logging.getLogger(__name__)
+
+INERTIA_RATIO = 1e-4  # smallest axial / transverse inertia of a rod body that integrates well
+RESIDUAL_FRACTION = 0.05  # net cable force on a body, of the mean tension, that counts as far
+LARGEST_SIZE = 10.0  # m: a robot larger than this was probably written in cm or dm
+MAX_DOF = 2000  # the time-step check solves a dense eigenproblem: skipped above this size
+
+
+@dataclasses.dataclass(frozen=True)
+class Finding:
+    """One problem the check found.
+
+    Attributes:
+        severity: ``error`` (runs fail or are wrong) or ``warning`` (runs may mislead).
+        item: the part concerned, e.g. ``cable 'top_0'`` or ``timestep``.
+        message: what is wrong, with the numbers.
+        fix: what to change.
+    """
+
+    severity: str
+    item: str
+    message: str
+    fix: str
+
+    def __str__(self) -> str:
+        return f"{self.severity}: {self.item}: {self.message}; {self.fix}"
+
+
+def nice_step(limit: float) -> float:
+    """The largest of 1, 2, 5 x 10^k that is at most ``limit`` [s]."""
+    exponent = np.floor(np.log10(limit))
+    for mantissa in (5.0, 2.0, 1.0):
+        if mantissa * 10**exponent <= limit:
+            return float(mantissa * 10**exponent)
+    return float(10 ** (exponent - 1) * 5)
+
+
+def check_structure(structure: Structure, timestep: float = 1e-3,
+                    source: str | os.PathLike[str] | None = None) -> list[Finding]:
+    """Every finding for ``structure`` simulated with the physics step ``timestep`` [s].
+
+    Args:
+        structure: the structure.
+        timestep: the physics step to check [s].
+        source: the YAML file it was read from, if any: cables whose motor the file leaves out
+            (so they inherit tensim's default motor) are then named too.
+    """
+    findings = (_units(structure) + _slack(structure) + _motors(structure, source)
+                + _thin(structure))
+    try:
+        bodies(structure)
+    except StructureError as err:  # wrapped cables: the analyses need straight paths
+        return [*findings, Finding("warning", "structure", f"dynamic checks skipped: {err}",
+                                   "check the time step with `tensim experiment timestep`")]
+    return findings + _timestep(structure, timestep) + _equilibrium(structure)
+
+
+def _timestep(structure: Structure, timestep: float) -> list[Finding]:
+    if not structure.cables:
+        return []
+    if bodies(structure).n_dof > MAX_DOF:
+        return [Finding("warning", "timestep", f"not checked: more than {MAX_DOF} degrees of "
+                        "freedom", "compare runs at two values of --dt")]
+    limit, frequency, zeta = stable_timestep(stiffness(structure, count=False))
+    if not np.isfinite(limit):
+        return []
+    needed = nice_step(limit / 2)
+    text = (f"its hardest mode to integrate is at {frequency:.4g} Hz (damping ratio "
+            f"{zeta:.3g}); the Euler step is stable below {limit * 1e3:.4g} ms")
+    if timestep >= limit:
+        return [Finding("error", "timestep", f"{text}, and {timestep * 1e3:g} ms blows up",
+                        f"use --dt {needed:g} or softer / heavier parts")]
+    if timestep > limit / 2:
+        return [Finding("warning", "timestep", f"{text}; {timestep * 1e3:g} ms rings and "
+                        "damps wrongly", f"use --dt {needed:g}")]
+    return []
+
+
+def _thin(structure: Structure) -> list[Finding]:
+    out = []
+    for group in structure.rigid_groups():
+        if len(group.rods) != 1 or len(group.nodes) != 2:
+            continue
+        moments = mass_properties(structure, group).principal_moments()
+        ratio = moments[0] / moments[2]
+        if ratio < INERTIA_RATIO:
+            rod = next(r for r in structure.rods if r.name == group.rods[0])
+            length = structure.distance(*rod.nodes)
+            out.append(Finding(
+                "warning", f"rod {rod.name!r}",
+                f"its axial inertia is {ratio:.2g} of its transverse inertia (radius "
+                f"{rod.radius:g} m on {length:.3g} m)",
+                f"use a radius of at least {length * np.sqrt(INERTIA_RATIO / 6):.2g} m or put "
+                "point masses at its ends"))
+    return out
+
+
+def _slack(structure: Structure) -> list[Finding]:
+    return [Finding("warning", f"cable {c.name!r}",
+                    f"slack at the build pose (rest length {structure.rest_length(c):.4g} m >= "
+                    f"length {structure.cable_length(c):.4g} m)",
+                    "give it a pretension > 0 N, or run `tensim design prestress`")
+            for c in structure.cables
+            if structure.rest_length(c) >= structure.cable_length(c)]
+
+
+def _inherited(source: str | os.PathLike[str] | None) -> list[str]:
+    """Cables of a structure file that give no motor, here or in the file's defaults."""
+    path = Path(source) if source is not None else None
+    if path is None or path.suffix not in (".yaml", ".yml") or not path.is_file():
+        return []
+    data = load_yaml_file(path)
+    defaults = (data.get("defaults") or {}).get("cable") or {}
+    if "motor" in defaults:
+        return []
+    return [c.get("name", "?") for c in data.get("cables") or []
+            if isinstance(c, dict) and "motor" not in c]
+
+
+def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list[Finding]:
+    default = _inherited(source)
+    out = []
+    if default:
+        names = ", ".join(default[:4]) + (" ..." if len(default) > 4 else "")
+        out.append(Finding(
+            "warning", f"{len(default)} cable(s)",
+            f"{names} give no motor, so they inherit the default one (max_speed "
+            f"{Motor().max_speed} m/s, max_tension {Motor().max_tension} N)",
+            "give each cable the motor it will have"))
+    for cable, tension in zip(structure.cables, cable_tensions(structure), strict=True):
+        if tension > cable.motor.max_tension:
+            out.append(Finding(
+                "error", f"cable {cable.name!r}",
+                f"its build tension {tension:.4g} N exceeds its motor's max_tension "
+                f"{cable.motor.max_tension:g} N", "raise max_tension or lower the pretension"))
+    return out
+
+
+def _equilibrium(structure: Structure) -> list[Finding]:
+    tensions = cable_tensions(structure)
+    mean = float(np.mean(tensions)) if tensions.size else 0.0
+    if mean <= 0:
+        return []
+    forces = residuals(structure)
+    if not forces:  # every body is held by the world
+        return []
+    name, (force, _) = max(forces.items(), key=lambda kv: kv[1][0])
+    if force <= RESIDUAL_FRACTION * mean:
+        return []
+    return [Finding("warning", f"body {name!r}",
+                    f"the build pose is far from equilibrium: the cables' net force on it "
+                    f"(gravity left out) is "
+                    f"{force:.4g} N ({100 * force / mean:.0f} % of the mean tension "
+                    f"{mean:.4g} N), so the robot jumps when released",
+                    "run `tensim design prestress` for pretensions that balance")]
+
+
+def _units(structure: Structure) -> list[Finding]:
+    points = np.array([n.position for n in structure.nodes])
+    size = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+    if size <= LARGEST_SIZE:
+        return []
+    return [Finding("warning", "structure",
+                    f"it spans {size:.4g} m, which looks like centimetres or decimetres",
+                    "positions are in metres: scale the file (imports take --units)")]
+
+
+def warn_findings(structure: Structure, timestep: float,
+                  source: str | os.PathLike[str] | None = None) -> None:
+    """Logs every finding as a warning (``simulate`` runs the check before it starts)."""
+    for finding in check_structure(structure, timestep, source):
+        _log.warning("%s: %s; %s", finding.item, finding.message, finding.fix)
