@@ -341,9 +341,12 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
             if beads and k:
                 bead_paths[cable.name].append(site)
             if k == 0:  # between the anchors: the rods the cable wraps around, in order
-                for wrapped in cable.wrap:
-                    tendon.wrap_geom(_wrap_geom(spec, bodies, rods[wrapped], node_body,
-                                                node_local), "")
+                for j, (wrapped, side) in enumerate(zip(cable.wrap, structure.wrap_sides(cable),
+                                                        strict=True)):
+                    geom = _wrap_geom(spec, bodies, rods[wrapped], node_body, node_local)
+                    tendon.wrap_geom(geom, _side_site(spec, structure, bodies, rods[wrapped],
+                                                      f"{cable.name}_side{j}", side, node_body,
+                                                      node_local))
     for cable in structure.cables:  # cable actuators first: ids 0..n_cables-1
         _add_cable_actuator(spec, cable, structure.rest_length(cable))
     _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
@@ -354,6 +357,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
            for v in ((r, 0.0) if c.motor.dc is None else (r, 0.0, 0.0))]
     spec.add_key(name=BUILD_KEY, act=act, ctrl=rest + [0.0] * (3 * len(load_nodes)))
     model = _compile_spec(spec)
+    _check_wraps(structure, model)
     return dataclasses.replace(
         _assemble(structure, world, model, node_body, node_local, tuple(adjusted), load_nodes),
         spec=spec)
@@ -409,6 +413,43 @@ def _wrap_geom(spec: mujoco.MjSpec, bodies: dict[str, mujoco.MjsBody], rod: Rod,
         bodies[node_body[rod.nodes[0]]].add_geom(
             name=name, type=mujoco.mjtGeom.mjGEOM_CYLINDER, fromto=np.concatenate(ends).tolist(),
             size=[rod.radius, 0, 0], contype=0, conaffinity=0, group=5, rgba=[0, 0, 0, 0])
+    return name
+
+
+def _check_wraps(structure: Structure, model: mujoco.MjModel) -> None:
+    """Refuses a wrapped cable that MuJoCo runs straight past one of its rods in the build pose
+    (a wrap it cannot hold on its side: more than about half a turn from a line clear of the
+    rod), rather than simulate a straight cable."""
+    wrapped = [c for c in structure.cables if c.wrap]
+    if not wrapped:
+        return
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key(BUILD_KEY).id)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_tendon(model, data)
+    for cable in wrapped:
+        t = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TENDON, cable.name)
+        objects = data.wrap_obj[data.ten_wrapadr[t]:data.ten_wrapadr[t] + data.ten_wrapnum[t]]
+        for rod in cable.wrap:
+            geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"wrap_{rod}")
+            if not np.any(objects == geom):
+                raise ModelError(
+                    f"cable {cable.name!r}: MuJoCo does not wrap it over rod {rod!r} in the build "
+                    "pose (its wrap would run straight); move the anchors so that the cable "
+                    "turns by at most half a turn around the rod, or give side")
+
+
+def _side_site(spec: mujoco.MjSpec, structure: Structure, bodies: dict[str, mujoco.MjsBody],
+               rod: Rod, name: str, side: tuple[np.ndarray, np.ndarray],
+               node_body: dict[str, str], node_local: dict[str, np.ndarray]) -> str:
+    """A site on ``rod``'s body, off its surface on the side the cable runs over: MuJoCo's
+    wrap then holds that side (without one it wraps only where the straight line crosses the
+    rod, the shorter way round)."""
+    centre, direction = side
+    node = rod.nodes[0]
+    point = centre + 2 * rod.radius * direction
+    local = point - (structure.position(node) - node_local[node])
+    bodies[node_body[node]].add_site(name=name, pos=local.tolist(), size=[0.001, 0, 0], group=5)
     return name
 
 

@@ -342,6 +342,10 @@ class Cable:
             path over each (MuJoCo's cylinder wrapping) and the law acts on that length.
             Needs ``rest_length`` (the wrapped build length is not known before compiling)
             and no ``via`` nodes.
+        side: for each rod in ``wrap``, a direction from the rod's axis toward the side the
+            cable runs over (``(0, 0, 1)``: over the top at build); the wrap holds that side
+            as the bodies move. Empty: each side follows from the build pose (see
+            :meth:`Structure.wrap_sides`).
         contact: None for a cable that passes through everything; else the cable's path can
             touch the ground, terrain, blocks and walls, through light collision beads it runs
             over (``True`` takes the default :class:`CableContact`). Not with ``wrap``.
@@ -358,6 +362,7 @@ class Cable:
     tags: tuple[str, ...] = ()
     via: tuple[str, ...] = ()
     wrap: tuple[str, ...] = ()
+    side: tuple[tuple[float, float, float], ...] = ()
     contact: CableContact | None = None
 
     def __post_init__(self) -> None:
@@ -423,9 +428,23 @@ class Cable:
                    f"wrap names a rod twice: {list(self.wrap)}")
             _check(self.contact is None, item, "a cable either wraps around rods or touches "
                    "the world through contact beads, not both")
+        self._check_side(item)
         path = self.path
         for a, b in itertools.pairwise(path):
             _check(a != b, item, f"node {a!r} follows itself on the cable's path {list(path)}")
+
+    def _check_side(self, item: str) -> None:
+        if isinstance(self.side, str) or not isinstance(self.side, Sequence | np.ndarray):
+            raise StructureError(f"side must be a list of directions [x, y, z], one per wrapped "
+                                 f"rod, got {describe(self.side)}", item=item)
+        _check(not self.side or len(self.side) == len(self.wrap), item,
+               f"side gives {len(self.side)} directions for {len(self.wrap)} wrapped rods "
+               f"({list(self.wrap)}); give one per rod, or none to take them from the build pose")
+        sides = tuple(_vec3(v, item, "each side") for v in self.side)
+        for v in sides:
+            _check(0 < math.hypot(*v) < math.inf, item,
+                   f"each side must be a non-zero direction, got {list(v)}")
+        object.__setattr__(self, "side", sides)
 
     @property
     def path(self) -> tuple[str, ...]:

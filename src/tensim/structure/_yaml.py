@@ -118,7 +118,8 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
                 continue
             if isinstance(value, dict):  # a nested record (motor, contact): drop its Nones
                 value = {k: v for k, v in value.items() if v is not None}
-            out[key] = list(value) if isinstance(value, tuple) else value
+            out[key] = [list(v) if isinstance(v, tuple) else v for v in value] \
+                if isinstance(value, tuple) else value
         return out
 
     return {
