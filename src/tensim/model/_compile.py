@@ -275,8 +275,10 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     node_body: dict[str, str] = {}
     node_local: dict[str, np.ndarray] = {}
     adjusted = []
+    moving_mass = 0.0
     for group in structure.rigid_groups():
         props = mass_properties(structure, group)
+        moving_mass += 0.0 if group.fixed else props.mass
         inertia, changed = _regularize(group.name, props, world)
         if changed:
             adjusted.append(group.name)
@@ -319,6 +321,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
         if anchor.name not in node_body:  # a fixed anchor point in the world
             node_body[anchor.name] = "world"
             node_local[anchor.name] = structure.position(anchor.name)
+    _beads.check_beads(structure, world.timestep, moving_mass)
     bodies = {b.name: b for b in spec.bodies}
     bead_paths: dict[str, list[str]] = {}  # contact cables: every site along the path
     for cable in structure.cables:
