@@ -42,6 +42,7 @@ from tensim.terrain import format_terrain
 
 # trial status: "ok" is scored; the others get the penalty score
 OK, FLIPPED, UNSTABLE, GAIT, ERROR, LOST = "ok", "flipped", "unstable", "gait", "error", "lost"
+_DC_ONLY = ("motor_stall", "motor_inertia", "motor_friction")  # act on DC motors alone
 
 
 @dataclasses.dataclass(frozen=True)
@@ -191,6 +192,9 @@ class TrialProblem:
                 raise ValueError(f"cannot randomize {name!r}; choose from {sorted(names)}")
             if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high):
                 raise ValueError(f"randomize {name}={low}:{high}: need 0 < low <= high")
+            if name in _DC_ONLY and all(c.motor.dc is None for c in self.structure.cables):
+                raise ValueError(f"randomize {name}: robot {self.structure.name!r} has no DC "
+                                 "motors (a cable's motor: dc), so it would change nothing")
         if not (isinstance(self.robots, int) and 1 <= self.robots <= 1000):
             raise ValueError(f"robots must be an integer in [1, 1000], got {self.robots!r}")
         if self.robust not in ("mean", "worst"):

@@ -99,11 +99,11 @@ class WorldOptions:
         if self.cone not in _CONES:
             raise ValueError(f"cone must be 'pyramidal' or 'elliptic', got {self.cone!r}")
         if isinstance(self.noslip_iterations, bool) or not isinstance(
-                self.noslip_iterations, int) or self.noslip_iterations < 0:
-            raise ValueError("noslip_iterations must be a whole number >= 0, got "
-                             f"{self.noslip_iterations!r}")
+                self.noslip_iterations, int) or not 0 <= self.noslip_iterations <= 1000:
+            raise ValueError("noslip_iterations must be a whole number in [0, 1000], got "
+                             f"{self.noslip_iterations!r}"[:200])
         if self.condim not in (3, 4, 6) or isinstance(self.condim, bool):
-            raise ValueError(f"condim must be 3, 4 or 6, got {self.condim!r}")
+            raise ValueError(f"condim must be 3, 4 or 6, got {self.condim!r}"[:200])
         for name in ("torsional_friction", "rolling_friction"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and not isinstance(value, bool)

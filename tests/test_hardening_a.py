@@ -1,0 +1,153 @@
+"""Silently wrong results and tracebacks of the first hardening round's part A, each now a
+clear refusal: a sine gait above the command rate's Nyquist frequency, contact options that
+change nothing, DC-motor randomisation on a robot without DC motors, a learning run whose every
+trial failed, and huge numbers in ``--contact`` (explicit cases, then hypothesis)."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tensim import InputError
+from tensim.cli import main
+from tensim.cli._common import contact_options
+from tensim.control.sine import SineController, SineGait, tetraspine_sine
+from tensim.model import WorldOptions, compile_structure
+from tensim.models.tetraspine import impedance_controller, tetraspine3
+from tensim.sim import Simulation
+
+FUZZ = settings(max_examples=60, derandomize=True, database=None, deadline=None)
+
+# -- a sine gait sampled below its Nyquist rate ---------------------------------------------
+
+
+@pytest.mark.parametrize(("frequency", "steps"),
+                         [(500.0, 1), (100.0, 5), (1e6, 1), (50.0, 10)])
+def test_a_sine_at_or_above_the_command_nyquist_frequency_is_refused(frequency, steps):
+    structure = tetraspine3()
+    gait = tetraspine_sine(structure, 0.01, frequency)
+    controller = SineController(gait, impedance_controller(3), duration=0.1, sample_steps=steps)
+    nyquist = 0.5 / (steps * 1e-3)
+    with pytest.raises(InputError, match=re.escape(f"at {frequency:g} Hz is at or above the "
+                                                   f"Nyquist frequency {nyquist:g} Hz of its "
+                                                   "command period")):
+        Simulation(compile_structure(structure), controller=controller)
+    with pytest.raises(InputError, match="Nyquist"):
+        gait.velocity_table(0.1, steps * 1e-3)
+
+
+def test_on_main_the_aliased_sine_read_as_zero():
+    # the case the refusal guards: 500 Hz sampled every 1 ms is sin(pi k) = 0 at every sample
+    gait = SineGait(("c",), 0.03, 500.0)
+    assert np.abs(gait.table(np.arange(100) * 1e-3)).max() < 1e-10
+    gait.velocity_table(1.0, 1e-3 * 0.999)  # just below Nyquist: accepted
+
+
+@FUZZ
+@given(st.floats(0.0, 1e9), st.integers(1, 20))
+def test_any_sine_frequency_is_sampled_faithfully_or_refused(frequency, steps):
+    gait = SineGait(("c",), 0.03, frequency)
+    period = steps * 1e-3
+    try:
+        table = gait.velocity_table(0.2, period)
+    except InputError:
+        assert frequency >= 0.5 / period
+        return
+    assert frequency < 0.5 / period and table.values.shape[0] >= 2
+
+
+# -- contact options that change nothing, and huge numbers ---------------------------------
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("torsional=0.01", "torsional= acts at condim 4 or 6 only, and condim is 3"),
+    ("condim=3,torsional=0.01", "torsional= acts at condim 4"),
+    ("rolling=0.001", "rolling= acts at condim 6 only, and condim is 3"),
+    ("condim=4,rolling=0.001", "rolling= acts at condim 6 only, and condim is 4"),
+    ("noslip=" + "9" * 5000, r"noslip expects int, got '9{12}\.\.\.\(5000 characters\)'"),
+    ("condim=" + "4" * 4000, r"condim expects int, got '4{12}\.\.\.\(4000 characters\)'"),
+    ("torsional=" + "1" * 400, r"torsional expects float"),
+])
+def test_contact_options_that_change_nothing_or_are_absurd_are_refused(text, match):
+    with pytest.raises(ValueError, match=match):
+        WorldOptions(**contact_options(text))
+
+
+@pytest.mark.parametrize("text", ["noslip=1000000000000000000000", "noslip=-1",
+                                  "condim=444444444444444444444", "torsional=1e400",
+                                  "rolling=nan,condim=6", "noslip=1001"])
+def test_huge_or_non_finite_contact_numbers_are_refused_not_tracebacks(text, capsys):
+    assert main(["simulate", "prism3", "--duration", "0.01", "--contact", text]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tensim: error:") and "Traceback" not in err and len(err) < 300
+
+
+@pytest.mark.parametrize("text", ["condim=4,torsional=0.01", "condim=6,rolling=0.001",
+                                  "condim=6,torsional=0.01,rolling=0.001"])
+def test_contact_options_at_their_condim_are_taken(text):
+    options = WorldOptions(**contact_options(text))
+    assert options.condim in (4, 6)
+
+
+@FUZZ
+@given(st.lists(st.tuples(st.sampled_from(["cone", "noslip", "condim", "torsional",
+                                           "rolling", "bogus"]),
+                          st.one_of(st.integers(-10**30, 10**30).map(str),
+                                    st.floats(allow_nan=True).map(repr),
+                                    st.text("0123456789.e-+nai", max_size=40),
+                                    st.sampled_from(["elliptic", "pyramidal", "3", "4", "6"]))),
+                max_size=4))
+def test_any_contact_string_gives_world_options_or_a_value_error(entries):
+    text = ",".join(f"{k}={v}" for k, v in entries)
+    try:
+        options = WorldOptions(**contact_options(text))
+    except ValueError as err:
+        assert len(str(err)) < 300
+        return
+    assert options.noslip_iterations <= 1000
+    assert options.torsional_friction == 0.005 or options.condim >= 4
+    assert options.rolling_friction == 0.0001 or options.condim == 6
+
+
+# -- randomising what the robot lacks ------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["motor_stall", "motor_inertia", "motor_friction"])
+def test_dc_motor_randomisation_on_a_robot_without_dc_motors_is_refused(name):
+    from tensim.learn import Objective, TrialProblem, default_base
+
+    robot = tetraspine3()
+    with pytest.raises(ValueError, match=f"randomize {name}: robot 'tetraspine3' has no DC "
+                                         "motors"):
+        TrialProblem(robot, default_base("tetraspine3", "cpg", robot), "cpg", 0.5,
+                     Objective(), randomize=((name, 0.8, 1.2),), robots=2)
+    TrialProblem(robot, default_base("tetraspine3", "cpg", robot), "cpg", 0.5, Objective(),
+                 randomize=(("stiffness", 0.8, 1.2),), robots=2)  # a robot has cables
+
+
+def test_the_command_line_refuses_it_too(tmp_path, capsys):
+    code = main(["learn", "--model", "tetraspine3", "--controller", "cpg", "--evaluations",
+                 "1", "--trial-duration", "0.2", "--randomize", "motor_stall=0.8:1.2",
+                 "--out", str(tmp_path / "run")])
+    assert code == 2 and "has no DC motors" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
+
+
+# -- a learning run whose every trial failed ---------------------------------------------
+
+
+def test_a_run_whose_every_trial_failed_fails(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(["--quiet", "learn", "--model", "tetraspine3", "--controller", "sine-pattern",
+                 "--evaluations", "2", "--trial-duration", "0.2", "--max-tilt", "1e-6",
+                 "--workers", "0", "--monte-carlo", "2", "--batch", "2", "--out", str(out)])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert "every one of the 2 trials failed (2 flipped" in captured.err
+    assert "best score" not in captured.out
+    assert math.isfinite(-1.0)  # the penalty is recorded, not reported as a result
