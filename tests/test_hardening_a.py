@@ -151,3 +151,158 @@ def test_a_run_whose_every_trial_failed_fails(tmp_path, capsys):
     assert "every one of the 2 trials failed (2 flipped" in captured.err
     assert "best score" not in captured.out
     assert math.isfinite(-1.0)  # the penalty is recorded, not reported as a result
+
+
+# -- render and replay of a run folder edited by hand ----------------------------------------
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs") / "run"
+    assert main(["--quiet", "simulate", "prism3", "--duration", "0.2", "--out", str(out)]) == 0
+    return out
+
+
+def _edited(recorded, tmp_path, edit=None, summary=None):
+    import shutil
+
+    from tensim.sim import TimeSeries
+
+    run = tmp_path / "run"
+    shutil.copytree(recorded, run)
+    if edit is not None:
+        series = TimeSeries.from_parquet(run / "trajectory.parquet")
+        time, channels = series.time.copy(), {k: v.copy() for k, v in series.channels.items()}
+        edit(time, channels)
+        TimeSeries(time, channels).to_parquet(run / "trajectory.parquet")
+    if summary is not None:
+        import json
+
+        data = json.loads((run / "summary.json").read_text())
+        data.update(summary)
+        (run / "summary.json").write_text(json.dumps(data))
+    return run
+
+
+def _set(column, row, value):
+    def edit(time, channels):
+        (time if column == "time" else channels[column])[row] = value
+    return edit
+
+
+@pytest.mark.parametrize(("edit", "match"), [
+    (_set("pos_z/rod_0", 7, math.nan), r"column 'pos_z/rod_0', row 7 .* nan is not a finite"),
+    (_set("quat_w/rod_1", 3, math.inf), r"column 'quat_w/rod_1', row 3 .* inf is not"),
+    (_set("time", 5, 0.0), r"column 'time' does not increase at row 5"),
+    (_set("time", 9, math.nan), r"column 'time', row 9: nan is not a finite time"),
+    (lambda t, c: t.__setitem__(slice(None), t[::-1].copy()), "does not increase at row 1"),
+])
+def test_a_hand_edited_trajectory_is_refused_naming_column_and_row(recorded, tmp_path, edit,
+                                                                   match, capsys):
+    from tensim.viz.replay import RunFolderError, load_run
+
+    run = _edited(recorded, tmp_path, edit)
+    with pytest.raises(RunFolderError, match=match):
+        load_run(run)
+    assert main(["render", str(run), "--out", str(tmp_path / "v.mp4")]) == 2
+    assert "trajectory.parquet: column" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("summary", [
+    {"noslip_iterations": 10**30}, {"noslip_iterations": 1e300}, {"condim": 1e308},
+    {"dt_s": 1e308}, {"dt_s": -1}, {"dt_s": "fast"}, {"cone": ["x"]}, {"condim": None},
+    {"torsional_friction_m": 10**400}, {"terrain": "rough:roughness=" + "9" * 400},
+    {"model": 5}, {"contact_timeconst_s": 0},
+])
+def test_a_summary_with_absurd_options_is_refused_not_a_traceback(recorded, tmp_path, summary):
+    from tensim.viz.replay import RunFolderError, load_run
+
+    run = _edited(recorded, tmp_path, summary=summary)
+    with pytest.raises(RunFolderError, match=r"summary\.json"):
+        load_run(run)
+
+
+def test_a_damaged_trajectory_file_is_refused(recorded, tmp_path):
+    from tensim.viz.replay import RunFolderError, load_run
+
+    run = _edited(recorded, tmp_path)
+    (run / "trajectory.parquet").write_bytes(b"PAR1 not really")
+    with pytest.raises(RunFolderError, match=r"trajectory\.parquet: cannot be read"):
+        load_run(run)
+
+
+@pytest.mark.parametrize("name", ["trajectory.parquet", "summary.json", "structure.yaml"])
+def test_render_out_onto_the_runs_own_files_is_refused(recorded, tmp_path, name, capsys):
+    run = _edited(recorded, tmp_path)
+    before = (run / name).read_bytes()
+    assert main(["render", str(run), "--out", str(run / name)]) == 2
+    assert f"is the run's own {name}" in capsys.readouterr().err
+    assert (run / name).read_bytes() == before
+
+
+def test_render_out_onto_its_model_file_is_refused(recorded, tmp_path, capsys):
+    import shutil
+
+    model = tmp_path / "robot.yaml"
+    shutil.copy(recorded / "structure.yaml", model)
+    assert main(["render", str(model), "--out", str(model), "--duration", "0.1"]) == 2
+    assert "is the input" in capsys.readouterr().err
+
+
+# -- a DC motor's spool, a batch's size and Ctrl-C -------------------------------------------
+
+
+@pytest.mark.parametrize("radius", [1e-300, 1e-200, 1e-160, 1e160, 1e300, 5e-324])
+def test_an_absurd_spool_radius_is_refused_not_a_traceback(radius):
+    from tensim.structure import DCMotor, StructureError
+
+    with pytest.raises(StructureError,
+                       match=re.escape(f"spool_radius {radius:g} m makes the motor's")):
+        DCMotor(spool_radius=radius)
+
+
+@FUZZ
+@given(st.floats(allow_nan=True, allow_infinity=True),
+       st.floats(1e-6, 1e3), st.floats(1e-6, 1e3))
+def test_any_spool_gives_finite_motor_figures_or_a_structure_error(radius, torque, speed):
+    from tensim.structure import DCMotor, StructureError
+
+    try:
+        motor = DCMotor(spool_radius=radius, stall_torque=torque, no_load_speed=speed)
+    except StructureError:
+        return
+    line = motor.line()
+    assert all(math.isfinite(v) for v in line.values()) and line["stall_force"] > 0
+
+
+def test_a_batch_past_the_step_limit_is_refused_before_it_runs():
+    import time as _time
+
+    from tensim.limits import MAX_STEPS
+    from tensim.sim import Trial, run_batch
+
+    compiled = compile_structure(tetraspine3())
+    start = _time.monotonic()
+    with pytest.raises(InputError, match=r"4 trials of 100000 s at a physics step of 0.001 s: "
+                                         r"physics steps: 4e\+08 is more than the limit"):
+        run_batch(compiled, [Trial(impedance_controller(3))] * 4, 1e5, record_dt=10.0)
+    assert _time.monotonic() - start < 2.0
+    assert MAX_STEPS == 100_000_000
+
+
+def test_a_long_batch_stops_promptly_on_ctrl_c():
+    import os
+    import signal
+    import threading
+    import time as _time
+
+    from tensim.sim import Trial, run_batch
+
+    compiled = compile_structure(tetraspine3())
+    timer = threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT))
+    start = _time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        run_batch(compiled, [Trial(impedance_controller(3))] * 2, 600.0, threads=2,
+                  record_dt=1.0)
+    assert _time.monotonic() - start < 3.0  # the signal at 1 s, a block of steps after it

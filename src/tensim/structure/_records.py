@@ -233,6 +233,15 @@ class DCMotor:
             _check(value >= 0, "DC motor", f"{field} must be >= 0, got {value}")
         _check(isinstance(self.back_drivable, bool), "DC motor",
                f"back_drivable must be true or false, got {describe(self.back_drivable)}")
+        try:  # a radius so small or large that the cable's view of the motor is not finite
+            line = self.line()
+        except (ZeroDivisionError, OverflowError):
+            line = {"mass": math.inf}
+        bad = [k for k, v in line.items() if not math.isfinite(v)
+               or (k in ("stall_force", "no_load_line_speed") and v <= 0)]
+        _check(not bad, "DC motor", f"spool_radius {self.spool_radius:g} m makes the motor's "
+               f"{bad[0] if bad else ''} in cable coordinates zero or not finite; expected "
+               "the radius of a spool (e.g. 0.01 m)")
 
     @classmethod
     def from_constants(cls, torque_constant: float, resistance: float, voltage: float,
