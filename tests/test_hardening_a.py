@@ -306,3 +306,67 @@ def test_a_long_batch_stops_promptly_on_ctrl_c():
         run_batch(compiled, [Trial(impedance_controller(3))] * 2, 600.0, threads=2,
                   record_dt=1.0)
     assert _time.monotonic() - start < 3.0  # the signal at 1 s, a block of steps after it
+
+
+# -- messages name --out and the file's line, not staging folders, lock files or whole files --
+
+
+def test_a_long_out_name_writes_the_run_and_names_no_staging_folder(tmp_path, capsys):
+    out = tmp_path / ("r" * 250)
+    assert main(["--quiet", "simulate", "prism3", "--duration", "0.05", "--out", str(out)]) == 0
+    assert (out / "summary.json").is_file()
+    assert [p.name for p in tmp_path.iterdir()] == [out.name]  # no staging folder left
+    assert ".partial-" not in capsys.readouterr().out
+
+
+def test_a_write_error_in_a_run_folder_names_out_not_the_staging_folder(tmp_path):
+    from tensim.runs import replace_folder
+
+    out = tmp_path / "run"
+    with pytest.raises(InputError) as info, replace_folder(out) as stage:
+        (stage / "figures" / "a.png").write_bytes(b"")  # no such subfolder
+    message = str(info.value)
+    assert message.startswith(f"--out {out}: cannot be written while writing figures/a.png")
+    assert ".partial-" not in message and not out.exists()
+    # an error about another file is not rewritten
+    with pytest.raises(FileNotFoundError), replace_folder(out):
+        (tmp_path / "elsewhere" / "x").read_text()
+
+
+def test_a_learning_run_whose_lock_cannot_be_opened_names_the_folder(tmp_path, capsys):
+    from tensim.learn import InlineExecutor, LearningSettings, OptimizerSettings, SphereProblem
+    from tensim.learn import learn as learn_run
+
+    out = tmp_path / "run"
+    settings = LearningSettings(OptimizerSettings("ntrt", monte_carlo=2, batch=2), 2)
+    learn_run(SphereProblem(2), settings, out, executor=InlineExecutor)
+    (out / ".lock").unlink()
+    (out / ".lock").mkdir()
+    assert main(["--quiet", "learn", "--resume", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"{out}: cannot be opened as a learning run folder" in err and ".lock" not in err
+
+
+@pytest.mark.parametrize("content", ["- " + "\n- ".join(f"node{i}" for i in range(300)),
+                                     "a long line of text " * 200,
+                                     "nodes:\n  a: [0, 0, " + ", ".join(["1"] * 500) + "]"])
+def test_an_included_file_is_named_with_its_line_not_echoed(tmp_path, content, capsys):
+    (tmp_path / "sub.yaml").write_text(content + "\n")
+    (tmp_path / "top.yaml").write_text("substructures:\n  a:\n    path: sub.yaml\n")
+    assert main(["import-ntrt", str(tmp_path / "top.yaml"), "--units", "m", "--out",
+                 str(tmp_path / "out.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path / 'sub.yaml'}:" in err and len(err) < 300
+
+
+@pytest.mark.parametrize(("section", "entry"), [("cables", list(range(2000))),
+                                                ("rods", "x" * 5000), ("nodes", [[0] * 999])])
+def test_a_structure_entry_of_the_wrong_kind_is_described_not_echoed(tmp_path, section, entry,
+                                                                     capsys):
+    import yaml
+
+    path = tmp_path / "robot.yaml"
+    path.write_text(yaml.safe_dump({"name": "r", section: [entry]}))
+    assert main(["simulate", str(path), "--duration", "0.01"]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and len(err) < 400

@@ -98,8 +98,12 @@ class RunStore:
         """
         if self.folder.exists() and not self.folder.is_dir():
             raise RunFolderError(f"{self.folder}: is a file; expected a run folder")
-        self.folder.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.path(LOCK), os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.path(LOCK), os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as err:  # name the run folder, not its lock file
+            raise RunFolderError(f"{self.folder}: cannot be opened as a learning run folder "
+                                 f"({err.strerror or err})") from None
         if fcntl is not None:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

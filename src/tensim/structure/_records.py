@@ -49,7 +49,7 @@ def _names(value: object, item: str, field: str) -> tuple[str, ...]:
 
 def _ends(value: object, item: str) -> tuple[str, str]:
     ends = _names(value, item, "nodes")
-    _check(len(ends) == 2, item, f"nodes must be two node names, got {list(ends)!r}")
+    _check(len(ends) == 2, item, f"nodes must be two node names, got {describe(list(ends))}")
     return ends  # type: ignore[return-value]
 
 

@@ -35,7 +35,8 @@ def _fields(cls: type) -> list[str]:
 
 def _build(cls: type, raw: Any, item: str) -> Any:
     if not isinstance(raw, dict):
-        raise StructureError(f"expected a mapping of {_fields(cls)}, got {raw!r}", item=item)
+        raise StructureError(f"expected a mapping of {_fields(cls)}, got {describe(raw)}",
+                             item=item)
     unknown = sorted(set(raw) - set(_fields(cls)))
     if unknown:
         raise StructureError(f"unknown field {unknown[0]!r}; expected one of {_fields(cls)}",
