@@ -155,3 +155,24 @@ def test_an_edited_structure_is_refused(tmp_path):
     with pytest.raises(RunFolderError, match=r"structure\.yaml changed since the run was "
                                              "created"):
         resume(run, 2, executor=InlineExecutor)
+
+
+@pytest.mark.parametrize("score", [math.nan, math.inf, -math.inf])
+def test_a_trial_whose_score_is_not_finite_fails_with_the_penalty(score, tmp_path):
+    import dataclasses
+
+    from tensim.learn.problem import ERROR, Outcome
+
+    @dataclasses.dataclass(frozen=True)
+    class Broken(SphereProblem):
+        def evaluate(self, unit):
+            return Outcome(score, metrics={"distance_m": score, "steps": 3.0})
+
+    result = learn(Broken(2), LearningSettings(OptimizerSettings("ntrt", monte_carlo=2,
+                                                                 batch=2), 2),
+                   tmp_path / "run", executor=InlineExecutor)
+    assert result.summary["failed"] == {ERROR: 2}
+    assert result.summary["best_score"] == Broken(2).penalty
+    text = (tmp_path / "run" / SUMMARY).read_text()
+    json.loads(text, parse_constant=lambda c: pytest.fail(f"summary.json holds {c}"))
+    json.loads(_lines(tmp_path / "run")[0], parse_constant=lambda c: pytest.fail(c))

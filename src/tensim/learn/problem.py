@@ -420,8 +420,13 @@ def evaluate_task(problem: Problem, index: int, unit: Sequence[float] | np.ndarr
 
 def evaluation_of(problem: Problem, index: int, unit: Sequence[float] | np.ndarray,
                   outcome: Outcome, wall: float) -> Evaluation:
-    """The record of a finished trial."""
+    """The record of a finished trial (a score that is not finite fails it: the optimizer
+    and summary.json take finite numbers only)."""
     u = np.asarray(unit, dtype=float)
+    if not math.isfinite(outcome.score):
+        outcome = Outcome(problem.penalty, ERROR, f"score {outcome.score} is not finite",
+                          {k: v for k, v in outcome.metrics.items()
+                           if not isinstance(v, float) or math.isfinite(v)})
     return Evaluation(index, tuple(float(x) for x in u),
                       tuple(float(x) for x in problem.values(u)), float(outcome.score),
                       outcome.status, outcome.reason, wall, outcome.metrics)
