@@ -12,6 +12,8 @@ import time
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tensim import InputError
 from tensim.model import WorldOptions, compile_structure
@@ -411,3 +413,26 @@ def test_bead_counts_are_bounded_before_anything_is_built(spacing):
     with pytest.raises(InputError, match=r"beads: .* more than the limit of 1e\+04"):
         compile_structure(*_hanging(spacing))
     assert time.monotonic() - start < 2.0
+
+
+@settings(max_examples=40, derandomize=True, database=None, deadline=None)
+@given(st.floats(1e-300, 1.0), st.floats(1e-6, 1.0), st.floats(1.0, 1e5),
+       st.sampled_from([1e-4, 1e-3, 5e-3]))
+def test_any_bead_spacing_compiles_within_the_bounds_or_is_refused(spacing, mass, tension, dt):
+    from tensim.limits import MAX_BEADS
+
+    structure, world = _hanging(spacing, dt, tension)
+    cable = dataclasses.replace(structure.cables[0], contact=CableContact(spacing, R, mass))
+    structure = dataclasses.replace(structure, cables=(cable,))
+    start = time.monotonic()
+    try:
+        compiled = compile_structure(structure, world)
+    except InputError:
+        assert time.monotonic() - start < 2.0
+        return
+    m = compiled.model
+    beads = compiled.index.bead
+    assert 1 <= beads.size <= MAX_BEADS
+    # each bead's inertia (mass + armature of a slide joint), all together within the 1 kg load
+    inertia = m.body_mass[beads] + m.dof_armature[m.body_dofadr[beads]]
+    assert inertia.sum() <= 1.0 + 1e-9

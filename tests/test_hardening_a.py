@@ -370,3 +370,20 @@ def test_a_structure_entry_of_the_wrong_kind_is_described_not_echoed(tmp_path, s
     assert main(["simulate", str(path), "--duration", "0.01"]) == 2
     err = capsys.readouterr().err
     assert str(path) in err and len(err) < 400
+
+
+@settings(max_examples=30, derandomize=True, database=None, deadline=None)
+@given(st.sampled_from(["time", "pos_x/rod_0", "pos_z/rod_2", "quat_w/rod_1", "quat_z/rod_0",
+                        "tension/top_0"]),
+       st.integers(0, 20), st.floats(allow_nan=True, allow_infinity=True))
+def test_any_edited_trajectory_cell_replays_faithfully_or_is_refused(recorded, tmp_path_factory,
+                                                                    column, row, value):
+    from tensim.viz.replay import PoseReplay, RunFolderError, load_run
+
+    run = _edited(recorded, tmp_path_factory.mktemp("cell"), _set(column, row, value))
+    try:
+        replay = PoseReplay(load_run(run))
+    except RunFolderError as err:
+        assert "trajectory.parquet: column" in str(err)
+        return
+    assert np.all(np.diff(replay.time) > 0) and np.all(np.isfinite(replay._qpos))

@@ -10,6 +10,8 @@ import math
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tensim.model import ModelError, WorldOptions, compile_structure
 from tensim.sim import Simulation
@@ -202,3 +204,28 @@ def test_a_wrap_mujoco_would_run_straight_is_refused():
                                       Node("b", (R - 0.015, 0.0, -0.1)), *s.nodes[2:]))
     with pytest.raises(ModelError, match="does not wrap it over rod 'bar'"):
         compile_structure(s, WorldOptions(ground=False))
+
+
+@settings(max_examples=60, derandomize=True, database=None, deadline=None)
+@given(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0),
+       st.sampled_from([(), ((0.0, 0.0, 1.0),), ((1.0, 0.0, -1.0),), ((0.0, 1.0, 0.0),)]))
+def test_any_wrap_is_refused_or_wraps_on_its_side_in_the_build_pose(ax, az, bx, bz, side):
+    # a cable from A to B (anywhere around the rod) is refused with tensim's errors, or
+    # compiles into a tendon that wraps the rod in the build pose: never a straight cable
+    try:
+        structure = _over_rod((ax, az), (bx, bz), side=side)
+        _, data = _forward(structure)
+    except (StructureError, ModelError):
+        return
+    assert data.ten_wrapnum[0] == 4  # anchor, two tangent points on the rod, anchor
+    assert data.ten_length[0] >= math.dist((ax, az), (bx, bz)) - 1e-12
+    points = data.wrap_xpos.reshape(-1, 3)[1:3]
+    np.testing.assert_allclose(np.hypot(points[:, 0], points[:, 2]), R, rtol=1e-9)
+    _, direction = structure.wrap_sides(structure.cables[0])[0]
+    # the arc between the tangent points runs over the side the wrap was given (or decided):
+    # the tendon's length is the two tangents and that arc
+    t1, t2, d = (math.atan2(p[2], p[0]) for p in (*points, direction))
+    ccw = (t2 - t1) % (2 * math.pi)
+    arc = ccw if (d - t1) % (2 * math.pi) <= ccw else 2 * math.pi - ccw
+    tangents = math.dist((ax, az), points[0, [0, 2]]) + math.dist((bx, bz), points[1, [0, 2]])
+    assert data.ten_length[0] == pytest.approx(tangents + R * arc, abs=1e-9)
