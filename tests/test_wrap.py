@@ -206,22 +206,26 @@ def test_a_wrap_mujoco_would_run_straight_is_refused():
         compile_structure(s, WorldOptions(ground=False))
 
 
-@settings(max_examples=60, derandomize=True, database=None, deadline=None)
+@settings(max_examples=150, derandomize=True, database=None, deadline=None)
 @given(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0),
        st.sampled_from([(), ((0.0, 0.0, 1.0),), ((1.0, 0.0, -1.0),), ((0.0, 1.0, 0.0),)]))
 def test_any_wrap_is_refused_or_wraps_on_its_side_in_the_build_pose(ax, az, bx, bz, side):
     # a cable from A to B (anywhere around the rod) is refused with tensim's errors, or
-    # compiles into a tendon that wraps the rod in the build pose: never a straight cable
+    # compiles into a tendon that wraps the rod on its side in the build pose, or runs
+    # straight past it where it is clear of the rod on the side given: never the wrong way
     try:
         structure = _over_rod((ax, az), (bx, bz), side=side)
         _, data = _forward(structure)
     except (StructureError, ModelError):
         return
+    _, direction, touches = structure.wrap_sides(structure.cables[0])[0]
+    if not touches:
+        assert side and data.ten_wrapnum[0] == 2
+        assert data.ten_length[0] == pytest.approx(math.dist((ax, az), (bx, bz)), abs=1e-12)
+        return
     assert data.ten_wrapnum[0] == 4  # anchor, two tangent points on the rod, anchor
-    assert data.ten_length[0] >= math.dist((ax, az), (bx, bz)) - 1e-12
     points = data.wrap_xpos.reshape(-1, 3)[1:3]
     np.testing.assert_allclose(np.hypot(points[:, 0], points[:, 2]), R, rtol=1e-9)
-    _, direction = structure.wrap_sides(structure.cables[0])[0]
     # the arc between the tangent points runs over the side the wrap was given (or decided):
     # the tendon's length is the two tangents and that arc
     t1, t2, d = (math.atan2(p[2], p[0]) for p in (*points, direction))

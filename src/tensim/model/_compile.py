@@ -433,7 +433,8 @@ def _check_wraps(structure: Structure, model: mujoco.MjModel) -> None:
     for cable in wrapped:
         t = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TENDON, cable.name)
         objects = data.wrap_obj[data.ten_wrapadr[t]:data.ten_wrapadr[t] + data.ten_wrapnum[t]]
-        for rod in cable.wrap:
+        touching = [side[2] for side in structure.wrap_sides(cable)]
+        for rod in (r for r, touches in zip(cable.wrap, touching, strict=True) if touches):
             geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"wrap_{rod}")
             if not np.any(objects == geom):
                 raise ModelError(
@@ -443,12 +444,12 @@ def _check_wraps(structure: Structure, model: mujoco.MjModel) -> None:
 
 
 def _side_site(spec: mujoco.MjSpec, structure: Structure, bodies: dict[str, mujoco.MjsBody],
-               rod: Rod, name: str, side: tuple[np.ndarray, np.ndarray],
+               rod: Rod, name: str, side: tuple[np.ndarray, np.ndarray, bool],
                node_body: dict[str, str], node_local: dict[str, np.ndarray]) -> str:
     """A site on ``rod``'s body, off its surface on the side the cable runs over: MuJoCo's
     wrap then holds that side (without one it wraps only where the straight line crosses the
     rod, the shorter way round)."""
-    centre, direction = side
+    centre, direction, _ = side
     node = rod.nodes[0]
     point = centre + 2 * rod.radius * direction
     local = point - (structure.position(node) - node_local[node])

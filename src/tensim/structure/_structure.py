@@ -46,7 +46,10 @@ def _hidden_middle(p: np.ndarray, q: np.ndarray, radius: float, toward: np.ndarr
         phi = np.arctan2(point @ e2, point @ e1)
         hidden &= np.cos(angles - phi) < radius / np.linalg.norm(point)
     # the run of hidden angles that holds angle 0 (or comes nearest it)
-    start = int(np.argmax(hidden * np.cos(angles)))
+    candidates = np.flatnonzero(hidden)
+    if not candidates.size:
+        return e1
+    start = int(candidates[np.argmax(np.cos(angles[candidates]))])
     lo = hi = start
     while hidden[(lo - 1) % angles.size] and (start - lo) < angles.size:
         lo -= 1
@@ -191,17 +194,20 @@ class Structure:
         first, last = self.anchors(cable)
         return (first, *(self.position(v) for v in cable.via), last)
 
-    def wrap_sides(self, cable: Cable) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
-        """For each rod the cable wraps: a point on the rod's axis and the unit direction,
-        across the axis, of the side the cable runs over [m, -]; the compiled wrap holds it.
+    def wrap_sides(self, cable: Cable) -> tuple[tuple[np.ndarray, np.ndarray, bool], ...]:
+        """For each rod the cable wraps: a point on the rod's axis, the unit direction across
+        the axis of the side the cable runs over [m, -] (the compiled wrap holds it), and
+        whether the cable touches the rod in the build pose.
 
-        A ``side`` the cable gives is taken as it is. Else the build pose decides, in the rod's
-        cross-section, from the straight line between the path points on either side of the
-        rod (the anchors, or the previous rod's side): a line through the rod wraps on the side
-        it crosses (the shorter way round), a line clear of the rod wraps around the rod's far
-        side (the cable is declared to wrap it: a cable over a pulley). A line too close to
-        the axis (either way round is as short) or to the surface (touching or clear) leaves
-        it undecided.
+        In the rod's cross-section, the straight line between the path points on either side
+        of the rod (the anchors, or the previous rod's side) either crosses the rod or passes
+        clear of it. A ``side`` the cable gives decides: a line that crosses wraps on that
+        side; a clear line on that side runs straight past the rod (until the rod moves into
+        it), one on the other side wraps around the rod to that side. Without ``side`` the
+        build pose decides: a line through the rod wraps on the side it crosses (the shorter
+        way round), a line clear of it wraps around the rod's far side (the cable is declared
+        to wrap it: a cable over a pulley); a line too close to the axis (either way round is
+        as short) or to the surface (touching or clear) leaves it undecided.
 
         Raises:
             StructureError: an undecided side, a path point within the rod, or a given side
@@ -224,24 +230,25 @@ class Structure:
             p, q = across(previous - base), across(last - base)
             centre = base + ((previous + last) / 2 - base) @ axis * axis
             where = f"wrapping rod {name!r} (radius {rod.radius:g} m)"
+            for point, dist in ((previous, np.linalg.norm(p)), (last, np.linalg.norm(q))):
+                if dist <= rod.radius * (1 + _SIDE_MARGIN):
+                    raise StructureError(
+                        f"{where}: the path point {np.round(point, 6).tolist()} lies "
+                        f"{dist:.4g} m from its axis, within its radius; move it out",
+                        item=item)
+            run = (q - p) @ (q - p)
+            t = float(np.clip(-(p @ (q - p)) / run, 0.0, 1.0)) if run > 0 else 0.0
+            closest = p + t * (q - p)
+            clearance = float(np.linalg.norm(closest))
+            crosses = clearance < rod.radius
             if cable.side:
-                direction = across(np.asarray(cable.side[k], dtype=float))
-                if np.linalg.norm(direction) < 1e-9 * np.linalg.norm(cable.side[k]):
+                given = across(np.asarray(cable.side[k], dtype=float))
+                if np.linalg.norm(given) < 1e-9 * np.linalg.norm(cable.side[k]):
                     raise StructureError(f"{where}: side {list(cable.side[k])} runs along the "
                                          "rod's axis; give a direction across it", item=item)
-                if min(np.linalg.norm(p), np.linalg.norm(q)) > rod.radius:
-                    direction = _hidden_middle(p, q, rod.radius, direction, axis)
+                touches = crosses or given @ closest < 0
+                direction = _hidden_middle(p, q, rod.radius, given, axis) if touches else given
             else:
-                for point, dist in ((previous, np.linalg.norm(p)), (last, np.linalg.norm(q))):
-                    if dist <= rod.radius * (1 + _SIDE_MARGIN):
-                        raise StructureError(
-                            f"{where}: the path point {np.round(point, 6).tolist()} lies "
-                            f"{dist:.4g} m from its axis, within its radius; move it out or "
-                            "give side", item=item)
-                run = (q - p) @ (q - p)
-                t = float(np.clip(-(p @ (q - p)) / run, 0.0, 1.0)) if run > 0 else 0.0
-                closest = p + t * (q - p)
-                clearance = float(np.linalg.norm(closest))
                 if clearance < _SIDE_MARGIN * rod.radius or \
                         abs(clearance - rod.radius) < _SIDE_MARGIN * rod.radius:
                     place = "its axis" if clearance < rod.radius / 2 else "its surface"
@@ -251,11 +258,12 @@ class Structure:
                         "give side (a direction from the axis, [0, 0, 1]: over the top)",
                         item=item)
                 # through the rod: the side it crosses; clear of it: around the far side
-                direction = _hidden_middle(p, q, rod.radius, closest if clearance < rod.radius
-                                           else -closest, axis)
+                touches = True
+                direction = _hidden_middle(p, q, rod.radius, closest if crosses else -closest,
+                                           axis)
             direction = direction / np.linalg.norm(direction)
-            out.append((centre, direction))
-            previous = centre + rod.radius * direction
+            out.append((centre, direction, bool(touches)))
+            previous = centre + rod.radius * direction if touches else previous
         return tuple(out)
 
     def cable_length(self, cable: Cable) -> float:
