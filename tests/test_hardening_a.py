@@ -387,3 +387,14 @@ def test_any_edited_trajectory_cell_replays_faithfully_or_is_refused(recorded, t
         assert "trajectory.parquet: column" in str(err)
         return
     assert np.all(np.diff(replay.time) > 0) and np.all(np.isfinite(replay._qpos))
+
+
+def test_a_batch_scaling_dc_motors_the_robot_lacks_is_refused():
+    from tensim.sim import PhysicsScale, Trial, run_batch
+
+    compiled = compile_structure(tetraspine3())
+    with pytest.raises(ValueError, match="trial 1: physics motor_stall scales DC motors, and "
+                                         "the robot has none"):
+        run_batch(compiled, [Trial(impedance_controller(3)),
+                             Trial(impedance_controller(3), physics=PhysicsScale(
+                                 motor_stall=1.2))], 0.01)

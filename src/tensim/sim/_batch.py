@@ -169,6 +169,13 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         raise ValueError(f"threads must be >= 1, got {threads}")
     if backend not in ("cpu", "warp"):
         raise ValueError(f"backend must be 'cpu' or 'warp', got {backend!r}")
+    if all(c.motor.dc is None for c in compiled.structure.cables):
+        for i, trial in enumerate(trials):
+            dc_only = [f for f in ("motor_stall", "motor_inertia", "motor_friction")
+                       if getattr(trial.physics, f) != 1.0]
+            if dc_only:
+                raise ValueError(f"trial {i}: physics {dc_only[0]} scales DC motors, and the "
+                                 "robot has none: it would change nothing")
     nodes = tuple(dict.fromkeys(ld.node for t in trials for ld in t.loads))
     compiled = compiled.with_load_nodes(nodes)
     dt = float(compiled.model.opt.timestep)
