@@ -150,6 +150,7 @@ def test_a_cable_over_a_pulley_wraps_and_holds_two_equal_masses(side):
         assert sim.drive.tension[0] == pytest.approx(9.81, rel=1e-3)
         z = sim.data.xpos[[sim.compiled.index.node_body[n] for n in "ab"], 2]
         np.testing.assert_allclose(z, [-l1, -l2], atol=1e-4)
+        assert sim.data.ten_length[0] == pytest.approx(l1 + l2 + math.pi * R, abs=2e-4)
 
 
 def test_a_pulley_wrap_holds_its_side_as_the_masses_move():
