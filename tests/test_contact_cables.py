@@ -4,18 +4,24 @@ the straight one) and the tunnelling check."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
+import time
 
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from tensim import InputError
 from tensim.model import WorldOptions, compile_structure
 from tensim.sim import Simulation, SimulationError
 from tensim.structure import (
     Cable,
     CableContact,
+    Motor,
     Node,
     PointMass,
     Structure,
@@ -355,3 +361,78 @@ def test_the_batch_engine_fails_a_trial_whose_beads_went_through_a_wall():
     assert not flung.ok
     assert re.search(r"trial 1: contact cable tunnelled at t = .* inside 'terrain_box_0'.* "
                      r"smaller timestep \(--dt\) or a smaller bead spacing", flung.error)
+
+
+def test_a_contact_cable_through_spans_of_different_lengths_holds_its_load():
+    # a -> v: 0.6 m level (5 beads 0.1 m apart), v -> b: 0.05 m down to a 1 kg mass (1 bead
+    # 0.025 m apart); the statics closed form: the mass hangs at T = m g, the routed length
+    # x = l + m g / k, so the mass sits where it was built, straight below v
+    weight, k = 1.0 * G, K
+    s = Structure(
+        "spans", (Node("a", (0.0, 0.0, 1.0), fixed=True), Node("v", (0.6, 0.0, 1.0), fixed=True),
+                  Node("b", (0.6, 0.0, 0.95))),
+        point_masses=(PointMass("b", 1.0, 0.002),),
+        cables=(Cable("c", ("a", "b"), k, damping=20.0, via=("v",), pretension=weight,
+                      contact=CableContact(spacing=0.1, radius=R)),))
+    compiled = compile_structure(s, WorldOptions(ground=False))
+    spans = compiled.model.tendon_range[1:]
+    # each span's length limits follow its own build length (0.1 m and 0.025 m)
+    np.testing.assert_allclose(spans[:, 1], [0.15] * 6 + [0.0375] * 2, rtol=1e-9)
+    with Simulation(compiled) as sim:
+        sim.run(2.0)
+        d = sim.data
+        beads = d.xpos[compiled.index.bead]
+        b = d.xpos[compiled.index.node_body["b"]]
+        # the beads' weight (1 g each) and the span springs' pulls: within 1 %
+        assert sim.drive.tension[0] == pytest.approx(weight, rel=0.01)
+        np.testing.assert_allclose(b, [0.6, 0.0, 0.95], atol=1e-3)
+        assert np.all(np.diff(beads[:5, 0]) > 0.09)  # spread along the level span, in order
+        # the short span's bead stays on it (its weight slides it down the vertical line
+        # against the span springs)
+        assert beads[5, 0] == pytest.approx(0.6, abs=1e-3) and 0.95 < beads[5, 2] < 1.0
+
+
+def _hanging(spacing: float, dt: float = 1e-3, max_tension: float = 50.0):
+    s = _hanging_over_edge()
+    cable = dataclasses.replace(s.cables[0], contact=CableContact(spacing=spacing, radius=R),
+                                motor=Motor(max_tension=max_tension))
+    return dataclasses.replace(s, cables=(cable,)), WorldOptions(timestep=dt, terrain=EDGE_WALL)
+
+
+def test_beads_that_would_outweigh_the_robot_are_refused_with_the_figures():
+    # 0.23 m at 1 mm spacing: 229 beads that each need 4 * 2 T dt^2 / l = 0.4 kg at 1 ms
+    # (92 kg in all) to drag a 1 kg mass: refused; at 2 cm (the edge case) they are not
+    with pytest.raises(InputError, match=r"need 91\.\d+ kg of inertia .* robot's 1 kg"):
+        compile_structure(*_hanging(0.001))
+    compile_structure(*_hanging(0.02))
+
+
+@pytest.mark.parametrize("spacing", [1e-7, 1e-300, 5e-324])
+def test_bead_counts_are_bounded_before_anything_is_built(spacing):
+    start = time.monotonic()
+    with pytest.raises(InputError, match=r"beads: .* more than the limit of 1e\+04"):
+        compile_structure(*_hanging(spacing))
+    assert time.monotonic() - start < 2.0
+
+
+@settings(max_examples=40, derandomize=True, database=None, deadline=None)
+@given(st.floats(1e-300, 1.0), st.floats(1e-6, 1.0), st.floats(1.0, 1e5),
+       st.sampled_from([1e-4, 1e-3, 5e-3]))
+def test_any_bead_spacing_compiles_within_the_bounds_or_is_refused(spacing, mass, tension, dt):
+    from tensim.limits import MAX_BEADS
+
+    structure, world = _hanging(spacing, dt, tension)
+    cable = dataclasses.replace(structure.cables[0], contact=CableContact(spacing, R, mass))
+    structure = dataclasses.replace(structure, cables=(cable,))
+    start = time.monotonic()
+    try:
+        compiled = compile_structure(structure, world)
+    except InputError:
+        assert time.monotonic() - start < 2.0
+        return
+    m = compiled.model
+    beads = compiled.index.bead
+    assert 1 <= beads.size <= MAX_BEADS
+    # each bead's inertia (mass + armature of a slide joint), all together within the 1 kg load
+    inertia = m.body_mass[beads] + m.dof_armature[m.body_dofadr[beads]]
+    assert inertia.sum() <= 1.0 + 1e-9

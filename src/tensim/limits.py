@@ -17,8 +17,9 @@ MAX_STEPS = 100_000_000  # physics steps of one simulation (about an hour of com
 MAX_SAMPLES = 10_000_000  # recorded samples of one simulation or log
 MAX_TERRAIN_BOXES = 10_000  # boxes of one terrain (steps, blocks)
 MAX_GRID_CELLS = 4_000_000  # cells of one height field
-__all__ = ["MAX_GRID_CELLS", "MAX_SAMPLES", "MAX_STEPS", "MAX_TERRAIN_BOXES", "MAX_YAML_VALUES",
-           "check_count", "check_run"]
+MAX_BEADS = 10_000  # contact-cable beads of one model (three degrees of freedom each)
+__all__ = ["MAX_BEADS", "MAX_GRID_CELLS", "MAX_SAMPLES", "MAX_STEPS", "MAX_TERRAIN_BOXES",
+           "MAX_YAML_VALUES", "check_count", "check_run"]
 
 
 def check_count(what: str, count: float, limit: int, *, force: bool = False,

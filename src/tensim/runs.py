@@ -18,6 +18,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import glob
+import hashlib
 import logging
 import os
 import platform
@@ -218,9 +219,19 @@ def check_run_folder(out: Path) -> None:
                          "or an earlier run's; choose another --out")
 
 
+def _stage_prefix(out: Path) -> str:
+    """``.<out name>.partial-``: a long name shortened (with a hash) so the staging folder's
+    name stays within the file system's 255 bytes."""
+    name = out.name
+    if len(name.encode()) > 120:
+        name = name.encode()[:80].decode(errors="ignore") + "-" + hashlib.sha256(
+            out.name.encode()).hexdigest()[:12]
+    return f".{name}{_STAGE}"
+
+
 def _remove_stale_stages(out: Path) -> None:
     """Deletes staging folders of ``out`` left by processes that no longer run."""
-    for stage in out.parent.glob(f".{glob.escape(out.name)}{_STAGE}*"):
+    for stage in out.parent.glob(f"{glob.escape(_stage_prefix(out))}*"):
         pid = stage.name.rpartition(_STAGE)[2].partition("-")[0]
         if pid.isdigit() and not pid_alive(int(pid)):
             shutil.rmtree(stage, ignore_errors=True)
@@ -239,9 +250,13 @@ def replace_folder(out: str | os.PathLike[str]) -> Iterator[Path]:
     """
     out = Path(out)
     check_run_folder(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    _remove_stale_stages(out)
-    stage = Path(tempfile.mkdtemp(prefix=f".{out.name}{_STAGE}{os.getpid()}-", dir=out.parent))
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        _remove_stale_stages(out)
+        stage = Path(tempfile.mkdtemp(prefix=f"{_stage_prefix(out)}{os.getpid()}-",
+                                      dir=out.parent))
+    except OSError as err:
+        raise InputError(f"--out {out}: cannot be written ({err.strerror or err})") from None
     try:
         (stage / MARKER).write_text("a tensim run folder; tensim may replace it whole\n")
         yield stage
@@ -254,6 +269,14 @@ def replace_folder(out: str | os.PathLike[str]) -> Iterator[Path]:
             shutil.rmtree(old, ignore_errors=True)
         else:
             os.replace(stage, out)
+    except OSError as err:  # name --out and the file, not the hidden staging folder
+        where = err.filename and Path(os.fsdecode(err.filename))
+        if not where or not (where == stage or stage in where.parents
+                             or where.name.startswith(stage.name)):
+            raise
+        inside = f" while writing {where.relative_to(stage)}" if stage in where.parents else ""
+        raise InputError(f"--out {out}: cannot be written{inside} ({err.strerror or err}); "
+                         f"{out} is left as it was") from None
     finally:
         if stage.exists():
             shutil.rmtree(stage, ignore_errors=True)

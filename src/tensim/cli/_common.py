@@ -177,10 +177,20 @@ def contact_options(text: str | None) -> dict[str, Any]:
         if key not in _CONTACT:
             raise ValueError(f"--contact: unknown key {key!r}; expected {', '.join(_CONTACT)}")
         field, kind = _CONTACT[key]
+        shown = value if len(value) <= 24 else f"{value[:12]}...({len(value)} characters)"
         try:
+            if len(value) > 24:  # a number, not a page of digits
+                raise ValueError
             out[field] = kind(value)
         except ValueError:
-            raise ValueError(f"--contact: {key} expects {kind.__name__}, got {value!r}") from None
+            raise ValueError(f"--contact: {key} expects {kind.__name__}, got {shown!r}") from None
+    condim = out.get("condim", 3)
+    for key, field, least in (("torsional", "torsional_friction", 4),
+                              ("rolling", "rolling_friction", 6)):
+        if field in out and isinstance(condim, int) and condim < least:
+            raise ValueError(f"--contact: {key}= acts at condim {least}"
+                             f"{' or 6' if least == 4 else ''} only, and condim is {condim}: "
+                             f"it would change nothing; add condim={least}")
     return out
 
 

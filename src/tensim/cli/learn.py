@@ -232,15 +232,21 @@ def run_learn(args: argparse.Namespace) -> int:
               f"{out}/evaluations.jsonl; continue with: tensim learn --resume {out}",
               file=sys.stderr)
         return 130
-    _report(out, result.summary)
-    return 0
+    return _report(out, result.summary)
 
 
-def _report(out: Path, summary: dict[str, Any]) -> None:
+def _report(out: Path, summary: dict[str, Any]) -> int:
+    """Prints the run's outcome; returns the exit status (1: no trial succeeded)."""
     config = summary["config"]
     problem = config["problem"]
     print(f"wrote {out}/ (evaluations.jsonl, learning_curve.png, summary.json"
           + (", best_controller.yaml)" if "best_controller" in summary else ")"))
+    if summary["evaluations"] and summary["best_status"] != "ok":
+        failed = ", ".join(f"{n} {status}" for status, n in summary["failed"].items())
+        print(f"tensim: learn: every one of the {summary['evaluations']} trials failed "
+              f"({failed}; reasons in {out}/evaluations.jsonl): nothing was learned",
+              file=sys.stderr)
+        return 1
     if summary["best_score"] is not None:
         what = problem.get("objective_text", "score")
         print(f"best score {summary['best_score']:.4f} (evaluation {summary['best_index']} of "
@@ -254,6 +260,7 @@ def _report(out: Path, summary: dict[str, Any]) -> None:
         print(f"try it: {_try_command(problem, out / 'best_controller.yaml')}")
     if not summary["finished"]:
         print(f"continue with: tensim learn --resume {out}", file=sys.stderr)
+    return 0
 
 
 def _try_command(problem: dict[str, Any], controller: Path) -> str:

@@ -79,6 +79,7 @@ def run_render(args: argparse.Namespace) -> int:
 
     settings = _settings(args)
     source, out = Path(args.source), Path(args.out)
+    _check_out(source, out, getattr(args, "controller", None))
     progress = Progress("render", args.quiet, unit="s video")
     start = time.perf_counter()
     try:
@@ -95,6 +96,25 @@ def run_render(args: argparse.Namespace) -> int:
           f"{result.fps} fps, {result.duration:.2f} s of video (rendered with {result.backend} "
           f"in {wall:.1f} s)")
     return 0
+
+
+def _check_out(source: Path, out: Path, controller: str | None) -> None:
+    """Refuses an ``--out`` that would overwrite what the video is made from: the model or
+    controller file, or a file of the run folder other than a video.
+
+    Raises:
+        ValueError: naming the file.
+    """
+    target = out.resolve()
+    inputs = [source] + ([Path(controller)] if controller else [])
+    if any(p.exists() and target == p.resolve() for p in inputs):
+        raise ValueError(f"--out {out}: is the input {out}; the video would overwrite it, "
+                         "choose another file")
+    if source.is_dir() and target.parent == source.resolve() and target.exists() \
+            and target.suffix.lower() != ".mp4":
+        raise ValueError(f"--out {out}: is the run's own {target.name}; the video would "
+                         "overwrite it, choose another file (e.g. "
+                         f"{source / 'video.mp4'})")
 
 
 def _render_run(args: argparse.Namespace, folder: Path, out: Path, settings: VideoSettings,

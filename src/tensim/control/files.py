@@ -193,15 +193,16 @@ def sampled_table(gait: Gait, duration: float, period: float) -> VelocityTable:
 
 def _mapping(raw: Any, field: str, expected: str) -> dict[str, Any]:
     if not isinstance(raw, dict):
-        raise ControllerFileError(f"expected a mapping of {expected}, got {raw!r}", field=field)
+        raise ControllerFileError(f"expected a mapping of {expected}, got {describe(raw)}",
+                                  field=field)
     return raw
 
 
 def _number(raw: Any, field: str, *, positive: bool = False) -> float:
     if isinstance(raw, bool) or not isinstance(raw, int | float) or not math.isfinite(raw):
-        raise ControllerFileError(f"expected a finite number, got {raw!r}", field=field)
+        raise ControllerFileError(f"expected a finite number, got {describe(raw)}", field=field)
     if positive and raw <= 0:
-        raise ControllerFileError(f"expected a number > 0, got {raw!r}", field=field)
+        raise ControllerFileError(f"expected a number > 0, got {describe(raw)}", field=field)
     return float(raw)
 
 

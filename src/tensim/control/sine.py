@@ -16,6 +16,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from tensim._input import InputError
 from tensim.control._common import (
     check_driven,
     joint_index,
@@ -66,6 +67,23 @@ class SineGait:
         if min(values["frequency"]) < 0:
             raise ValueError(f"frequency must be >= 0 Hz, got {self.frequency}")
 
+    def check_sampling(self, period: float) -> None:
+        """Refuses a frequency at or above the Nyquist frequency 1 / (2 ``period``) of the
+        command period [s]: sampled there, the wave aliases (to V* = 0 at a multiple of it).
+
+        Raises:
+            InputError: naming the cable, its frequency, the period and the limit.
+        """
+        nyquist = 0.5 / period
+        frequencies: tuple[float, ...] = self.frequency  # type: ignore[assignment]
+        for cable, frequency in zip(self.cables, frequencies, strict=True):
+            if frequency >= nyquist:
+                raise InputError(
+                    f"sine gait: cable {cable!r} at {frequency:g} Hz is at or above the "
+                    f"Nyquist frequency {nyquist:g} Hz of its command period {period:g} s: "
+                    "sampled that often it aliases (a multiple of it reads as V* = 0); "
+                    "lower the frequency, or shorten the command period")
+
     def table(self, times: np.ndarray) -> np.ndarray:
         """V* at ``times`` [s]: (len(times), len(cables)) [m/s], columns in ``cables`` order."""
         t = np.asarray(times, dtype=float).reshape(-1, 1)
@@ -73,7 +91,9 @@ class SineGait:
         return np.asarray(self.offset) + np.asarray(self.amplitude) * np.sin(angle)
 
     def velocity_table(self, duration: float, period: float) -> VelocityTable:
-        """V* sampled every ``period`` from 0 to ``duration`` inclusive [s]."""
+        """V* sampled every ``period`` from 0 to ``duration`` inclusive [s] (see
+        :meth:`check_sampling`)."""
+        self.check_sampling(period)
         return VelocityTable(self.cables, period, self.table(sample_times(duration, period)))
 
 
@@ -166,5 +186,6 @@ class SineController:
         """Writes the impedance gains and the sampled gait into ``sim.drive``."""
         self.impedance.configure(sim)
         table_dt = self.sample_steps * sim.dt
+        self.gait.check_sampling(table_dt)
         times = sample_times(self.duration, table_dt)
         write_target_velocity(sim, self.gait.cables, self.gait.table(times), table_dt)

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from tensim._files import write_text
-from tensim._input import InputError, read_text
+from tensim._input import InputError, describe, read_text
 from tensim.control._common import check_driven, write_target_velocity
 from tensim.control.impedance import ImpedanceController
 from tensim.sim import CableSetup
@@ -176,7 +176,7 @@ def load_velocity_table(path: str | os.PathLike[str]) -> VelocityTable:
             bad = next(i for i, f in enumerate(fields) if not _is_float(f))
             column = "time_s" if bad == 0 else names[bad - 1]
             raise VelocityFileError(f"{path}: line {number}, column {column!r}: expected a "
-                                    f"number, got {fields[bad]!r}") from None
+                                    f"number, got {describe(fields[bad])}") from None
         if not all(math.isfinite(v) for v in row):
             raise VelocityFileError(f"{path}: line {number}: values must be finite")
         rows.append(row)
@@ -206,7 +206,8 @@ def _positive(path: Path, text: str, what: str) -> float:
     except ValueError:
         value = math.nan
     if not (math.isfinite(value) and value > 0):
-        raise VelocityFileError(f"{path}: header '{what}': expected a number > 0, got {text!r}")
+        raise VelocityFileError(f"{path}: header '{what}': expected a number > 0, got "
+                                f"{describe(text)}")
     return value
 
 

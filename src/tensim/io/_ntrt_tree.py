@@ -50,7 +50,8 @@ def _mapping(value: Any, source: Path, item: str, keys: tuple[str, ...] | None =
     if value is None:
         return {}
     if not isinstance(value, dict):
-        raise fail(source, item, f"expected a mapping, got {value!r}")
+        raise fail(source, item, f"expected a mapping, got {describe(value)}"
+                   + (" (line 1)" if item == "top level" else ""))
     unknown = [k for k in value if keys is not None and k not in keys]
     if unknown:
         raise fail(source, item, f"unknown key {unknown[0]!r}; expected one of {list(keys or ())}")

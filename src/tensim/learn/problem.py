@@ -42,6 +42,7 @@ from tensim.terrain import format_terrain
 
 # trial status: "ok" is scored; the others get the penalty score
 OK, FLIPPED, UNSTABLE, GAIT, ERROR, LOST = "ok", "flipped", "unstable", "gait", "error", "lost"
+_DC_ONLY = ("motor_stall", "motor_inertia", "motor_friction")  # act on DC motors alone
 
 
 @dataclasses.dataclass(frozen=True)
@@ -191,6 +192,9 @@ class TrialProblem:
                 raise ValueError(f"cannot randomize {name!r}; choose from {sorted(names)}")
             if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high):
                 raise ValueError(f"randomize {name}={low}:{high}: need 0 < low <= high")
+            if name in _DC_ONLY and all(c.motor.dc is None for c in self.structure.cables):
+                raise ValueError(f"randomize {name}: robot {self.structure.name!r} has no DC "
+                                 "motors (a cable's motor: dc), so it would change nothing")
         if not (isinstance(self.robots, int) and 1 <= self.robots <= 1000):
             raise ValueError(f"robots must be an integer in [1, 1000], got {self.robots!r}")
         if self.robust not in ("mean", "worst"):
@@ -416,8 +420,13 @@ def evaluate_task(problem: Problem, index: int, unit: Sequence[float] | np.ndarr
 
 def evaluation_of(problem: Problem, index: int, unit: Sequence[float] | np.ndarray,
                   outcome: Outcome, wall: float) -> Evaluation:
-    """The record of a finished trial."""
+    """The record of a finished trial (a score that is not finite fails it: the optimizer
+    and summary.json take finite numbers only)."""
     u = np.asarray(unit, dtype=float)
+    if not math.isfinite(outcome.score):
+        outcome = Outcome(problem.penalty, ERROR, f"score {outcome.score} is not finite",
+                          {k: v for k, v in outcome.metrics.items()
+                           if not isinstance(v, float) or math.isfinite(v)})
     return Evaluation(index, tuple(float(x) for x in u),
                       tuple(float(x) for x in problem.values(u)), float(outcome.score),
                       outcome.status, outcome.reason, wall, outcome.metrics)

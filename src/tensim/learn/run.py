@@ -35,6 +35,7 @@ from tensim.learn.problem import OK, Evaluation, Problem, TrialProblem
 from tensim.learn.store import (
     BEST_CONTROLLER,
     CURVE,
+    EVALUATIONS,
     SUMMARY,
     RunFolderError,
     RunStore,
@@ -145,6 +146,7 @@ def _run(store: RunStore, evaluations: int | None, problem: Problem | None, *, w
         store.read_config()  # raises: not a run folder (before the lock creates the folder)
     with store.locked():
         config = store.read_config()
+        store.check_fingerprint(config)
         if evaluations is not None and evaluations != config["evaluations"]:
             if evaluations < 1:
                 raise ValueError(f"evaluations must be >= 1, got {evaluations}")
@@ -228,6 +230,12 @@ class _Session:
                 return
             points = self.optimizer.ask()
             first = self.state["told"]
+            ahead = sorted(i for i in self.logged if i >= first + len(points))
+            if ahead:  # the log runs past the batch the optimizer asks now
+                raise RunFolderError(
+                    f"{self.store.path(EVALUATIONS)}: evaluation {ahead[0]} is out of sequence: "
+                    f"{first} are told and the optimizer asks {first} to "
+                    f"{first + len(points) - 1} next; the log is damaged or edited")
             wanted = points[:self.budget - first]
             tasks = [(first + k, u) for k, u in enumerate(wanted) if first + k not in self.logged]
             self._check_logged(first, wanted)

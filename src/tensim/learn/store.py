@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import json
 import math
 import os
@@ -58,6 +59,8 @@ CURVE = "learning_curve.png"
 SUMMARY = "summary.json"
 LOCK = ".lock"
 MAX_DIMENSION = 1_000  # most parameters of a sphere problem read back from a folder
+FINGERPRINT = "defines_sha256"  # config.json: hashes of what defines the run's problem
+_DEFINING = ("problem", "optimizer", "seed")  # the configuration's part of it
 
 
 class RunFolderError(InputError):
@@ -95,8 +98,12 @@ class RunStore:
         """
         if self.folder.exists() and not self.folder.is_dir():
             raise RunFolderError(f"{self.folder}: is a file; expected a run folder")
-        self.folder.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.path(LOCK), os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.path(LOCK), os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as err:  # name the run folder, not its lock file
+            raise RunFolderError(f"{self.folder}: cannot be opened as a learning run folder "
+                                 f"({err.strerror or err})") from None
         if fcntl is not None:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -147,7 +154,40 @@ class RunStore:
         if isinstance(problem, TrialProblem):
             save_structure(problem.structure, self.path(STRUCTURE))
             save_controller(problem.base, self.path(BASE_CONTROLLER))
-        self.write_config(config)
+        self.write_config({**config, FINGERPRINT: self.fingerprint(config)})
+
+    def fingerprint(self, config: dict[str, Any]) -> dict[str, str]:
+        """SHA-256 of each thing that defines the run's problem: the configuration's problem,
+        optimizer and seed, and the robot files (structure, base controller) byte for byte.
+        Stored in ``config.json`` when the run is created; a resume recomputes it."""
+        parts = {key: json.dumps(config.get(key), sort_keys=True, allow_nan=False)
+                 .encode() for key in _DEFINING}
+        for name in (STRUCTURE, BASE_CONTROLLER):
+            if self.path(name).is_file():
+                parts[name] = self.path(name).read_bytes()
+        return {key: hashlib.sha256(data).hexdigest() for key, data in parts.items()}
+
+    def check_fingerprint(self, config: dict[str, Any]) -> None:
+        """Proves that the folder still defines the problem it was created with.
+
+        Raises:
+            RunFolderError: no stored fingerprint, or a part that differs (named).
+        """
+        stored = config.get(FINGERPRINT)
+        if not isinstance(stored, dict):
+            raise RunFolderError(f"{self.path(CONFIG)}: holds no {FINGERPRINT!r} (what defines "
+                                 "the run's problem, hashed when it was created), so a resume "
+                                 "cannot prove it continues the same problem; start a new run")
+        try:
+            now = self.fingerprint(config)
+        except ValueError as err:  # a configuration holding NaN or infinity
+            raise RunFolderError(f"{self.path(CONFIG)}: {err}") from None
+        differ = sorted(k for k in {*stored, *now} if stored.get(k) != now.get(k))
+        if differ:
+            where = [f"{k} (config.json)" if k in _DEFINING else k for k in differ]
+            raise RunFolderError(f"{self.folder}: {', '.join(where)} changed since the run "
+                                 "was created; a resume must continue the same problem: "
+                                 "restore the file, or start a new run with --out")
 
     def write_config(self, config: dict[str, Any]) -> None:
         """Replaces ``config.json``."""
@@ -242,12 +282,24 @@ class RunStore:
         found: dict[int, Evaluation] = {}
         for number, line in enumerate(lines[:-1], start=1):  # the last piece is unterminated
             try:
-                evaluation = Evaluation.from_json(json.loads(line))
-            except (json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
+                raw = json.loads(line)
+                index = raw["index"]
+                if isinstance(index, bool) or not isinstance(index, int):
+                    raise ValueError(f"index must be a whole number, got {describe(index)}")
+                evaluation = Evaluation.from_json(raw)
+            except (json.JSONDecodeError, KeyError, TypeError, ValueError,
+                    OverflowError) as err:
                 raise RunFolderError(f"{path}: line {number} is damaged ({err})") from None
             if not all(math.isfinite(u) for u in evaluation.unit):
                 raise RunFolderError(f"{path}: line {number} is damaged (a point that is not "
                                      "finite)")
+            if not math.isfinite(evaluation.score):
+                raise RunFolderError(f"{path}: line {number} is damaged (score "
+                                     f"{evaluation.score}, expected a finite number)")
+            if evaluation.index < 0 or evaluation.index in found:
+                what = "a negative index" if evaluation.index < 0 else \
+                    f"evaluation {evaluation.index} recorded a second time"
+                raise RunFolderError(f"{path}: line {number} is damaged ({what})")
             found[evaluation.index] = evaluation
         return found
 

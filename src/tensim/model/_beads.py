@@ -18,6 +18,8 @@ import math
 import mujoco
 import numpy as np
 
+from tensim._input import InputError
+from tensim.limits import MAX_BEADS, check_count
 from tensim.structure import Cable, CableContact, Structure
 
 BEAD_PRIORITY = 3  # outranks the terrain's 2: bead contacts use the beads' own parameters
@@ -36,6 +38,49 @@ SPRING_SHARE = 1.0  # a span spring pulls with this many bead weights at the bui
 SOLREF_STEPS = 2.0
 SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 SPAN_RANGE = (0.25, 1.5)  # spans stay within these multiples of their build length (limits)
+# Beads whose inertia passes the moving robot's mass would drag every load they carry (a
+# spacing so fine that the bound above asks tonnes): refused, with the figures.
+MAX_INERTIA_SHARE = 1.0
+
+
+def _count(cable: Cable, points: tuple[np.ndarray, ...]) -> float:
+    """Beads of the cable, counted without building them (inf past any float) [-]."""
+    assert cable.contact is not None
+    total = 0.0
+    for a, b in itertools.pairwise(points):
+        ratio = float(np.linalg.norm(b - a)) / cable.contact.spacing
+        total += max(1.0, math.ceil(ratio) - 1.0) if math.isfinite(ratio) else math.inf
+    return total
+
+
+def check_beads(structure: Structure, timestep: float, moving_mass: float) -> None:
+    """Refuses contact cables whose beads would be too many (:data:`tensim.limits.MAX_BEADS`
+    in all) or, with the inertia each needs to be stable at ``timestep`` [s], would outweigh
+    the robot's moving bodies (``moving_mass`` [kg]) and drag the loads they carry.
+
+    Raises:
+        InputError: naming the cable, the figures and what to change.
+    """
+    cables = [c for c in structure.cables if c.contact is not None]
+    counts = [_count(c, structure.cable_points(c)) for c in cables]
+    for cable, count in zip(cables, counts, strict=True):
+        check_count(f"contact cable {cable.name!r} at a bead spacing of "
+                    f"{cable.contact.spacing:g} m: beads",  # type: ignore[union-attr]
+                    count, MAX_BEADS, forceable=False)
+    check_count("contact cables: beads in all", sum(counts), MAX_BEADS, forceable=False)
+    inertia = {c.name: n * max(c.contact.mass,  # type: ignore[union-attr]
+                               stable_inertia(c, shortest_span(c, structure.cable_points(c)),
+                                              timestep))
+               for c, n in zip(cables, counts, strict=True)}
+    total = sum(inertia.values())
+    if moving_mass > 0 and total > MAX_INERTIA_SHARE * moving_mass:
+        worst = max(inertia, key=inertia.__getitem__)
+        raise InputError(
+            f"contact cables: their beads need {total:.4g} kg of inertia to be stable at a "
+            f"timestep of {timestep:g} s ({worst!r}: {inertia[worst]:.4g} kg), more than the "
+            f"robot's {moving_mass:.4g} kg of moving bodies: they would drag every load they "
+            "carry. Take a larger bead spacing (contact: spacing), a smaller timestep (--dt), "
+            "or a lower motor max_tension (see docs/cables.md, Limits)")
 
 
 def bead_counts(cable: Cable, points: tuple[np.ndarray, ...]) -> tuple[int, ...]:
@@ -53,10 +98,17 @@ def bead_positions(cable: Cable, points: tuple[np.ndarray, ...]) -> list[np.ndar
     return out
 
 
+def span_lengths(cable: Cable, points: tuple[np.ndarray, ...]) -> list[float]:
+    """Build length of each span of the bead path, in path order: between neighbouring beads,
+    or a bead and a path point [m]."""
+    return [float(np.linalg.norm(b - a)) / (n + 1) for (a, b), n in
+            zip(itertools.pairwise(points), bead_counts(cable, points), strict=True)
+            for _ in range(n + 1)]
+
+
 def shortest_span(cable: Cable, points: tuple[np.ndarray, ...]) -> float:
     """The shortest distance between neighbouring beads (or a bead and a path point) [m]."""
-    return min(float(np.linalg.norm(b - a)) / (n + 1) for (a, b), n in
-               zip(itertools.pairwise(points), bead_counts(cable, points), strict=True))
+    return min(span_lengths(cable, points))
 
 
 def stable_inertia(cable: Cable, span: float, timestep: float) -> float:
@@ -106,11 +158,13 @@ def add_beads(spec: mujoco.MjSpec, cable: Cable, points: tuple[np.ndarray, ...],
 def add_span_springs(spec: mujoco.MjSpec, cable: Cable, path_sites: list[str],
                      points: tuple[np.ndarray, ...], timestep: float) -> None:
     """A weak zero-length spring tendon on each span of the bead path (keeps slack beads
-    spread and in order); its pull at the build span is ``SPRING_SHARE`` bead weights."""
+    spread and in order); its pull at its build length is ``SPRING_SHARE`` bead weights, and
+    its length limits are multiples of that build length (spans of a cable through via nodes
+    differ: each keeps its own)."""
     assert cable.contact is not None
-    span = shortest_span(cable, points)
-    stiffness = SPRING_SHARE * cable.contact.mass * 9.81 / span
-    for k, (a, b) in enumerate(itertools.pairwise(path_sites)):
+    spans = span_lengths(cable, points)
+    for k, ((a, b), span) in enumerate(zip(itertools.pairwise(path_sites), spans, strict=True)):
+        stiffness = SPRING_SHARE * cable.contact.mass * 9.81 / span
         tendon = spec.add_tendon(name=f"{cable.name}_span{k}", stiffness=stiffness,
                                  springlength=[0.0, 0.0], group=5, rgba=[0, 0, 0, 0],
                                  limited=True, range=[SPAN_RANGE[0] * span, SPAN_RANGE[1] * span],

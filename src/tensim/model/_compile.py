@@ -99,11 +99,11 @@ class WorldOptions:
         if self.cone not in _CONES:
             raise ValueError(f"cone must be 'pyramidal' or 'elliptic', got {self.cone!r}")
         if isinstance(self.noslip_iterations, bool) or not isinstance(
-                self.noslip_iterations, int) or self.noslip_iterations < 0:
-            raise ValueError("noslip_iterations must be a whole number >= 0, got "
-                             f"{self.noslip_iterations!r}")
+                self.noslip_iterations, int) or not 0 <= self.noslip_iterations <= 1000:
+            raise ValueError("noslip_iterations must be a whole number in [0, 1000], got "
+                             f"{self.noslip_iterations!r}"[:200])
         if self.condim not in (3, 4, 6) or isinstance(self.condim, bool):
-            raise ValueError(f"condim must be 3, 4 or 6, got {self.condim!r}")
+            raise ValueError(f"condim must be 3, 4 or 6, got {self.condim!r}"[:200])
         for name in ("torsional_friction", "rolling_friction"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and not isinstance(value, bool)
@@ -275,8 +275,10 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     node_body: dict[str, str] = {}
     node_local: dict[str, np.ndarray] = {}
     adjusted = []
+    moving_mass = 0.0
     for group in structure.rigid_groups():
         props = mass_properties(structure, group)
+        moving_mass += 0.0 if group.fixed else props.mass
         inertia, changed = _regularize(group.name, props, world)
         if changed:
             adjusted.append(group.name)
@@ -319,6 +321,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
         if anchor.name not in node_body:  # a fixed anchor point in the world
             node_body[anchor.name] = "world"
             node_local[anchor.name] = structure.position(anchor.name)
+    _beads.check_beads(structure, world.timestep, moving_mass)
     bodies = {b.name: b for b in spec.bodies}
     bead_paths: dict[str, list[str]] = {}  # contact cables: every site along the path
     for cable in structure.cables:
@@ -341,9 +344,12 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
             if beads and k:
                 bead_paths[cable.name].append(site)
             if k == 0:  # between the anchors: the rods the cable wraps around, in order
-                for wrapped in cable.wrap:
-                    tendon.wrap_geom(_wrap_geom(spec, bodies, rods[wrapped], node_body,
-                                                node_local), "")
+                for j, (wrapped, side) in enumerate(zip(cable.wrap, structure.wrap_sides(cable),
+                                                        strict=True)):
+                    geom = _wrap_geom(spec, bodies, rods[wrapped], node_body, node_local)
+                    tendon.wrap_geom(geom, _side_site(spec, structure, bodies, rods[wrapped],
+                                                      f"{cable.name}_side{j}", side, node_body,
+                                                      node_local))
     for cable in structure.cables:  # cable actuators first: ids 0..n_cables-1
         _add_cable_actuator(spec, cable, structure.rest_length(cable))
     _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
@@ -354,6 +360,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
            for v in ((r, 0.0) if c.motor.dc is None else (r, 0.0, 0.0))]
     spec.add_key(name=BUILD_KEY, act=act, ctrl=rest + [0.0] * (3 * len(load_nodes)))
     model = _compile_spec(spec)
+    _check_wraps(structure, model)
     return dataclasses.replace(
         _assemble(structure, world, model, node_body, node_local, tuple(adjusted), load_nodes),
         spec=spec)
@@ -409,6 +416,44 @@ def _wrap_geom(spec: mujoco.MjSpec, bodies: dict[str, mujoco.MjsBody], rod: Rod,
         bodies[node_body[rod.nodes[0]]].add_geom(
             name=name, type=mujoco.mjtGeom.mjGEOM_CYLINDER, fromto=np.concatenate(ends).tolist(),
             size=[rod.radius, 0, 0], contype=0, conaffinity=0, group=5, rgba=[0, 0, 0, 0])
+    return name
+
+
+def _check_wraps(structure: Structure, model: mujoco.MjModel) -> None:
+    """Refuses a wrapped cable that MuJoCo runs straight past one of its rods in the build pose
+    (a wrap it cannot hold on its side: more than about half a turn from a line clear of the
+    rod), rather than simulate a straight cable."""
+    wrapped = [c for c in structure.cables if c.wrap]
+    if not wrapped:
+        return
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key(BUILD_KEY).id)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_tendon(model, data)
+    for cable in wrapped:
+        t = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TENDON, cable.name)
+        objects = data.wrap_obj[data.ten_wrapadr[t]:data.ten_wrapadr[t] + data.ten_wrapnum[t]]
+        touching = [side[2] for side in structure.wrap_sides(cable)]
+        for rod in (r for r, touches in zip(cable.wrap, touching, strict=True) if touches):
+            geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"wrap_{rod}")
+            if not np.any(objects == geom):
+                raise ModelError(
+                    f"cable {cable.name!r}: MuJoCo does not wrap it over rod {rod!r} in the build "
+                    "pose (its wrap would run straight); move the anchors so that the cable "
+                    "turns by at most half a turn around the rod, or give side")
+
+
+def _side_site(spec: mujoco.MjSpec, structure: Structure, bodies: dict[str, mujoco.MjsBody],
+               rod: Rod, name: str, side: tuple[np.ndarray, np.ndarray, bool],
+               node_body: dict[str, str], node_local: dict[str, np.ndarray]) -> str:
+    """A site on ``rod``'s body, off its surface on the side the cable runs over: MuJoCo's
+    wrap then holds that side (without one it wraps only where the straight line crosses the
+    rod, the shorter way round)."""
+    centre, direction, _ = side
+    node = rod.nodes[0]
+    point = centre + 2 * rod.radius * direction
+    local = point - (structure.position(node) - node_local[node])
+    bodies[node_body[node]].add_site(name=name, pos=local.tolist(), size=[0.001, 0, 0], group=5)
     return name
 
 

@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjbatch
 
+from tensim.limits import MAX_STEPS, check_count
 from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
 from tensim.sim import _law
 from tensim.sim._contact_check import ContactCheck
@@ -134,7 +135,8 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
               threads: int = 1, record_dt: float = 0.01,
               limits: StabilityLimits | None = None,
               progress: Callable[[float, float], None] | None = None,
-              backend: str = "cpu", device: str | None = None) -> list[TrialResult]:
+              backend: str = "cpu", device: str | None = None,
+              force: bool = False) -> list[TrialResult]:
     """Runs ``trials`` of ``compiled`` for ``duration`` seconds each, ``threads`` at a time.
 
     Each trial is recorded like :func:`~tensim.sim.simulate` (same channels, same
@@ -152,10 +154,11 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         backend: ``"cpu"`` (MuJoCo's batch engine, bit-identical to single runs) or
             ``"warp"`` (MuJoCo Warp, one world per trial, float32; ``tensim[gpu]``).
         device: the Warp device for ``backend="warp"`` (None: a GPU if there is one).
+        force: run past :data:`tensim.limits.MAX_STEPS` physics steps (all trials together).
 
     Raises:
-        ValueError: no trials, a bad duration, record_dt or backend, or a batch too large to
-            hold.
+        ValueError: no trials, a bad duration, record_dt or backend, a batch too large to
+            hold, or (``InputError``) more physics steps than the limit.
         ImportError: ``backend="warp"`` without MuJoCo Warp installed.
     """
     if not trials:
@@ -166,9 +169,18 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         raise ValueError(f"threads must be >= 1, got {threads}")
     if backend not in ("cpu", "warp"):
         raise ValueError(f"backend must be 'cpu' or 'warp', got {backend!r}")
+    if all(c.motor.dc is None for c in compiled.structure.cables):
+        for i, trial in enumerate(trials):
+            dc_only = [f for f in ("motor_stall", "motor_inertia", "motor_friction")
+                       if getattr(trial.physics, f) != 1.0]
+            if dc_only:
+                raise ValueError(f"trial {i}: physics {dc_only[0]} scales DC motors, and the "
+                                 "robot has none: it would change nothing")
     nodes = tuple(dict.fromkeys(ld.node for t in trials for ld in t.loads))
     compiled = compiled.with_load_nodes(nodes)
     dt = float(compiled.model.opt.timestep)
+    check_count(f"{len(trials)} trials of {duration:g} s at a physics step of {dt:g} s: "
+                "physics steps", len(trials) * duration / dt, MAX_STEPS, force=force)
     record_steps = _whole_steps(record_dt, dt, "record_dt")
     n_samples = math.floor(duration / (record_steps * dt) + 1e-9)
     size = len(trials) * (n_samples + 1) * (6 * compiled.n_cables + 7 * len(compiled.index.bodies))

@@ -49,7 +49,7 @@ def _names(value: object, item: str, field: str) -> tuple[str, ...]:
 
 def _ends(value: object, item: str) -> tuple[str, str]:
     ends = _names(value, item, "nodes")
-    _check(len(ends) == 2, item, f"nodes must be two node names, got {list(ends)!r}")
+    _check(len(ends) == 2, item, f"nodes must be two node names, got {describe(list(ends))}")
     return ends  # type: ignore[return-value]
 
 
@@ -233,6 +233,15 @@ class DCMotor:
             _check(value >= 0, "DC motor", f"{field} must be >= 0, got {value}")
         _check(isinstance(self.back_drivable, bool), "DC motor",
                f"back_drivable must be true or false, got {describe(self.back_drivable)}")
+        try:  # a radius so small or large that the cable's view of the motor is not finite
+            line = self.line()
+        except (ZeroDivisionError, OverflowError):
+            line = {"mass": math.inf}
+        bad = [k for k, v in line.items() if not math.isfinite(v)
+               or (k in ("stall_force", "no_load_line_speed") and v <= 0)]
+        _check(not bad, "DC motor", f"spool_radius {self.spool_radius:g} m makes the motor's "
+               f"{bad[0] if bad else ''} in cable coordinates zero or not finite; expected "
+               "the radius of a spool (e.g. 0.01 m)")
 
     @classmethod
     def from_constants(cls, torque_constant: float, resistance: float, voltage: float,
@@ -342,6 +351,10 @@ class Cable:
             path over each (MuJoCo's cylinder wrapping) and the law acts on that length.
             Needs ``rest_length`` (the wrapped build length is not known before compiling)
             and no ``via`` nodes.
+        side: for each rod in ``wrap``, a direction from the rod's axis toward the side the
+            cable runs over (``(0, 0, 1)``: over the top at build); the wrap holds that side
+            as the bodies move. Empty: each side follows from the build pose (see
+            :meth:`Structure.wrap_sides`).
         contact: None for a cable that passes through everything; else the cable's path can
             touch the ground, terrain, blocks and walls, through light collision beads it runs
             over (``True`` takes the default :class:`CableContact`). Not with ``wrap``.
@@ -358,6 +371,7 @@ class Cable:
     tags: tuple[str, ...] = ()
     via: tuple[str, ...] = ()
     wrap: tuple[str, ...] = ()
+    side: tuple[tuple[float, float, float], ...] = ()
     contact: CableContact | None = None
 
     def __post_init__(self) -> None:
@@ -423,9 +437,23 @@ class Cable:
                    f"wrap names a rod twice: {list(self.wrap)}")
             _check(self.contact is None, item, "a cable either wraps around rods or touches "
                    "the world through contact beads, not both")
+        self._check_side(item)
         path = self.path
         for a, b in itertools.pairwise(path):
             _check(a != b, item, f"node {a!r} follows itself on the cable's path {list(path)}")
+
+    def _check_side(self, item: str) -> None:
+        if isinstance(self.side, str) or not isinstance(self.side, Sequence | np.ndarray):
+            raise StructureError(f"side must be a list of directions [x, y, z], one per wrapped "
+                                 f"rod, got {describe(self.side)}", item=item)
+        _check(not self.side or len(self.side) == len(self.wrap), item,
+               f"side gives {len(self.side)} directions for {len(self.wrap)} wrapped rods "
+               f"({list(self.wrap)}); give one per rod, or none to take them from the build pose")
+        sides = tuple(_vec3(v, item, "each side") for v in self.side)
+        for v in sides:
+            _check(0 < math.hypot(*v) < math.inf, item,
+                   f"each side must be a non-zero direction, got {list(v)}")
+        object.__setattr__(self, "side", sides)
 
     @property
     def path(self) -> tuple[str, ...]:

@@ -11,6 +11,8 @@ import numpy as np
 from tensim.structure._errors import StructureError
 from tensim.structure._records import Cable, Node, PointMass, Rod
 
+_SIDE_MARGIN = 0.01  # a wrap side is undecided within this share of the rod's radius
+
 
 @dataclasses.dataclass(frozen=True)
 class RigidGroup:
@@ -27,6 +29,34 @@ class RigidGroup:
     rods: tuple[str, ...]
     nodes: tuple[str, ...]
     fixed: bool
+
+
+def _hidden_middle(p: np.ndarray, q: np.ndarray, radius: float, toward: np.ndarray,
+                   axis: np.ndarray) -> np.ndarray:
+    """The middle of the arc of a circle (radius ``radius``, centre 0, across unit ``axis``)
+    that neither ``p`` nor ``q`` sees, the one nearest ``toward``: where a cable from ``p`` to
+    ``q`` wrapped on that side touches the circle. MuJoCo picks the wrap whose tangent points
+    lie nearest the side site, a choice that is degenerate for half a turn unless the site sits
+    at the arc's middle."""
+    e1 = toward / np.linalg.norm(toward)
+    e2 = np.cross(axis, e1)
+    angles = np.linspace(-np.pi, np.pi, 3600, endpoint=False)  # 0: toward
+    hidden = np.ones(angles.size, dtype=bool)
+    for point in (p, q):
+        phi = np.arctan2(point @ e2, point @ e1)
+        hidden &= np.cos(angles - phi) < radius / np.linalg.norm(point)
+    # the run of hidden angles that holds angle 0 (or comes nearest it)
+    candidates = np.flatnonzero(hidden)
+    if not candidates.size:
+        return e1
+    start = int(candidates[np.argmax(np.cos(angles[candidates]))])
+    lo = hi = start
+    while hidden[(lo - 1) % angles.size] and (start - lo) < angles.size:
+        lo -= 1
+    while hidden[(hi + 1) % angles.size] and (hi - lo) < angles.size:
+        hi += 1
+    middle = np.pi / 1800 * (lo + hi) / 2 - np.pi
+    return np.cos(middle) * e1 + np.sin(middle) * e2
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,6 +122,8 @@ class Structure:
             if set(rods[name].nodes) & set(cable.nodes):
                 raise StructureError(f"wraps around rod {name!r}, on which it is anchored",
                                      item=item)
+        if cable.wrap:
+            self.wrap_sides(cable)  # refuses a wrap whose side cannot be decided
         for a, b in itertools.pairwise(cable.path):
             if self.distance(a, b) <= 0:
                 what = "its two nodes coincide" if not cable.via else f"{a!r} and {b!r} coincide"
@@ -161,6 +193,78 @@ class Structure:
         """The points the cable runs through in the build pose: anchor, via nodes, anchor [m]."""
         first, last = self.anchors(cable)
         return (first, *(self.position(v) for v in cable.via), last)
+
+    def wrap_sides(self, cable: Cable) -> tuple[tuple[np.ndarray, np.ndarray, bool], ...]:
+        """For each rod the cable wraps: a point on the rod's axis, the unit direction across
+        the axis of the side the cable runs over [m, -] (the compiled wrap holds it), and
+        whether the cable touches the rod in the build pose.
+
+        In the rod's cross-section, the straight line between the path points on either side
+        of the rod (the anchors, or the previous rod's side) either crosses the rod or passes
+        clear of it. A ``side`` the cable gives decides: a line that crosses wraps on that
+        side; a clear line on that side runs straight past the rod (until the rod moves into
+        it), one on the other side wraps around the rod to that side. Without ``side`` the
+        build pose decides: a line through the rod wraps on the side it crosses (the shorter
+        way round), a line clear of it wraps around the rod's far side (the cable is declared
+        to wrap it: a cable over a pulley); a line too close to the axis (either way round is
+        as short) or to the surface (touching or clear) leaves it undecided.
+
+        Raises:
+            StructureError: an undecided side, a path point within the rod, or a given side
+                along the rod's axis.
+        """
+        item = f"cable {cable.name!r}"
+        rods = {r.name: r for r in self.rods}
+        first, last = self.anchors(cable)
+        previous = first
+        out = []
+        for k, name in enumerate(cable.wrap):
+            rod = rods[name]
+            base = self.position(rod.nodes[0])
+            axis = self.position(rod.nodes[1]) - base
+            axis /= np.linalg.norm(axis)
+
+            def across(v: np.ndarray, axis: np.ndarray = axis) -> np.ndarray:
+                return v - (v @ axis) * axis
+
+            p, q = across(previous - base), across(last - base)
+            centre = base + ((previous + last) / 2 - base) @ axis * axis
+            where = f"wrapping rod {name!r} (radius {rod.radius:g} m)"
+            for point, dist in ((previous, np.linalg.norm(p)), (last, np.linalg.norm(q))):
+                if dist <= rod.radius * (1 + _SIDE_MARGIN):
+                    raise StructureError(
+                        f"{where}: the path point {np.round(point, 6).tolist()} lies "
+                        f"{dist:.4g} m from its axis, within its radius; move it out",
+                        item=item)
+            run = (q - p) @ (q - p)
+            t = float(np.clip(-(p @ (q - p)) / run, 0.0, 1.0)) if run > 0 else 0.0
+            closest = p + t * (q - p)
+            clearance = float(np.linalg.norm(closest))
+            crosses = clearance < rod.radius
+            if cable.side:
+                given = across(np.asarray(cable.side[k], dtype=float))
+                if np.linalg.norm(given) < 1e-9 * np.linalg.norm(cable.side[k]):
+                    raise StructureError(f"{where}: side {list(cable.side[k])} runs along the "
+                                         "rod's axis; give a direction across it", item=item)
+                touches = crosses or given @ closest < 0
+                direction = _hidden_middle(p, q, rod.radius, given, axis) if touches else given
+            else:
+                if clearance < _SIDE_MARGIN * rod.radius or \
+                        abs(clearance - rod.radius) < _SIDE_MARGIN * rod.radius:
+                    place = "its axis" if clearance < rod.radius / 2 else "its surface"
+                    raise StructureError(
+                        f"{where}: the cable's straight build line passes {clearance:.4g} m "
+                        f"from the axis, too near {place} to tell which side it runs over; "
+                        "give side (a direction from the axis, [0, 0, 1]: over the top)",
+                        item=item)
+                # through the rod: the side it crosses; clear of it: around the far side
+                touches = True
+                direction = _hidden_middle(p, q, rod.radius, closest if crosses else -closest,
+                                           axis)
+            direction = direction / np.linalg.norm(direction)
+            out.append((centre, direction, bool(touches)))
+            previous = centre + rod.radius * direction if touches else previous
+        return tuple(out)
 
     def cable_length(self, cable: Cable) -> float:
         """Anchor-to-anchor length along the path in the build pose [m] (x in paper eq. 2).

@@ -35,7 +35,8 @@ def _fields(cls: type) -> list[str]:
 
 def _build(cls: type, raw: Any, item: str) -> Any:
     if not isinstance(raw, dict):
-        raise StructureError(f"expected a mapping of {_fields(cls)}, got {raw!r}", item=item)
+        raise StructureError(f"expected a mapping of {_fields(cls)}, got {describe(raw)}",
+                             item=item)
     unknown = sorted(set(raw) - set(_fields(cls)))
     if unknown:
         raise StructureError(f"unknown field {unknown[0]!r}; expected one of {_fields(cls)}",
@@ -118,7 +119,8 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
                 continue
             if isinstance(value, dict):  # a nested record (motor, contact): drop its Nones
                 value = {k: v for k, v in value.items() if v is not None}
-            out[key] = list(value) if isinstance(value, tuple) else value
+            out[key] = [list(v) if isinstance(v, tuple) else v for v in value] \
+                if isinstance(value, tuple) else value
         return out
 
     return {

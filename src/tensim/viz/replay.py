@@ -103,7 +103,14 @@ def load_run(folder: Path) -> RecordedRun:
     path = folder / "trajectory.parquet"
     if not path.is_file():
         raise RunFolderError(f"{path}: no such file; this run folder holds no recorded poses")
-    return recorded_run(folder, summary, TimeSeries.from_parquet(path))
+    try:
+        series = TimeSeries.from_parquet(path)
+    except KeyError:
+        raise RunFolderError(f"{path}: no column 'time'") from None
+    except Exception as err:  # pyarrow's many errors of a damaged file
+        raise RunFolderError(f"{path}: cannot be read as a trajectory "
+                             f"({type(err).__name__}: {str(err)[:200]})") from None
+    return recorded_run(folder, summary, series)
 
 
 def recorded_run(folder: Path, summary: dict[str, Any], series: TimeSeries) -> RecordedRun:
@@ -125,7 +132,46 @@ def recorded_run(folder: Path, summary: dict[str, Any], series: TimeSeries) -> R
         raise RunFolderError(f"{folder / 'trajectory.parquet'}: no channel {missing[0]!r} (and "
                              f"{len(missing) - 1} more missing); the poses of model {name!r} "
                              "cannot be replayed")
+    _check_poses(folder / "trajectory.parquet", series, compiled)
     return RecordedRun(folder, summary, series, compiled)
+
+
+def _check_poses(path: Path, series: TimeSeries, compiled: CompiledModel) -> None:
+    """Refuses a recording a replay would draw wrong: a time that is not finite or does not
+    increase, a pose (or bead position) that is not finite, naming the column and row.
+
+    Raises:
+        RunFolderError: naming the file, the column, the row and the value.
+    """
+    try:
+        time = np.asarray(series.time, dtype=float)
+    except (TypeError, ValueError):
+        raise RunFolderError(f"{path}: column 'time' does not hold numbers") from None
+    if time.size == 0:
+        raise RunFolderError(f"{path}: no samples")
+    bad = np.flatnonzero(~np.isfinite(time))
+    if bad.size:
+        raise RunFolderError(f"{path}: column 'time', row {bad[0]}: {time[bad[0]]} is not a "
+                             "finite time")
+    back = np.flatnonzero(np.diff(time) <= 0)
+    if back.size:
+        k = int(back[0])
+        raise RunFolderError(f"{path}: column 'time' does not increase at row {k + 1} "
+                             f"({time[k]:g} s, then {time[k + 1]:g} s); a recording runs "
+                             "forward in time")
+    columns = [f"{q}/{body}" for body in compiled.index.bodies for q in _POSE]
+    columns += [f"bead_{a}/{bead}" for bead in compiled.index.beads for a in "xyz"
+                if f"bead_{a}/{bead}" in series.channels]
+    for column in columns:
+        try:
+            values = np.asarray(series[column], dtype=float)
+        except (TypeError, ValueError):
+            raise RunFolderError(f"{path}: column {column!r} does not hold numbers") from None
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise RunFolderError(f"{path}: column {column!r}, row {bad[0]} (t = "
+                                 f"{time[bad[0]]:g} s): {values[bad[0]]} is not a finite "
+                                 f"pose; {bad.size} such rows")
 
 
 def _world(summary: dict[str, Any], folder: Path) -> WorldOptions:
@@ -152,8 +198,8 @@ def _world(summary: dict[str, Any], folder: Path) -> WorldOptions:
                                                  defaults.torsional_friction)),
             rolling_friction=float(summary.get("rolling_friction_m",
                                                defaults.rolling_friction)))
-    except (TypeError, ValueError) as err:
-        raise RunFolderError(f"{folder / 'summary.json'}: {err}") from err
+    except (TypeError, ValueError, OverflowError) as err:
+        raise RunFolderError(f"{folder / 'summary.json'}: {str(err)[:200]}") from None
     text = summary.get("terrain")
     if not isinstance(text, str) or not text:
         return world
