@@ -178,11 +178,15 @@ def _mean_of(summaries: list[dict[str, Any]], key: str, absolute: bool = False) 
     return round(float(np.mean(values)), 6) if values else None
 
 
-def _keep(c: Comparison, window: tuple[float, float] | None) -> np.ndarray:
-    """(S, n) the logged samples inside ``window`` [s] (None: all)."""
+def _keep(c: Comparison, window: tuple[float, float] | None,
+          hold_out: tuple[float, float] | None = None) -> np.ndarray:
+    """(S, n) the logged samples inside ``window`` [s] (None: all) and not in ``hold_out``
+    (a sample on a boundary the two windows share is a validation sample)."""
     keep = np.isfinite(c.hardware)
     if window is not None:
         keep &= ((c.time >= window[0]) & (c.time <= window[1]))[:, None]
+    if hold_out is not None:
+        keep &= ~((c.time >= hold_out[0]) & (c.time <= hold_out[1]))[:, None]
     return keep
 
 
@@ -259,32 +263,46 @@ class _Problem:
             return log.duration
         return min(log.duration, max(fit[1], validate[1] if validate else fit[1]))
 
+    def span(self, log: HardwareLog) -> tuple[float, float]:
+        """The samples of ``log`` the comparisons cover: from ``skip`` (or the first window's
+        start) to the simulated horizon [s], so no sample past the simulation is scored."""
+        windows = [w for w in (self.settings.fit_window, self.settings.validate_window) if w]
+        start = min(w[0] for w in windows) if windows else 0.0
+        return max(start, self.settings.skip), self.horizon(log)
+
     def comparisons(self, values: np.ndarray) -> list[Comparison]:
-        """Per log, the logged tensions against the simulated readings for ``values``."""
+        """Per log, the logged tensions against the simulated readings for ``values`` (on the
+        samples of :meth:`span`)."""
         named = self.space.as_dict(values)
         sensor = apply_measurement(self.sensor, named)
         return [compare_tensions(log, run, sensor=sensor,
                                  offset=sensor.delay if "delay" in named else self.offsets[i],
-                                 skip=self.settings.skip)
+                                 skip=self.span(log)[0], end=self.span(log)[1])
                 for i, (log, run) in enumerate(zip(self.logs, self.simulate(values),
                                                    strict=True))]
 
     def residuals(self, unit: np.ndarray, window: tuple[float, float] | None = None
                   ) -> np.ndarray:
         """Simulated minus logged tension [N] at every logged sample in ``window`` (default:
-        the fit window), all logs; ordered by log, then time, then cable."""
-        window = window or self.settings.fit_window
+        the fit samples), all logs; ordered by log, then time, then cable."""
         parts = []
         for c in self.comparisons(self.space.from_unit(unit)):
-            parts.append((c.simulated - c.hardware)[_keep(c, window)])
+            parts.append((c.simulated - c.hardware)[self.keep(c, window)])
         return np.concatenate(parts)
+
+    def keep(self, c: Comparison, window: tuple[float, float] | None = None) -> np.ndarray:
+        """(S, n) the samples of ``window``, or by default the fit samples: the fit window's,
+        less any validation sample."""
+        if window is not None:
+            return _keep(c, window)
+        return _keep(c, self.settings.fit_window, self.settings.validate_window)
 
     def sample_rows(self, unit: np.ndarray) -> np.ndarray:
         """For each entry of :meth:`residuals`, a label of its (log, sample time) row."""
         labels = []
         for i, c in enumerate(self.comparisons(self.space.from_unit(unit))):
             rows = np.broadcast_to(np.arange(c.time.size)[:, None], c.hardware.shape)
-            labels.append(i * 1_000_000_000 + rows[_keep(c, self.settings.fit_window)])
+            labels.append(i * 1_000_000_000 + rows[self.keep(c)])
         return np.concatenate(labels)
 
     def jacobian(self, unit: np.ndarray) -> np.ndarray:
@@ -347,6 +365,7 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     if not logs:
         raise ValueError("system identification needs at least one log")
     settings = _hold_out(settings or SysidSettings())
+    _check_windows(settings)
     _check_informed(logs, names, settings)
     try:
         check_world(names, world)
@@ -392,6 +411,19 @@ def _hold_out(settings: SysidSettings) -> SysidSettings:
     return dataclasses.replace(settings, fit_window=fit)
 
 
+def _check_windows(settings: SysidSettings) -> None:
+    """Refuses fit and validation windows that share samples: that is no hold-out."""
+    fit, validate = settings.fit_window, settings.validate_window
+    if fit is None or validate is None or not (fit[0] < validate[1] and validate[0] < fit[1]):
+        return
+    raise SysidError(f"--fit-window {fit[0]:g}:{fit[1]:g} and --validate-window "
+                     f"{validate[0]:g}:{validate[1]:g} s overlap ({max(fit[0], validate[0]):g}-"
+                     f"{min(fit[1], validate[1]):g} s): the fit would see the validation "
+                     "samples, so the verdict would be no hold-out; expected disjoint windows "
+                     "(their ends may touch), or no --validate-window to judge the fit on its "
+                     "own samples")
+
+
 def _check_informed(logs: Sequence[HardwareLog], names: Sequence[str],
                     settings: SysidSettings) -> None:
     """Refuses parameters and windows the logs cannot inform (before any simulation)."""
@@ -417,7 +449,7 @@ def _validation(problem: _Problem, nominal: SysidSpace, space: SysidSpace,
                 fitted: np.ndarray, before: Sequence[Comparison]) -> dict[str, Any]:
     """RMSE of the nominal and the fitted model on the validation samples [N]."""
     window = problem.settings.validate_window or problem.settings.fit_window
-    nominal_residual = np.concatenate([(c.simulated - c.hardware)[_keep(c, window)]
+    nominal_residual = np.concatenate([(c.simulated - c.hardware)[problem.keep(c, window)]
                                        for c in before])
     fitted_residual = problem.residuals(space.to_unit(fitted), window)
     return {"window_s": list(window) if window else "all samples",
@@ -430,5 +462,5 @@ def _nominal_comparisons(problem: _Problem, space: SysidSpace) -> list[Compariso
     """The nominal model against each log, the time offset estimated as ``compare`` does."""
     runs = problem.simulate(space.structure_values(), snap=False)
     return [compare_tensions(log, run, max_offset=problem.settings.max_offset,
-                             skip=problem.settings.skip)
+                             skip=problem.span(log)[0], end=problem.span(log)[1])
             for log, run in zip(problem.logs, runs, strict=True)]
