@@ -4,14 +4,38 @@ intervals that cover the spread of fits on other windows."""
 
 from __future__ import annotations
 
-import pytest
+import contextlib
+import io
+import tempfile
+from pathlib import Path
 
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tensim import InputError
 from tensim.cli import main
 from tensim.control import load_controller
-from tensim.hardware import SysidSettings, identify, simulated_log, write_log
-from tensim.hardware.loads import experiment_params
+from tensim.hardware import (
+    PAPER_LOADCELL,
+    HardwareLog,
+    SensorModel,
+    SysidSettings,
+    compare_tensions,
+    identify,
+    load_log,
+    read_log,
+    replay_config,
+    simulated_log,
+    write_log,
+)
+from tensim.hardware.checklog import unexplained_drifts, unexplained_jumps
+from tensim.hardware.loads import experiment_params, loads_for
+from tensim.hardware.logs import check_items
 from tensim.hardware.sysid import SysidError
 from tensim.models import tetraspine3
+from tensim.sim import TimeSeries
 
 PUSH = "start=1.5,rise=0.5,hold=0.5,fall=0.5"  # a short disturbance: 1.5-3 s
 
@@ -29,8 +53,6 @@ def impedance(robot):
 @pytest.fixture(scope="module")
 def push_log(robot, impedance):
     """An exact (noise-free) 3.5 s disturbance log of the nominal robot, 0.5 N offset."""
-    from tensim.hardware import SensorModel
-
     params = experiment_params("disturbance", PUSH, "test")
     return simulated_log(robot, impedance, 3.5, experiment=("disturbance", params),
                          sensor=SensorModel(offset=0.5))
@@ -86,3 +108,169 @@ def test_cli_names_overlapping_windows(push_log, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--fit-window 0:3 and --validate-window 2:3.5 s overlap (2-3 s)" in err
     assert not (tmp_path / "s").exists()
+
+
+# -- check-log: the same rules as compare and sysid -----------------------------------------------
+
+CABLES = ("inner_top_1", "outer_top_1")
+GOOD = ("time_s,vstar_mps/inner_top_1,tension_N/inner_top_1,tension_N/outer_top_1\n"
+        "0,0,20.4,20.6\n0.1,0.01,,\n0.2,0.01,20.5,20.7\n0.3,0,,\n0.4,0,20.3,20.5\n")
+
+
+def _csv(header: str = "", body: str = GOOD) -> str:
+    return header + body
+
+
+MALFORMED = {  # name -> (log text, what the refusal says)
+    "hardware scale 0": (_csv("# hardware_scale: 0\n"), "'hardware_scale': expected a number > 0"),
+    "hardware scale -10": (_csv("# hardware_scale: -10\n"), "expected a number > 0"),
+    "hardware scale nan": (_csv("# hardware_scale: nan\n"), "expected a number > 0"),
+    "hardware scale text": (_csv("# hardware_scale: ten\n"), "expected a number > 0"),
+    "no tension reading": (
+        "time_s,tension_N/inner_top_1\n0,\n0.1,\n", "'tension_N/inner_top_1' has no reading"),
+    "a dead load cell": (
+        "time_s,tension_N/inner_top_1,tension_N/outer_top_1\n0,20,\n0.1,20,\n",
+        "'tension_N/outer_top_1' has no reading"),
+    "one reading row": (
+        "time_s,tension_N/inner_top_1,vstar_mps/inner_top_1\n0,20,0\n0.1,,0\n",
+        "1 row(s) with a tension reading; expected at least two"),
+    "unknown experiment": (_csv("# experiment: kick\n"), "unknown experiment 'kick'"),
+    "bad experiment parameter": (
+        _csv("# experiment: disturbance\n# experiment_params: peek=3\n"), "no parameter 'peek'"),
+    "zero-length push phase": (
+        _csv("# experiment: disturbance\n# experiment_params: start=0.1,hold=0\n"),
+        "hold: expected a duration > 0"),
+    "decreasing time": (GOOD.replace("0.3,", "0.1,", 1), "expected strictly increasing"),
+    "overflowed cell": (GOOD.replace("20.5", "ovf"), "expected a finite number"),
+    "duplicate column": (GOOD.replace("outer_top_1", "inner_top_1"), "duplicate column"),
+    "negative ADC": ("time_s,adc/inner_top_1\n0,100\n0.1,-3\n", "expected ADC counts >= 0"),
+    "bad calibration header": ("# loadcell: 0.1 * ADC\ntime_s,adc/inner_top_1\n0,100\n"
+                               "0.1,101\n", "header 'loadcell'"),
+    "load axes on other rows": (
+        "time_s,tension_N/inner_top_1,load_N/s0_tip/x,load_N/s0_tip/y\n0,20,1,1\n0.1,20,2,\n",
+        "expected every axis sampled on the same rows"),
+    "load column never sampled": (
+        "time_s,tension_N/inner_top_1,load_N/s0_tip/x\n0,20,\n0.1,20,\n", "no sample"),
+    "huge V* table": (
+        "time_s,vstar_mps/inner_top_1,tension_N/inner_top_1\n0,0,20\n1e-9,0,20\n2e-9,0,20\n"
+        "2e3,0,20\n",
+        "V* table"),
+}
+
+
+@pytest.mark.parametrize("name", list(MALFORMED))
+def test_check_log_refuses_what_compare_refuses(name, tmp_path, capsys):
+    """Each log is refused by check-log, compare and sysid alike, with the same message and
+    before any simulation (on main, check-log called the first seven 'valid')."""
+    text, message = MALFORMED[name]
+    path = tmp_path / "log.csv"
+    path.write_text(text)
+    for command in (["check-log", str(path)],
+                    ["--quiet", "compare", str(path), "--out", str(tmp_path / "c")],
+                    ["--quiet", "sysid", str(path), "--params", "offset",
+                     "--out", str(tmp_path / "s")]):
+        assert main(command) == 2, command
+        err = capsys.readouterr().err
+        assert message in err and str(path) in err, (command, err)
+    assert not (tmp_path / "c").exists() and not (tmp_path / "s").exists()
+
+
+def test_check_log_accepts_the_good_log(tmp_path, capsys):
+    path = tmp_path / "log.csv"
+    path.write_text(GOOD)
+    assert main(["check-log", str(path), "--model", "tetraspine3"]) == 0
+    assert "valid for tetraspine3" in capsys.readouterr().out
+
+
+def test_a_slow_push_without_load_columns_is_named(robot, impedance, tmp_path, capsys):
+    """The paper's push ramps over 5 s: no step between readings stands out (no jump), but
+    the tensions leave their level for seconds. Logged, the push explains it; stripped of its
+    load columns, check-log and compare warn (on main both were silent)."""
+    params = experiment_params("disturbance", "start=3,rise=5,hold=3,fall=5", "test")
+    log = simulated_log(robot, impedance, 18.0, experiment=("disturbance", params),
+                        sensor=SensorModel(noise=0.1, loadcell=PAPER_LOADCELL),
+                        rng=np.random.default_rng(5))
+    stripped = HardwareLog(TimeSeries(log.series.time, {
+        k: v for k, v in log.series.channels.items() if not k.startswith("load/")}),
+        "stripped.csv", {})
+    assert unexplained_jumps(stripped) == []  # the jump detector misses it
+    # the push covers most of the log, so the level is the pushed one and both the ramp up
+    # and the release stand out; all inside the push (3-16 s, each moving mean 2 s wide)
+    drifts = unexplained_drifts(stripped)
+    assert drifts and all(2.0 < start < end < 17.5 for start, end, _, _ in drifts)
+    assert all("outer_top_1" in cables for _, _, cables, _ in drifts)
+    largest = drifts[0][3]
+    assert max(d[3] for d in drifts) > 2.5  # newtons: a push, far above the 0.1 N noise
+    assert unexplained_drifts(log) == []  # the logged push explains it
+    path = write_log(stripped, tmp_path / "stripped.csv")
+    assert main(["check-log", str(path)]) == 0
+    assert f"warning: tensions drift by up to {largest:.3g} N" in capsys.readouterr().out
+    # the same robot without a push: no drift
+    quiet = simulated_log(robot, impedance, 18.0, sensor=SensorModel(noise=0.1),
+                          rng=np.random.default_rng(5))
+    assert unexplained_drifts(quiet) == []
+
+
+def test_many_jumps_are_counted(tmp_path, capsys):
+    """A log with 40 spikes: five warnings are printed, and how many more there are."""
+    time = np.arange(0.0, 30.0, 0.1)
+    tension = 10.0 + 0.01 * (np.arange(time.size) % 2)
+    tension[np.arange(20, time.size, 7)] += 3.0  # a spike every 0.7 s after 2 s
+    path = tmp_path / "spiky.csv"
+    path.write_text("time_s,tension_N/inner_top_1\n"
+                    + "".join(f"{t:.1f},{v:.3f}\n" for t, v in zip(time, tension, strict=True)))
+    jumps = len(unexplained_jumps(read_log(path)))
+    assert jumps > 40  # up and down at each spike
+    assert main(["check-log", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert out.count("warning: tensions jump") == 5
+    assert f"... and {jumps - 5} more jumps ({jumps} in all; --json lists them)" in out
+
+
+HEADERS = st.sampled_from([
+    "", "# hardware_scale: 10\n", "# hardware_scale: 0\n", "# hardware_scale: -1\n",
+    "# hardware_scale: inf\n", "# hardware_scale: x\n", "# experiment: sine\n",
+    "# experiment: disturbance\n# experiment_params: start=0.1,rise=0.1,hold=0,fall=0.1\n",
+    "# experiment: disturbance\n# experiment_params: peak=-1\n", "# experiment: push\n",
+    "# loadcell: 0.1 * ADC + 1\n"])
+
+
+@settings(max_examples=60, derandomize=True, database=None, deadline=None)
+@given(header=HEADERS, blank=st.sets(st.integers(0, 14), max_size=15),
+       loads=st.booleans())
+def test_check_log_accepts_exactly_what_compare_can_score(header, blank, loads):
+    """Mutated logs (header values, emptied cells, load columns): check-log's verdict is the
+    compare path's. A log it calls valid replays (V* table, loads, names) and scores finite
+    figures against a simulated series; one it refuses is refused by load_log too."""
+    rows = [line.split(",") for line in GOOD.splitlines()]
+    if loads:
+        rows[0].append("load_N/s0_tip/x")
+        for k, row in enumerate(rows[1:]):
+            row.append(f"{k:g}")
+    cells = [(r, c) for r in range(1, len(rows)) for c in range(1, 4)]
+    for k in blank:
+        r, c = cells[k]
+        rows[r][c] = ""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "log.csv"
+        path.write_text(header + "".join(",".join(row) + "\n" for row in rows))
+        with contextlib.redirect_stdout(io.StringIO()), \
+                contextlib.redirect_stderr(io.StringIO()) as err:
+            verdict = main(["check-log", str(path), "--model", "tetraspine3"])
+        assert verdict in (0, 2), err.getvalue()
+        try:
+            log = load_log(path)
+            robot = tetraspine3()
+            check_items(log, robot)
+            config = replay_config(log, load_controller("tetraspine3_impedance", robot))
+            config.build(0.001)
+            loads_for(log, robot)
+        except InputError:
+            assert verdict == 2
+            return
+        assert verdict == 0
+        sim_time = np.arange(0.0, log.duration + 0.5, 0.01)
+        simulated = TimeSeries(sim_time, {f"tension/{c}": 20.0 + np.sin(sim_time + k)
+                                          for k, c in enumerate(CABLES)})
+        summary = compare_tensions(log, simulated).summary()
+        assert np.isfinite(summary["rmse_N"]) and summary["samples"] >= 2

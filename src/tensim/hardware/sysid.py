@@ -26,6 +26,7 @@ import numpy as np
 from scipy import optimize
 
 from tensim.control import ControllerConfig
+from tensim.hardware.checklog import validate_log
 from tensim.hardware.compare import Comparison, compare_tensions
 from tensim.hardware.loads import loads_for
 from tensim.hardware.logs import HardwareLog, check_items
@@ -364,6 +365,8 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     """
     if not logs:
         raise ValueError("system identification needs at least one log")
+    for log in logs:
+        validate_log(log)
     settings = _hold_out(settings or SysidSettings())
     _check_windows(settings)
     _check_informed(logs, names, settings)
