@@ -297,7 +297,12 @@ def _sysid(args: argparse.Namespace) -> int:
         error = "" if p["ci95"] is None else f" ± {p['ci95']:.3g}"
         print(f"  {name:<12} {p['fitted']:10.5g}{error} {p['unit']:<6} (nominal "
               f"{p['nominal']:.5g})")
-    print("  (±: 95 % interval; residuals correlated in time, see docs/hardware.md)")
+    u = summary["uncertainty"]
+    if result.kept_nominal:
+        print("  (refused below: no interval is claimed for these values)")
+    else:
+        print(f"  (±: 95 % interval, x{u['model_error_factor']:.2f} for residuals correlated "
+              f"{u['residual_correlation']:.2f} in time; see docs/hardware.md)")
     v = summary["validation"]
     where = "fit samples" if v["on_fit_data"] else f"validation samples {args.validate_window} s"
     print(f"RMSE on the {where}: nominal {v['nominal_rmse_N']:.3f} N, fitted "

@@ -6,8 +6,9 @@ measurement parameters only reshape the simulated signals, so the optimizer's fi
 differences over them reuse a cached simulation. The optimizer is scipy's bounded
 trust-region least squares on the unit cube of the bounds, with a finite-difference step large
 enough to step over the small, irregular changes that contact and motor limits cause; the
-uncertainty comes from the Jacobian and the residuals at the solution, over time blocks
-(:mod:`tensim.hardware.uncertainty`). A fit is judged on validation samples and is replaced by
+uncertainty comes from the Jacobian and the residuals at the solution, allowing for their
+correlation over cables and time and for model error (:mod:`tensim.hardware.uncertainty`).
+A fit is judged on validation samples and is replaced by
 the nominal model when it is worse there. A Jacobian's perturbed models (each a
 recompiled structure) are simulated together, one batch per log, on the batch engine's threads.
 (MuJoCo's ``mujoco.sysid`` toolbox makes the same physical/measurement split; tensim keeps its
@@ -39,7 +40,7 @@ from tensim.hardware.parameters import (
 )
 from tensim.hardware.replay import replay_config
 from tensim.hardware.sensor import SensorModel
-from tensim.hardware.uncertainty import block_stderr, interval_factor, naive_stderr
+from tensim.hardware.uncertainty import INTERVAL_Z, LOG_STRIDE, fit_stderr
 from tensim.model import WorldOptions, compile_structure
 from tensim.sim import SimulationError, TimeSeries, Trial, run_batch
 from tensim.structure import Structure
@@ -97,9 +98,9 @@ class SysidResult:
     Attributes:
         space: the fitted parameters (names, bounds, starting values).
         fitted: (n,) fitted values.
-        stderr: (n,) standard errors: the larger of the time-block error
-            (:func:`~tensim.hardware.uncertainty.block_stderr`) and ``naive_stderr``
-            (inf: not determined).
+        stderr: (n,) standard errors: the largest of the independent-sample, per-reading and
+            time-block errors times the model-error factor of the residuals' correlation
+            (:func:`~tensim.hardware.uncertainty.fit_stderr`; inf: not determined).
         naive_stderr: (n,) the textbook s^2 (J^T J)^-1 errors, which assume independent
             residuals (kept for comparison; too small on autocorrelated residuals).
         before, after: per log, the comparison with the nominal model (time offset
@@ -114,6 +115,8 @@ class SysidResult:
         kept_nominal: the fit was worse than nominal on the validation samples, so
             ``structure``, ``sensor`` and ``vstar_scale`` are the nominal ones.
         world: the fitted world options (torsional and rolling friction; else as given).
+        uncertainty: how ``stderr`` was found: each estimate's errors, the residuals'
+            strongest autocorrelation and the model-error factor.
     """
 
     space: SysidSpace
@@ -130,9 +133,13 @@ class SysidResult:
     validation: dict[str, Any] = dataclasses.field(default_factory=dict)
     kept_nominal: bool = False
     world: WorldOptions | None = None
+    uncertainty: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def parameters(self) -> dict[str, dict[str, Any]]:
-        """name -> nominal, start, fitted, stderr, 95 % interval half-width, bounds, unit."""
+        """name -> nominal, start, fitted, stderr, 95 % interval half-width, bounds, unit.
+
+        A refused fit (``kept_nominal``) has no interval (``ci95`` None): its values are
+        reported, but they are not the model written, and no claim is made on them."""
         from tensim.hardware.parameters import definition
 
         out = {}
@@ -142,8 +149,8 @@ class SysidResult:
                            "nominal": float(self.space.structure_values()[k]),
                            "start": p.bounds.nominal, "fitted": float(self.fitted[k]),
                            "stderr": _finite(self.stderr[k]),
-                           "ci95": _finite(interval_factor(BLOCKS, len(self.before))
-                                           * self.stderr[k]),
+                           "ci95": None if self.kept_nominal
+                           else _finite(INTERVAL_Z * self.stderr[k]),
                            "naive_stderr": _finite(self.naive_stderr[k]),
                            "bounds": [p.bounds.low, p.bounds.high]}
         return out
@@ -154,6 +161,7 @@ class SysidResult:
         after = [c.summary() for c in self.after]
         return {"parameters": self.parameters(), "simulations": self.simulations,
                 "validation": self.validation, "kept_nominal": self.kept_nominal,
+                "uncertainty": self.uncertainty,
                 "optimizer": {"status": int(self.optimizer.status),
                               "message": str(self.optimizer.message),
                               "cost": float(self.optimizer.cost)},
@@ -298,13 +306,17 @@ class _Problem:
             return _keep(c, window)
         return _keep(c, self.settings.fit_window, self.settings.validate_window)
 
-    def sample_rows(self, unit: np.ndarray) -> np.ndarray:
-        """For each entry of :meth:`residuals`, a label of its (log, sample time) row."""
-        labels = []
+    def sample_cells(self, unit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For each entry of :meth:`residuals`, a label of its (log, sample time) row and the
+        index of its cable."""
+        labels, cables = [], []
         for i, c in enumerate(self.comparisons(self.space.from_unit(unit))):
+            keep = self.keep(c)
             rows = np.broadcast_to(np.arange(c.time.size)[:, None], c.hardware.shape)
-            labels.append(i * 1_000_000_000 + rows[self.keep(c)])
-        return np.concatenate(labels)
+            labels.append(i * LOG_STRIDE + rows[keep])
+            cables.append(np.broadcast_to(np.arange(len(c.cables))[None, :],
+                                          c.hardware.shape)[keep])
+        return np.concatenate(labels), np.concatenate(cables)
 
     def jacobian(self, unit: np.ndarray) -> np.ndarray:
         """Forward differences with a fixed step of ``diff_step`` of each bound range.
@@ -392,16 +404,24 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     jac = problem.jacobian(space.to_unit(fitted))
     residual = problem.residuals(space.to_unit(fitted))
     scale = space.high - space.low
-    naive = naive_stderr(jac, residual) * scale
-    stderr = np.maximum(block_stderr(jac, residual, problem.sample_rows(space.to_unit(fitted)),
-                                     BLOCKS) * scale, naive)
+    stderr, parts = fit_stderr(jac, residual, *problem.sample_cells(space.to_unit(fitted)),
+                               BLOCKS)
+    stderr = stderr * scale
+    naive = parts["naive"] * scale
+    uncertainty = {
+        "residual_correlation": round(float(parts["residual_correlation"]), 6),
+        "model_error_factor": round(float(parts["model_error_factor"]), 6),
+        **{f"{key}_stderr": {p.name: _finite(v * s) for p, v, s in
+                             zip(space.parameters, parts[key], scale, strict=True)}
+           for key in ("naive", "row", "block")}}
     validation = _validation(problem, nominal, space, fitted, before)
     kept = validation["fitted_rmse_N"] > validation["nominal_rmse_N"] and not settings.force
     named = nominal.as_dict(nominal.structure_values()) if kept else space.as_dict(fitted)
     return SysidResult(space, fitted, stderr, naive, tuple(before),
                        tuple(problem.comparisons(fitted)), apply_physical(structure, named),
                        apply_measurement(problem.sensor, named), named.get("vstar_scale", 1.0),
-                       problem.simulations, fit, validation, kept, apply_world(world, named))
+                       problem.simulations, fit, validation, kept, apply_world(world, named),
+                       uncertainty)
 
 
 def _hold_out(settings: SysidSettings) -> SysidSettings:
