@@ -362,8 +362,9 @@ def test_noise_does_not_narrow_the_interval(robot, impedance):
     """The same stand-in read exactly and through 1 N of noise (ten times the example's):
     the noisy log's residuals look less correlated, but the variance they imply does not
     fall with it (model error plus noise). Measured: 0.94 and 0.85 of the exact log's
-    intervals; independent-sample intervals would shrink 6-fold on some logs (the reason
-    for this test). Asked: at least 0.75, and no more than 3 times (noise adds variance, but
+    intervals (the offset's and the delay's). Before the model-error factor, a noisy log
+    could claim a several times narrower interval than a clean one, as if noise were
+    information. Asked: at least 0.75, and no more than 3 times (noise adds variance, but
     the model error dominates here)."""
     from tensim.control import tetraspine_sine
     from tensim.model import WorldOptions

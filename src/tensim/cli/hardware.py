@@ -301,8 +301,9 @@ def _sysid(args: argparse.Namespace) -> int:
     if result.kept_nominal:
         print("  (refused below: no interval is claimed for these values)")
     else:
-        print(f"  (±: 95 % interval, x{u['model_error_factor']:.2f} for residuals correlated "
-              f"{u['residual_correlation']:.2f} in time; see docs/hardware.md)")
+        print(f"  (±: 95 % interval; x{u['model_error_factor']:.2f} for the residuals' "
+              f"correlation in time, sum |rho| = {u['residual_correlation']:.2f}; see "
+              "docs/hardware.md)")
     v = summary["validation"]
     where = "fit samples" if v["on_fit_data"] else f"validation samples {args.validate_window} s"
     print(f"RMSE on the {where}: nominal {v['nominal_rmse_N']:.3f} N, fitted "

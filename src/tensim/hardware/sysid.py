@@ -40,7 +40,7 @@ from tensim.hardware.parameters import (
 )
 from tensim.hardware.replay import replay_config
 from tensim.hardware.sensor import SensorModel
-from tensim.hardware.uncertainty import INTERVAL_Z, LOG_STRIDE, fit_stderr
+from tensim.hardware.uncertainty import LOG_STRIDE, fit_stderr, interval_factor
 from tensim.model import WorldOptions, compile_structure
 from tensim.sim import SimulationError, TimeSeries, Trial, run_batch
 from tensim.structure import Structure
@@ -150,7 +150,8 @@ class SysidResult:
                            "start": p.bounds.nominal, "fitted": float(self.fitted[k]),
                            "stderr": _finite(self.stderr[k]),
                            "ci95": None if self.kept_nominal
-                           else _finite(INTERVAL_Z * self.stderr[k]),
+                           else _finite(interval_factor(BLOCKS, len(self.before))
+                                        * self.stderr[k]),
                            "naive_stderr": _finite(self.naive_stderr[k]),
                            "bounds": [p.bounds.low, p.bounds.high]}
         return out

@@ -31,7 +31,6 @@ import numpy as np
 from scipy import stats
 
 LOG_STRIDE = 1_000_000_000  # a sample row's label: log index x LOG_STRIDE + row
-INTERVAL_Z = float(stats.norm.ppf(0.975))  # 95 % interval half-width in standard errors
 
 
 def _bread(jac: np.ndarray) -> np.ndarray | None:
@@ -147,6 +146,13 @@ def model_error_factor(correlation: float) -> float:
     autocorrelations sum to ``correlation`` (the long-run variance of a correlated series
     over its variance: fewer independent samples than residuals)."""
     return float(np.sqrt(1.0 + 2.0 * max(correlation, 0.0)))
+
+
+def interval_factor(blocks: int = 5, logs: int = 1) -> float:
+    """Half-width of the 95 % interval in standard errors: Student's t with blocks x logs - 1
+    degrees of freedom (the time-block estimate's; 2.78 for one log), the most cautious of
+    the three estimates' small-sample quantiles."""
+    return float(stats.t.ppf(0.975, max(blocks * logs - 1, 1)))
 
 
 def naive_stderr(jac: np.ndarray, residual: np.ndarray) -> np.ndarray:
