@@ -405,16 +405,15 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     jac = problem.jacobian(space.to_unit(fitted))
     residual = problem.residuals(space.to_unit(fitted))
     scale = space.high - space.low
-    stderr, parts = fit_stderr(jac, residual, *problem.sample_cells(space.to_unit(fitted)),
-                               BLOCKS)
-    stderr = stderr * scale
-    naive = parts["naive"] * scale
+    errors = fit_stderr(jac, residual, *problem.sample_cells(space.to_unit(fitted)), BLOCKS)
+    stderr, naive = errors.stderr * scale, errors.naive * scale
     uncertainty = {
-        "residual_correlation": round(float(parts["residual_correlation"]), 6),
-        "model_error_factor": round(float(parts["model_error_factor"]), 6),
+        "residual_correlation": round(errors.correlation, 6),
+        "model_error_factor": round(errors.factor, 6),
         **{f"{key}_stderr": {p.name: _finite(v * s) for p, v, s in
-                             zip(space.parameters, parts[key], scale, strict=True)}
-           for key in ("naive", "row", "block")}}
+                             zip(space.parameters, values, scale, strict=True)}
+           for key, values in (("naive", errors.naive), ("row", errors.row),
+                               ("block", errors.block))}}
     validation = _validation(problem, nominal, space, fitted, before)
     kept = validation["fitted_rmse_N"] > validation["nominal_rmse_N"] and not settings.force
     named = nominal.as_dict(nominal.structure_values()) if kept else space.as_dict(fitted)

@@ -27,6 +27,8 @@ the much narrower one that treating the residuals as independent would give.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from scipy import stats
 
@@ -167,20 +169,37 @@ def naive_stderr(jac: np.ndarray, residual: np.ndarray) -> np.ndarray:
     return np.where(variance >= 0, np.sqrt(np.abs(variance)), np.inf)
 
 
-def fit_stderr(jac: np.ndarray, residual: np.ndarray, rows: np.ndarray, cables: np.ndarray,
-               blocks: int = 5) -> tuple[np.ndarray, dict[str, object]]:
-    """The reported standard errors: the largest of the independent-sample, per-reading and
-    time-block errors, times the model-error factor of the residuals' correlation.
+@dataclasses.dataclass(frozen=True)
+class FitErrors:
+    """The standard errors of a fit and the estimates they come from (unit coordinates of
+    the Jacobian given).
 
-    Returns:
-        (n,) standard errors (inf: not determined), and the parts (JSON-ready): each
-        estimate, the residual correlation and the factor.
+    Attributes:
+        stderr: (n,) reported: ``factor`` x the largest of the three estimates (inf: not
+            determined).
+        naive, row, block: (n,) :func:`naive_stderr`, :func:`row_stderr`,
+            :func:`block_stderr`.
+        correlation: :func:`residual_correlation` [-].
+        factor: :func:`model_error_factor` of it [-].
     """
+
+    stderr: np.ndarray
+    naive: np.ndarray
+    row: np.ndarray
+    block: np.ndarray
+    correlation: float
+    factor: float
+
+
+def fit_stderr(jac: np.ndarray, residual: np.ndarray, rows: np.ndarray, cables: np.ndarray,
+               blocks: int = 5) -> FitErrors:
+    """The reported standard errors: the largest of the independent-sample, per-reading and
+    time-block errors, times the model-error factor of the residuals' correlation
+    (arguments as :func:`block_stderr` and :func:`residual_correlation`)."""
     naive = naive_stderr(jac, residual)
     row = row_stderr(jac, residual, rows)
     block = block_stderr(jac, residual, rows, blocks)
-    rho = residual_correlation(residual, rows, cables)
-    factor = model_error_factor(rho)
-    parts = {"naive": naive, "row": row, "block": block, "residual_correlation": rho,
-             "model_error_factor": factor}
-    return factor * np.maximum.reduce([naive, row, block]), parts
+    correlation = residual_correlation(residual, rows, cables)
+    factor = model_error_factor(correlation)
+    return FitErrors(factor * np.maximum.reduce([naive, row, block]), naive, row, block,
+                     correlation, factor)
