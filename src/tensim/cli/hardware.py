@@ -166,14 +166,36 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def _warn_jumps(log: HardwareLog) -> None:
-    from tensim.hardware.checklog import unexplained_jumps
+SHOWN = 5  # warnings of one kind printed per log; the rest are counted
 
-    for time, cables in unexplained_jumps(log)[:5]:
-        print(f"warning: {log.source}: tensions jump at {time:g} s "
-              f"({', '.join(cables)}) where no logged load changes; a push the log does not "
-              "record? (load_N/<node>/<axis> columns or an '# experiment:' header)",
-              file=sys.stderr)
+
+def _warn_jumps(log: HardwareLog) -> None:
+    """Warns on standard error of tension jumps and drifts that no logged load explains."""
+    from tensim.hardware.checklog import summarize_log
+
+    lines = _load_warnings(summarize_log(log))
+    for line in lines:
+        print(f"warning: {log.source}: {line}", file=sys.stderr)
+    if lines:
+        print(f"warning: {log.source}: a push the log does not record? (load_N/<node>/<axis> "
+              "columns or an '# experiment:' header)", file=sys.stderr)
+
+
+def _load_warnings(s: dict) -> list[str]:
+    """The jump and drift warnings of a log summary, ``SHOWN`` of each and a count of the
+    rest."""
+    jumps = [f"tensions jump at {j['time_s']:g} s ({', '.join(j['cables'])}) where no logged "
+             "load changes" for j in s["unexplained_jumps"]]
+    drifts = [f"tensions drift by up to {d['largest_N']:.3g} N over {d['start_s']:g}-"
+              f"{d['end_s']:g} s ({', '.join(d['cables'])}) where no logged load acts"
+              for d in s["unexplained_drifts"]]
+    out = []
+    for lines, what in ((jumps, "jumps"), (drifts, "drifts")):
+        out += lines[:SHOWN]
+        if len(lines) > SHOWN:
+            out.append(f"... and {len(lines) - SHOWN} more {what} ({len(lines)} in all; "
+                       "--json lists them)")
+    return out
 
 
 def _print_comparison(s: dict) -> None:
@@ -275,7 +297,13 @@ def _sysid(args: argparse.Namespace) -> int:
         error = "" if p["ci95"] is None else f" ± {p['ci95']:.3g}"
         print(f"  {name:<12} {p['fitted']:10.5g}{error} {p['unit']:<6} (nominal "
               f"{p['nominal']:.5g})")
-    print("  (±: 95 % interval; residuals correlated in time, see docs/hardware.md)")
+    u = summary["uncertainty"]
+    if result.kept_nominal:
+        print("  (refused below: no interval is claimed for these values)")
+    else:
+        print(f"  (±: 95 % interval; x{u['model_error_factor']:.2f} for the residuals' "
+              f"correlation in time, sum |rho| = {u['residual_correlation']:.2f}; see "
+              "docs/hardware.md)")
     v = summary["validation"]
     where = "fit samples" if v["on_fit_data"] else f"validation samples {args.validate_window} s"
     print(f"RMSE on the {where}: nominal {v['nominal_rmse_N']:.3f} N, fitted "
@@ -427,8 +455,7 @@ def _check_log(args: argparse.Namespace) -> int:
         if s["load_window_s"]:
             print(f"  loads act {s['load_window_s'][0]:g}-{s['load_window_s'][1]:g} s "
                   f"(from the {s['loads_from']})")
-        for jump in s["unexplained_jumps"][:5]:
-            print(f"  warning: tensions jump at {jump['time_s']:g} s "
-                  f"({', '.join(jump['cables'])}) where no logged load changes")
+        for line in _load_warnings(s):
+            print(f"  warning: {line}")
         print("  valid" + (f" for {args.model}" if structure is not None else ""))
     return 0

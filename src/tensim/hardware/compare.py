@@ -248,7 +248,7 @@ def _score(hardware: np.ndarray, shifted: np.ndarray) -> float:
 
 def compare_tensions(log: HardwareLog, simulated: TimeSeries, *,
                      sensor: SensorModel | None = None, offset: float | None = None,
-                     max_offset: float = 0.5, skip: float = 0.0,
+                     max_offset: float = 0.5, skip: float = 0.0, end: float = np.inf,
                      settle: float = SETTLE_S) -> Comparison:
     """Compares a log's tensions with a simulation of it (simulation time 0 = log start).
 
@@ -260,6 +260,8 @@ def compare_tensions(log: HardwareLog, simulated: TimeSeries, *,
             when a sensor is given, else estimates it (:func:`estimate_offset`).
         max_offset: largest lag the estimate tries [s].
         skip: leave out the log's first seconds (e.g. a settling transient) [s].
+        end: leave out the samples after this time from the log's start [s] (e.g. past the
+            end of a simulation that covers only part of the log).
         settle: start of the "after settling" maxima [s].
 
     Raises:
@@ -267,7 +269,8 @@ def compare_tensions(log: HardwareLog, simulated: TimeSeries, *,
     """
     cables = tuple(log.cables("tension"))
     values = log.series.matrix("tension", cables)
-    rows = ~np.isnan(values).all(axis=1) & (log.series.time - log.start >= skip)
+    since = log.series.time - log.start
+    rows = ~np.isnan(values).all(axis=1) & (since >= skip) & (since <= end)
     time, hardware = log.series.time[rows] - log.start, values[rows]
     true = simulated.matrix("tension", cables)
     how = "given"

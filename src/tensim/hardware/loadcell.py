@@ -210,16 +210,24 @@ def loadcell_for(log: HardwareLog, given: LoadCell | None = None) -> LoadCell:
 
 
 def load_log(path: str | os.PathLike[str], loadcell: LoadCell | None = None) -> HardwareLog:
-    """Reads and validates a log (:func:`~tensim.hardware.logs.read_log`), ADC columns in N.
+    """Reads and validates a log (:func:`~tensim.hardware.logs.read_log`), ADC columns in N,
+    and checks it as ``compare`` and ``sysid`` need it
+    (:func:`~tensim.hardware.checklog.validate_log`).
 
     Args:
         path: the CSV file.
         loadcell: calibration for ``adc/`` columns (default: the header's, else eq. 7).
+
+    Raises:
+        LogError: naming the file and what was expected.
     """
+    from tensim.hardware.checklog import validate_log
+
     log = read_log(path)
-    if not log.cables("adc"):
-        return log
-    return convert_log(log, loadcell_for(log, loadcell))
+    if log.cables("adc"):
+        log = convert_log(log, loadcell_for(log, loadcell))
+    validate_log(log)
+    return log
 
 
 def save_calibration(fit: CalibrationFit, path: Path) -> None:

@@ -29,6 +29,7 @@ class Experiment:
         units: parameter -> unit.
         loads: the external loads for given parameters.
         description: one line.
+        positive: parameters that must be > 0 (the others >= 0).
     """
 
     name: str
@@ -36,6 +37,7 @@ class Experiment:
     units: Mapping[str, str]
     loads: Callable[[Mapping[str, float]], tuple[NodeLoad, ...]]
     description: str
+    positive: tuple[str, ...] = ()
 
 
 def _disturbance(params: Mapping[str, float]) -> tuple[NodeLoad, ...]:
@@ -58,7 +60,8 @@ EXPERIMENTS: dict[str, Experiment] = {e.name: e for e in (
                {"peak": 22.56, "start": 30.0, "rise": 5.0, "hold": 5.0, "fall": 5.0},
                {"peak": "N", "start": "s", "rise": "s", "hold": "s", "fall": "s"},
                _disturbance, "a forward push on the front segment's tip (paper Fig. 3), the "
-               "other tips pushed back with 0.45 and 0.55 of it"),
+               "other tips pushed back with 0.45 and 0.55 of it",
+               positive=("rise", "hold", "fall")),
     Experiment("sine", {}, {}, _sine, "a gait from the logged V* (no external loads)"),
 )}
 
@@ -68,8 +71,9 @@ def experiment_params(name: str, text: str | Mapping[str, float] | None, where: 
     """The experiment's parameters: its defaults with ``text`` (``"peak=20,start=2"``) applied.
 
     Raises:
-        LogError: an unknown experiment or parameter, or a value that is not a number >= 0,
-            naming ``where`` (the file and header, or the option).
+        LogError: an unknown experiment or parameter, or a value that is not a number >= 0
+            (> 0 for a phase's duration), naming ``where`` (the file and header, or the
+            option).
     """
     if name not in EXPERIMENTS:
         raise LogError(f"{where}: unknown experiment {name!r}; expected one of "
@@ -84,6 +88,9 @@ def experiment_params(name: str, text: str | Mapping[str, float] | None, where: 
                            f"one of {list(out)}")
         if not (np.isfinite(value) and value >= 0):
             raise LogError(f"{where}: {key}: expected a number >= 0, got {value!r}")
+        if key in experiment.positive and value <= 0:
+            raise LogError(f"{where}: {key}: expected a duration > 0 (each phase of "
+                           f"{name!r} takes time), got {value!r}")
         out[key] = float(value)
     return out
 

@@ -142,9 +142,14 @@ class HardwareLog:
                     rows, MAX_SAMPLES, forceable=False)
         grid = np.arange(rows) * period
         held = np.stack([_hold(times, values[:, k], grid) for k in range(len(cables))], axis=1)
-        return VelocityTable(tuple(cables), period, held / self._hardware_scale())
+        return VelocityTable(tuple(cables), period, held / self.hardware_scale())
 
-    def _hardware_scale(self) -> float:
+    def hardware_scale(self) -> float:
+        """The ``hardware_scale`` header: logged V* / simulator V* (1 when absent).
+
+        Raises:
+            LogError: a value that is not a number > 0.
+        """
         text = self.meta.get("hardware_scale", "1")
         try:
             scale = float(text)

@@ -6,8 +6,9 @@ measurement parameters only reshape the simulated signals, so the optimizer's fi
 differences over them reuse a cached simulation. The optimizer is scipy's bounded
 trust-region least squares on the unit cube of the bounds, with a finite-difference step large
 enough to step over the small, irregular changes that contact and motor limits cause; the
-uncertainty comes from the Jacobian and the residuals at the solution, over time blocks
-(:mod:`tensim.hardware.uncertainty`). A fit is judged on validation samples and is replaced by
+uncertainty comes from the Jacobian and the residuals at the solution, allowing for their
+correlation over cables and time and for model error (:mod:`tensim.hardware.uncertainty`).
+A fit is judged on validation samples and is replaced by
 the nominal model when it is worse there. A Jacobian's perturbed models (each a
 recompiled structure) are simulated together, one batch per log, on the batch engine's threads.
 (MuJoCo's ``mujoco.sysid`` toolbox makes the same physical/measurement split; tensim keeps its
@@ -26,6 +27,7 @@ import numpy as np
 from scipy import optimize
 
 from tensim.control import ControllerConfig
+from tensim.hardware.checklog import validate_log
 from tensim.hardware.compare import Comparison, compare_tensions
 from tensim.hardware.loads import loads_for
 from tensim.hardware.logs import HardwareLog, check_items
@@ -38,7 +40,7 @@ from tensim.hardware.parameters import (
 )
 from tensim.hardware.replay import replay_config
 from tensim.hardware.sensor import SensorModel
-from tensim.hardware.uncertainty import block_stderr, interval_factor, naive_stderr
+from tensim.hardware.uncertainty import LOG_STRIDE, fit_stderr, interval_factor
 from tensim.model import WorldOptions, compile_structure
 from tensim.sim import SimulationError, TimeSeries, Trial, run_batch
 from tensim.structure import Structure
@@ -96,9 +98,9 @@ class SysidResult:
     Attributes:
         space: the fitted parameters (names, bounds, starting values).
         fitted: (n,) fitted values.
-        stderr: (n,) standard errors: the larger of the time-block error
-            (:func:`~tensim.hardware.uncertainty.block_stderr`) and ``naive_stderr``
-            (inf: not determined).
+        stderr: (n,) standard errors: the largest of the independent-sample, per-reading and
+            time-block errors times the model-error factor of the residuals' correlation
+            (:func:`~tensim.hardware.uncertainty.fit_stderr`; inf: not determined).
         naive_stderr: (n,) the textbook s^2 (J^T J)^-1 errors, which assume independent
             residuals (kept for comparison; too small on autocorrelated residuals).
         before, after: per log, the comparison with the nominal model (time offset
@@ -113,6 +115,8 @@ class SysidResult:
         kept_nominal: the fit was worse than nominal on the validation samples, so
             ``structure``, ``sensor`` and ``vstar_scale`` are the nominal ones.
         world: the fitted world options (torsional and rolling friction; else as given).
+        uncertainty: how ``stderr`` was found: each estimate's errors, the residuals'
+            strongest autocorrelation and the model-error factor.
     """
 
     space: SysidSpace
@@ -129,9 +133,13 @@ class SysidResult:
     validation: dict[str, Any] = dataclasses.field(default_factory=dict)
     kept_nominal: bool = False
     world: WorldOptions | None = None
+    uncertainty: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def parameters(self) -> dict[str, dict[str, Any]]:
-        """name -> nominal, start, fitted, stderr, 95 % interval half-width, bounds, unit."""
+        """name -> nominal, start, fitted, stderr, 95 % interval half-width, bounds, unit.
+
+        A refused fit (``kept_nominal``) has no interval (``ci95`` None): its values are
+        reported, but they are not the model written, and no claim is made on them."""
         from tensim.hardware.parameters import definition
 
         out = {}
@@ -141,8 +149,9 @@ class SysidResult:
                            "nominal": float(self.space.structure_values()[k]),
                            "start": p.bounds.nominal, "fitted": float(self.fitted[k]),
                            "stderr": _finite(self.stderr[k]),
-                           "ci95": _finite(interval_factor(BLOCKS, len(self.before))
-                                           * self.stderr[k]),
+                           "ci95": None if self.kept_nominal
+                           else _finite(interval_factor(BLOCKS, len(self.before))
+                                        * self.stderr[k]),
                            "naive_stderr": _finite(self.naive_stderr[k]),
                            "bounds": [p.bounds.low, p.bounds.high]}
         return out
@@ -153,6 +162,7 @@ class SysidResult:
         after = [c.summary() for c in self.after]
         return {"parameters": self.parameters(), "simulations": self.simulations,
                 "validation": self.validation, "kept_nominal": self.kept_nominal,
+                "uncertainty": self.uncertainty,
                 "optimizer": {"status": int(self.optimizer.status),
                               "message": str(self.optimizer.message),
                               "cost": float(self.optimizer.cost)},
@@ -178,11 +188,15 @@ def _mean_of(summaries: list[dict[str, Any]], key: str, absolute: bool = False) 
     return round(float(np.mean(values)), 6) if values else None
 
 
-def _keep(c: Comparison, window: tuple[float, float] | None) -> np.ndarray:
-    """(S, n) the logged samples inside ``window`` [s] (None: all)."""
+def _keep(c: Comparison, window: tuple[float, float] | None,
+          hold_out: tuple[float, float] | None = None) -> np.ndarray:
+    """(S, n) the logged samples inside ``window`` [s] (None: all) and not in ``hold_out``
+    (a sample on a boundary the two windows share is a validation sample)."""
     keep = np.isfinite(c.hardware)
     if window is not None:
         keep &= ((c.time >= window[0]) & (c.time <= window[1]))[:, None]
+    if hold_out is not None:
+        keep &= ~((c.time >= hold_out[0]) & (c.time <= hold_out[1]))[:, None]
     return keep
 
 
@@ -259,33 +273,51 @@ class _Problem:
             return log.duration
         return min(log.duration, max(fit[1], validate[1] if validate else fit[1]))
 
+    def span(self, log: HardwareLog) -> tuple[float, float]:
+        """The samples of ``log`` the comparisons cover: from ``skip`` (or the first window's
+        start) to the simulated horizon [s], so no sample past the simulation is scored."""
+        windows = [w for w in (self.settings.fit_window, self.settings.validate_window) if w]
+        start = min(w[0] for w in windows) if windows else 0.0
+        return max(start, self.settings.skip), self.horizon(log)
+
     def comparisons(self, values: np.ndarray) -> list[Comparison]:
-        """Per log, the logged tensions against the simulated readings for ``values``."""
+        """Per log, the logged tensions against the simulated readings for ``values`` (on the
+        samples of :meth:`span`)."""
         named = self.space.as_dict(values)
         sensor = apply_measurement(self.sensor, named)
         return [compare_tensions(log, run, sensor=sensor,
                                  offset=sensor.delay if "delay" in named else self.offsets[i],
-                                 skip=self.settings.skip)
+                                 skip=self.span(log)[0], end=self.span(log)[1])
                 for i, (log, run) in enumerate(zip(self.logs, self.simulate(values),
                                                    strict=True))]
 
     def residuals(self, unit: np.ndarray, window: tuple[float, float] | None = None
                   ) -> np.ndarray:
         """Simulated minus logged tension [N] at every logged sample in ``window`` (default:
-        the fit window), all logs; ordered by log, then time, then cable."""
-        window = window or self.settings.fit_window
+        the fit samples), all logs; ordered by log, then time, then cable."""
         parts = []
         for c in self.comparisons(self.space.from_unit(unit)):
-            parts.append((c.simulated - c.hardware)[_keep(c, window)])
+            parts.append((c.simulated - c.hardware)[self.keep(c, window)])
         return np.concatenate(parts)
 
-    def sample_rows(self, unit: np.ndarray) -> np.ndarray:
-        """For each entry of :meth:`residuals`, a label of its (log, sample time) row."""
-        labels = []
+    def keep(self, c: Comparison, window: tuple[float, float] | None = None) -> np.ndarray:
+        """(S, n) the samples of ``window``, or by default the fit samples: the fit window's,
+        less any validation sample."""
+        if window is not None:
+            return _keep(c, window)
+        return _keep(c, self.settings.fit_window, self.settings.validate_window)
+
+    def sample_cells(self, unit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For each entry of :meth:`residuals`, a label of its (log, sample time) row and the
+        index of its cable."""
+        labels, cables = [], []
         for i, c in enumerate(self.comparisons(self.space.from_unit(unit))):
+            keep = self.keep(c)
             rows = np.broadcast_to(np.arange(c.time.size)[:, None], c.hardware.shape)
-            labels.append(i * 1_000_000_000 + rows[_keep(c, self.settings.fit_window)])
-        return np.concatenate(labels)
+            labels.append(i * LOG_STRIDE + rows[keep])
+            cables.append(np.broadcast_to(np.arange(len(c.cables))[None, :],
+                                          c.hardware.shape)[keep])
+        return np.concatenate(labels), np.concatenate(cables)
 
     def jacobian(self, unit: np.ndarray) -> np.ndarray:
         """Forward differences with a fixed step of ``diff_step`` of each bound range.
@@ -346,7 +378,10 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     """
     if not logs:
         raise ValueError("system identification needs at least one log")
+    for log in logs:
+        validate_log(log)
     settings = _hold_out(settings or SysidSettings())
+    _check_windows(settings)
     _check_informed(logs, names, settings)
     try:
         check_world(names, world)
@@ -370,16 +405,23 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     jac = problem.jacobian(space.to_unit(fitted))
     residual = problem.residuals(space.to_unit(fitted))
     scale = space.high - space.low
-    naive = naive_stderr(jac, residual) * scale
-    stderr = np.maximum(block_stderr(jac, residual, problem.sample_rows(space.to_unit(fitted)),
-                                     BLOCKS) * scale, naive)
+    errors = fit_stderr(jac, residual, *problem.sample_cells(space.to_unit(fitted)), BLOCKS)
+    stderr, naive = errors.stderr * scale, errors.naive * scale
+    uncertainty = {
+        "residual_correlation": round(errors.correlation, 6),
+        "model_error_factor": round(errors.factor, 6),
+        **{f"{key}_stderr": {p.name: _finite(v * s) for p, v, s in
+                             zip(space.parameters, values, scale, strict=True)}
+           for key, values in (("naive", errors.naive), ("row", errors.row),
+                               ("block", errors.block))}}
     validation = _validation(problem, nominal, space, fitted, before)
     kept = validation["fitted_rmse_N"] > validation["nominal_rmse_N"] and not settings.force
     named = nominal.as_dict(nominal.structure_values()) if kept else space.as_dict(fitted)
     return SysidResult(space, fitted, stderr, naive, tuple(before),
                        tuple(problem.comparisons(fitted)), apply_physical(structure, named),
                        apply_measurement(problem.sensor, named), named.get("vstar_scale", 1.0),
-                       problem.simulations, fit, validation, kept, apply_world(world, named))
+                       problem.simulations, fit, validation, kept, apply_world(world, named),
+                       uncertainty)
 
 
 def _hold_out(settings: SysidSettings) -> SysidSettings:
@@ -390,6 +432,19 @@ def _hold_out(settings: SysidSettings) -> SysidSettings:
         return settings
     fit = (0.0, validate[0]) if validate[0] > 0 else (validate[1], np.inf)
     return dataclasses.replace(settings, fit_window=fit)
+
+
+def _check_windows(settings: SysidSettings) -> None:
+    """Refuses fit and validation windows that share samples: that is no hold-out."""
+    fit, validate = settings.fit_window, settings.validate_window
+    if fit is None or validate is None or not (fit[0] < validate[1] and validate[0] < fit[1]):
+        return
+    raise SysidError(f"--fit-window {fit[0]:g}:{fit[1]:g} and --validate-window "
+                     f"{validate[0]:g}:{validate[1]:g} s overlap ({max(fit[0], validate[0]):g}-"
+                     f"{min(fit[1], validate[1]):g} s): the fit would see the validation "
+                     "samples, so the verdict would be no hold-out; expected disjoint windows "
+                     "(their ends may touch), or no --validate-window to judge the fit on its "
+                     "own samples")
 
 
 def _check_informed(logs: Sequence[HardwareLog], names: Sequence[str],
@@ -417,7 +472,7 @@ def _validation(problem: _Problem, nominal: SysidSpace, space: SysidSpace,
                 fitted: np.ndarray, before: Sequence[Comparison]) -> dict[str, Any]:
     """RMSE of the nominal and the fitted model on the validation samples [N]."""
     window = problem.settings.validate_window or problem.settings.fit_window
-    nominal_residual = np.concatenate([(c.simulated - c.hardware)[_keep(c, window)]
+    nominal_residual = np.concatenate([(c.simulated - c.hardware)[problem.keep(c, window)]
                                        for c in before])
     fitted_residual = problem.residuals(space.to_unit(fitted), window)
     return {"window_s": list(window) if window else "all samples",
@@ -430,5 +485,5 @@ def _nominal_comparisons(problem: _Problem, space: SysidSpace) -> list[Compariso
     """The nominal model against each log, the time offset estimated as ``compare`` does."""
     runs = problem.simulate(space.structure_values(), snap=False)
     return [compare_tensions(log, run, max_offset=problem.settings.max_offset,
-                             skip=problem.settings.skip)
+                             skip=problem.span(log)[0], end=problem.span(log)[1])
             for log, run in zip(problem.logs, runs, strict=True)]
