@@ -20,6 +20,7 @@ from tensim import __version__
 # subcommand modules, in the order ``tensim --help`` lists them
 COMMAND_MODULES = (
     "tensim.cli.models",
+    "tensim.cli.info",
     "tensim.cli.simulate",
     "tensim.cli.experiment",
     "tensim.cli.export",

@@ -108,6 +108,18 @@ def load_model(name: str) -> Structure:
                      "existing .yaml structure file")
 
 
+def motor_sources(name: str) -> dict[str, str]:
+    """Where each cable of a preset or structure file got its motor (see
+    :data:`tensim.inspect.MOTOR_SOURCES`)."""
+    from tensim._input import load_yaml_file
+    from tensim.models import PRESETS
+    from tensim.structure import motor_sources as file_sources
+
+    if name in PRESETS:
+        return {c.name: "preset" for c in PRESETS[name].build().cables}
+    return file_sources(load_yaml_file(Path(name)))
+
+
 def print_summary(summary: dict[str, Any], out: Path) -> None:
     """Prints where a run went, its speed and its tensions."""
     tensions = summary.get("max_tension_N", {})

@@ -10,12 +10,13 @@ K N/m, B N·s/m, V* m/s, frequencies Hz, phases rad, times s. The layout::
     model: tetraspine3            # the preset it was made for (used when no robot is given)
     description: free text
     impedance:
-      groups:                     # optional: fields shared by every cable with a tag, in order
+      groups:                     # optional: fields shared by every motorised cable with a tag
         - {tag: top, stiffness_gain: 500, damping_gain: 150}
       cables:                     # per cable; overrides its groups; all four fields in the end
         inner_top_1: {offset_tension: 28, target_length: 0.19}
       passive: [outer]            # optional: cables (names or tags) left without gains on
-                                  # purpose; any other cable without gains is an error
+                                  # purpose; any other motorised cable without gains is an
+                                  # error (cables without a motor never get gains)
     gait:                         # optional
       type: cpg                   # cpg | sine | table
       duration: 60                # s of gait
@@ -242,7 +243,7 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str
         if not isinstance(tag, str):
             raise ControllerFileError(f"expected a tag name, got {describe(tag)}",
                                       field=f"{where}.tag")
-        members = [c.name for c in structure.cables if tag in c.tags]
+        members = [c.name for c in structure.cables if tag in c.tags and not c.motor.passive]
         if not members:
             raise ControllerFileError(f"no cable of {structure.name!r} has the tag {tag!r}",
                                       field=f"{where}.tag")
@@ -255,6 +256,11 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str
         where = f"{field}.cables.{name}"
         if name not in known:
             raise ControllerFileError(f"{structure.name!r} has no cable {name!r}", field=where)
+        if structure.cable(name).motor.passive:
+            raise ControllerFileError(f"cable {name!r} has no motor in {structure.name!r}, so "
+                                      "no controller can drive it; give it a 'motor' in the "
+                                      "structure file (or its 'defaults'), or drop its gains",
+                                      field=where)
         fields = _mapping(fields, where, f"gain fields {list(_GAIN_FIELDS)}")
         _only(fields, _GAIN_FIELDS, where)
         partial.setdefault(name, {}).update(
@@ -272,7 +278,7 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str
             gains[cable.name] = ImpedanceGains(**fields)
         except ValueError as err:
             raise ControllerFileError(str(err), field=f"{field}.cables.{cable.name}") from None
-    missing = [c.name for c in structure.cables if c.name not in gains
+    missing = [c.name for c in structure.cables if c.name not in gains and not c.motor.passive
                and not any(p == c.name or p in c.tags for p in passive)]
     if missing:
         raise ControllerFileError(
@@ -367,6 +373,11 @@ def _sine(raw: dict[str, Any], structure: Structure, field: str) -> SineGait:
         where = f"{field}.cables.{name}"
         if name not in known:
             raise ControllerFileError(f"{structure.name!r} has no cable {name!r}", field=where)
+        if structure.cable(name).motor.passive:
+            raise ControllerFileError(f"cable {name!r} has no motor in {structure.name!r}, so "
+                                      "no controller can drive it; give it a 'motor' in the "
+                                      "structure file (or its 'defaults'), or drop its gains",
+                                      field=where)
         wave = _mapping(wave, where, f"{list(_SINE_FIELDS)}")
         _only(wave, _SINE_FIELDS, where)
         for key in _SINE_FIELDS:
