@@ -21,6 +21,7 @@ from tensim import __version__
 COMMAND_MODULES = (
     "tensim.cli.models",
     "tensim.cli.info",
+    "tensim.cli.controller",
     "tensim.cli.simulate",
     "tensim.cli.experiment",
     "tensim.cli.export",

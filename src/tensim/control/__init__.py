@@ -20,7 +20,7 @@ from tensim.control.files import (
     save_controller,
     shipped_controllers,
 )
-from tensim.control.impedance import ImpedanceController, ImpedanceGains
+from tensim.control.impedance import ImpedanceController, ImpedanceGains, default_impedance
 from tensim.control.parameters import Bounds, Parameter, ParameterLayout, ParameterVector
 from tensim.control.sine import SineController, SineGait, tagged_sine, tetraspine_sine
 from tensim.control.spine import (
@@ -64,6 +64,7 @@ __all__ = [
     "VelocityFileError",
     "VelocityTable",
     "controller_path",
+    "default_impedance",
     "integrate",
     "load_controller",
     "load_velocity_table",
