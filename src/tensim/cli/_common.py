@@ -120,6 +120,18 @@ def motor_sources(name: str) -> dict[str, str]:
     return file_sources(load_yaml_file(Path(name)))
 
 
+def motor_summary(structure: Structure) -> dict[str, str]:
+    """Each cable's motor in a line, for run summaries: ``"kinematic 0.07 m/s, 50 N"``,
+    ``"dc, 50 N"`` or ``"none (passive)"``."""
+    out = {}
+    for cable in structure.cables:
+        m = cable.motor
+        out[cable.name] = ("none (passive)" if m.passive else
+                           f"{'dc' if m.dc else f'kinematic {m.max_speed:g} m/s'}, "
+                           f"{m.max_tension:g} N")
+    return out
+
+
 def print_summary(summary: dict[str, Any], out: Path) -> None:
     """Prints where a run went, its speed and its tensions."""
     tensions = summary.get("max_tension_N", {})
