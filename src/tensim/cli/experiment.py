@@ -43,8 +43,7 @@ def _drawer(plans: list[FigurePlan], duration: float | None, dt: float | None
 def _robot_controller(args: argparse.Namespace, structure: Structure | None
                       ) -> tuple[Any, str | None]:
     """The ``--controller`` file for the experiment's robot (None: the experiment's default)."""
-    from tensim.control import load_controller
-    from tensim.models import preset
+    from tensim.models import load_controller, preset
 
     if args.controller is None:
         return None, None

@@ -20,8 +20,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from tensim._files import write_text
-    from tensim.control import resolve_controller
     from tensim.inspect import format_info, structure_info
+    from tensim.models import resolve_controller
 
     structure = load_model(args.model)
     config = resolve_controller(args.model, structure, args.controller)

@@ -128,8 +128,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _problem(args: argparse.Namespace) -> TrialProblem:
-    from tensim.control import load_controller
     from tensim.learn import Objective, TrialProblem, default_base, parse_direction
+    from tensim.models import load_controller
 
     structure = load_model(args.model)
     base = (load_controller(args.base_controller, structure) if args.base_controller

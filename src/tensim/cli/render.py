@@ -112,8 +112,8 @@ def _render_run(args: argparse.Namespace, folder: Path, out: Path, settings: Vid
 
 def _render_model(args: argparse.Namespace, out: Path, settings: VideoSettings,
                   progress: Progress) -> VideoResult:
-    from tensim.control import resolve_controller
     from tensim.model import compile_structure
+    from tensim.models import resolve_controller
     from tensim.viz.video import render_simulation
 
     structure = load_model(args.source)

@@ -41,12 +41,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tensim.control import load_velocity_table, resolve_controller
+    from tensim.control import load_velocity_table
     from tensim.control.files import check_table_columns
     from tensim.control.velocity_table import VelocityFileError
     from tensim.limits import check_run
     from tensim.loads import check_loads, load_loads, loads_to_dict, parse_push, save_loads
     from tensim.model import compile_structure
+    from tensim.models import resolve_controller
     from tensim.runs import (
         check_run_folder,
         prepare_outputs,

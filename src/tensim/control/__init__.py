@@ -16,7 +16,6 @@ from tensim.control.files import (
     ControllerFileError,
     controller_path,
     load_controller,
-    resolve_controller,
     save_controller,
     shipped_controllers,
 )
@@ -68,7 +67,6 @@ __all__ = [
     "integrate",
     "load_controller",
     "load_velocity_table",
-    "resolve_controller",
     "save_controller",
     "save_velocity_table",
     "shared_body_pairs",

@@ -43,7 +43,6 @@ was expected. :func:`save_controller` writes the fully expanded form (per-cable 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import math
 import os
@@ -467,51 +466,41 @@ def _parse(path: Path) -> Any:
         raise ControllerFileError(str(err)) from None
 
 
-def _check_model(data: Any, structure: Structure) -> None:
-    """Refuses a file made for a preset whose cables are not ``structure``'s."""
-    from tensim.models import PRESETS
-
-    model = data.get("model") if isinstance(data, dict) else None
-    if isinstance(model, str) and model in PRESETS \
-            and _preset_cables(model) != frozenset(c.name for c in structure.cables):
-        raise ControllerFileError(f"the file is made for {model!r}, whose cables are not those "
-                                  f"of the robot {structure.name!r}; pass a controller for that "
-                                  "robot", field="model")
-
-
-@functools.cache
-def _preset_cables(model: str) -> frozenset[str]:
-    from tensim.models import PRESETS
-
-    return frozenset(c.name for c in PRESETS[model].build().cables)
-
-
 def load_controller(source: str | os.PathLike[str], structure: Structure | None = None
                     ) -> ControllerConfig:
     """Reads a controller file, or a shipped controller by name (see :func:`shipped_controllers`).
 
+    This layer knows no presets: :func:`tensim.models.load_controller` also builds the preset
+    a file names when no robot is given, and refuses a file made for another preset.
+
     Args:
         source: a .yaml/.yml/.json path, or the name of a shipped controller.
-        structure: the robot; None builds the preset the file names in ``model``.
+        structure: the robot the file drives.
 
     Raises:
         FileNotFoundError: neither a file nor a shipped controller.
         ControllerFileError: naming the file, the field and what was expected (also a file
-            that is not UTF-8 YAML/JSON, has duplicate keys, or names another preset in
-            ``model`` whose cables are not ``structure``'s).
+            that is not UTF-8 YAML/JSON or has duplicate keys), or no ``structure``.
     """
     path = controller_path(source)
-    data = _parse(path)
-    try:
-        if structure is None:
-            from tensim.models import PRESETS
+    if structure is None:
+        raise ControllerFileError("pass the structure it drives (tensim.models.load_controller "
+                                  "builds the preset a file names)", source=str(path))
+    return controller_from_file(path, read_controller_data(path), structure)
 
-            model = data.get("model") if isinstance(data, dict) else None
-            if model not in PRESETS:
-                raise ControllerFileError(f"names no preset ({model!r}); pass the structure "
-                                          "it drives", field="model")
-            structure = PRESETS[model].build()
-        _check_model(data, structure)
+
+def read_controller_data(path: Path) -> Any:
+    """The plain mapping a controller file holds (before it is checked against a robot).
+
+    Raises:
+        ControllerFileError: not UTF-8 YAML/JSON, or duplicate keys.
+    """
+    return _parse(path)
+
+
+def controller_from_file(path: Path, data: Any, structure: Structure) -> ControllerConfig:
+    """:func:`controller_from_dict` on a file's mapping; errors name the file."""
+    try:
         return controller_from_dict(data, structure, path.parent)
     except ControllerFileError as err:
         raise err.with_source(str(path)) from None
@@ -614,20 +603,3 @@ def controller_path(source: str | os.PathLike[str]) -> Path:
         return shipped[str(source)]
     raise FileNotFoundError(f"no controller file {str(source)!r}; shipped controllers: "
                             f"{', '.join(shipped)}")
-
-
-def resolve_controller(model: str, structure: Structure, source: str | None
-                       ) -> ControllerConfig | None:
-    """The controller for a command: the file or shipped name given, else the preset's own.
-
-    Returns None for a structure without a default controller.
-    """
-    if source is not None:
-        return load_controller(source, structure)
-    from tensim.models import PRESETS
-
-    if model in PRESETS:
-        impedance = PRESETS[model].controller()
-        if impedance is not None:
-            return ControllerConfig(impedance, model=model)
-    return None

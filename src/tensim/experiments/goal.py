@@ -20,10 +20,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tensim.control import ControllerConfig, load_controller
+from tensim.control import ControllerConfig
 from tensim.experiments.scenarios import resolve, run_scenario, write_scenario
 from tensim.learn.objective import target_distance, target_progress
 from tensim.model import WorldOptions
+from tensim.models import load_controller
 from tensim.sim import COM, SimulationResult, TimeSeries
 from tensim.terrain import Rough, Terrain
 from tensim.viz.plots import save_figure

@@ -17,11 +17,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tensim.control import ControllerConfig, load_controller
+from tensim.control import ControllerConfig
 from tensim.control.wave import SpineWave
 from tensim.experiments.gait import locomotion
 from tensim.model import WorldOptions, compile_structure
-from tensim.models import preset
+from tensim.models import load_controller, preset
 from tensim.runs import world_record, write_run
 from tensim.sim import COM, SimulationResult, TimeSeries, simulate
 from tensim.terrain import Terrain, format_terrain

@@ -23,13 +23,13 @@ from tensim.control import (
     SpineCPG,
     default_impedance,
     load_controller,
-    resolve_controller,
     spine_parameters,
     spine_wave_parameters,
 )
 from tensim.control._common import as_tuple
 from tensim.control.sine_parameters import sine_parameters, tetraspine_sine_parameters
 from tensim.control.wave import spine_tagged, travelling_wave_parameters
+from tensim.models import resolve_controller
 from tensim.structure import Structure
 
 FAMILIES = ("cpg", "sine", "sine-pattern", "wave")
