@@ -110,7 +110,7 @@ def _motor_text(cable: dict[str, Any]) -> str:
     motor = cable["motor"]
     if motor is None:
         return "passive"
-    kind = "DC" if motor["kind"] == "dc" else f"{motor['max_speed']:g} m/s"
+    kind = "DC" if motor["kind"] == "dc" else f"kinematic {motor['max_speed']:g} m/s"
     return f"{kind}, {motor['max_tension']:g} N ({cable['motor_source']})"
 
 
@@ -153,12 +153,16 @@ def format_info(info: dict[str, Any]) -> str:
                      f"{_value(c['rest_length_m'])} {_value(c['pretension_N'], '8.3f')} "
                      f"{c['stiffness_N_per_m']:8g} {c['damping_N_s_per_m']:6g}  "
                      f"{_motor_text(c)}")
-    lines += ["", f"controller: {info['controller'] or 'none'}"]
-    for c in info["cables"]:
-        if c["motor"] is not None:
-            lines.append(f"  {c['name']:<{w}} {_gains_text(c['gains'])}")
+    if info["controller"] is None:
+        lines += ["", "controller: none (tensim controller init writes one)"]
+    else:
+        lines += ["", f"controller: {info['controller']}"]
+        for c in info["cables"]:
+            if c["motor"] is not None:
+                lines.append(f"  {c['name']:<{w}} {_gains_text(c['gains'])}")
     if info["tags"]:
         lines += ["", "tags:"]
+        wt = max(len(tag) for tag in info["tags"])
         for tag, names in info["tags"].items():
-            lines.append(f"  {tag:<{w}} {', '.join(names)}")
+            lines.append(f"  {tag:<{wt}} {', '.join(names)}")
     return "\n".join(lines)

@@ -81,7 +81,9 @@ def _disturbance(args: argparse.Namespace, out: Path) -> dict[str, Any]:
 
     from tensim.experiments import run_disturbance, write_disturbance
     from tensim.experiments.disturbance import (
+        BEFORE,
         DURATION,
+        DURING,
         check_disturbance,
         disturbance_figures,
         robot_controller,
@@ -105,6 +107,12 @@ def _disturbance(args: argparse.Namespace, out: Path) -> dict[str, Any]:
                                           push=push, controller=config, model=name,
                                           controller_label=label)
         write_disturbance(out, result, summary, structure, drawer, config)
+    change = summary.get("tension_change_hold_N")
+    if change:
+        print(f"mean tension change, hold ({DURING[0]:g}-{DURING[1]:g} s) minus before "
+              f"({BEFORE[0]:g}-{BEFORE[1]:g} s) [N]:")
+        for name, value in change.items():
+            print(f"  {name:<16} {value:+8.3f}")
     return summary
 
 
