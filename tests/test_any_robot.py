@@ -328,6 +328,15 @@ def test_cli_end_to_end_on_a_new_robot(tmp_path, capsys):
     summary = json.loads((run / "summary.json").read_text())
     assert summary["loads"][0]["node"] == "t0" and (run / "loads.yaml").is_file()
     assert summary["motors"]["top_0"] == "kinematic 0.1 m/s, 500 N"
+    assert summary["gains"]["top_0"]["target_length_m"] == pytest.approx(0.2 * math.sqrt(2),
+                                                                         abs=1e-6)
+    again = tmp_path / "again"  # the run folder's loads.yaml replays the push
+    assert main(["--quiet", "simulate", str(robot), "--controller", str(controller),
+                 "--duration", "1", "--loads", str(run / "loads.yaml"), "--out", str(again)]) == 0
+    assert json.loads((again / "summary.json").read_text())["max_tension_N"] == \
+        summary["max_tension_N"]
+    assert main(["render", str(run), "--out", str(tmp_path / "v.mp4"), "--load",
+                 "t0:1,0,0@0-1"]) == 2
     capsys.readouterr()
 
     out = tmp_path / "dist"

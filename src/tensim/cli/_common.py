@@ -132,6 +132,18 @@ def motor_summary(structure: Structure) -> dict[str, str]:
     return out
 
 
+def gains_summary(structure: Structure, config: Any) -> dict[str, Any]:
+    """Each cable's impedance gains in a run (T0 [N], K [N/m], B [N s/m], L* [m]), or None
+    for a cable without a law, for run summaries."""
+    gains = {} if config is None else config.impedance.gains
+    return {c.name: None if c.name not in gains else {
+                "offset_tension_N": gains[c.name].offset_tension,
+                "stiffness_gain_N_per_m": gains[c.name].stiffness_gain,
+                "damping_gain_N_s_per_m": gains[c.name].damping_gain,
+                "target_length_m": gains[c.name].target_length}
+            for c in structure.cables}
+
+
 def print_summary(summary: dict[str, Any], out: Path) -> None:
     """Prints where a run went, its speed and its tensions."""
     tensions = summary.get("max_tension_N", {})

@@ -144,7 +144,8 @@ def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[
         cables = [c.name for c in (structure or preset("tetraspine3").build()).cables]
         with _drawer(gait_figures(name, cables), args.duration, args.dt) as drawer:
             result, summary, config = run_gait(
-                name, args.controller or default, structure=structure,
+                name, args.controller or default, model=args.robot or "tetraspine3",
+                structure=structure,
                 duration=args.duration, world=world_from_args(args),
                 progress=Progress(name, args.quiet),
                 # V* is known before the run: drawn while it simulates

@@ -10,6 +10,7 @@ from tensim.cli._common import (
     Progress,
     add_controller_option,
     add_world_options,
+    gains_summary,
     load_model,
     motor_summary,
     positive,
@@ -93,7 +94,8 @@ def run(args: argparse.Namespace) -> int:
         result = simulate(compiled, duration, controller=controller, loads=loads,
                           record_dt=args.record_dt, progress=Progress(args.model, args.quiet))
         summary = {"model": args.model, "controller": _controller_label(args, config),
-                   "motors": motor_summary(structure), **result.summary(),
+                   "motors": motor_summary(structure),
+                   "gains": gains_summary(structure, config), **result.summary(),
                    **world_record(compiled.world)}
         if loads:
             summary["loads"] = loads_to_dict(loads)["loads"]
