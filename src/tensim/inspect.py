@@ -11,7 +11,7 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
-from tensim.structure import Cable, Motor, Structure, mass_properties
+from tensim.structure import Cable, Motor, Node, Rod, Structure, mass_properties
 
 MOTOR_SOURCES = {
     "cable": "given with the cable",
@@ -82,7 +82,8 @@ def structure_info(structure: Structure, gains: Mapping[str, Any] | None = None,
     cables = [_cable(structure, c, sources.get(c.name, "given"),
                      (gains or {}).get(c.name)) for c in structure.cables]
     tags: dict[str, list[str]] = {}
-    for item in (*structure.nodes, *structure.rods, *structure.cables):
+    named: list[Node | Rod | Cable] = [*structure.nodes, *structure.rods, *structure.cables]
+    for item in named:
         for tag in item.tags:
             tags.setdefault(tag, []).append(item.name)
     return {

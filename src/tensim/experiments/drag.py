@@ -25,7 +25,7 @@ from tensim.control import ControllerConfig
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.runs import world_record, write_run
-from tensim.sim import Simulation, SimulationResult, TimeSeries
+from tensim.sim import Controller, Simulation, SimulationResult, TimeSeries
 from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions
 from tensim.viz.plots import save_figure, thin
@@ -159,10 +159,11 @@ def run_drag(model: str = "tetraspine3", settings: DragSettings | None = None, *
     structure = structure or p.build()
     check_drag(structure, settings)
     compiled = compile_structure(structure, world or WorldOptions())
+    laws: Controller | None = p.controller()
     if controller is not None:
         laws = controller.build(compiled.model.opt.timestep)
     else:
-        laws, controller_label = p.controller(), None
+        controller_label = None
     with Simulation(compiled, controller=laws, record_dt=settings.record_dt) as sim:
         tow = _Tow(sim, settings)
         tow(sim)
