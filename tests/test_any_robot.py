@@ -114,18 +114,28 @@ def _node_paths(compiled, series) -> dict[str, np.ndarray]:
 
 
 @pytest.mark.parametrize("n", [3, 4])
-def test_default_impedance_holds_the_build_pose(n):
-    """The laws of ``default_impedance`` keep a self-stressed prism in its build pose: strut 0
-    fixed, no gravity, 5 s; every node stays within 0.1 mm (the law's T_set equals each
-    cable's build tension there, so only rounding moves it: ~10 µm). Off by 1 cm in L*, or
-    with T0 = 0, the nodes move 3-17 mm."""
+def test_controller_init_file_holds_the_build_pose(n, tmp_path):
+    """The file ``tensim controller init`` writes keeps a self-stressed prism in its build
+    pose: strut 0 fixed, no gravity, 5 s; every node stays within 0.1 mm (the law's T_set
+    equals each cable's build tension there, so only the file's rounding to µm moves it:
+    ~10 µm). Off by 1 cm in L*, or with T0 = 0, the nodes move 3-17 mm."""
+    import yaml as pyyaml
+
+    from tensim.cli import main
+    from tensim.control import load_controller
+
     data = prism(n)
     data["nodes"][0]["fixed"] = True
     for node in data["nodes"]:  # lifted clear of the ground
         node["position"][2] += 0.5
+    path = tmp_path / "prism.yaml"
+    path.write_text(pyyaml.safe_dump(data))
+    assert main(["controller", "init", str(path), "--out", str(tmp_path / "hold.yaml")]) == 0
     structure = structure_from_dict(data)
+    config = load_controller(tmp_path / "hold.yaml", structure)
+    assert config.impedance == default_impedance(structure)
     compiled = compile_structure(structure, WorldOptions(timestep=1e-3, gravity=(0, 0, 0)))
-    result = simulate(compiled, 5.0, controller=default_impedance(structure), record_dt=0.05)
+    result = simulate(compiled, 5.0, controller=config.build(1e-3), record_dt=0.05)
     paths = _node_paths(compiled, result.trajectory)
     assert len(paths) == 2 * n
     for node, path in paths.items():

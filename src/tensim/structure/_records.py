@@ -298,7 +298,8 @@ class Motor:
             _check(value >= 0, "motor", f"{field} must be >= 0 m, got {value}")
 
 
-PASSIVE = Motor(passive=True)  # a cable without a motor: its rest length stays as built
+# a cable without a motor: its rest length stays as built (no floor lifts a short one)
+PASSIVE = Motor(min_rest_length=0.0, min_length=0.0, passive=True)
 
 
 @dataclasses.dataclass(frozen=True)
