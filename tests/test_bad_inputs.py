@@ -13,13 +13,13 @@ import yaml
 from tensim import InputError
 from tensim._input import load_yaml
 from tensim.cli import main
-from tensim.control import ControllerFileError, load_controller, load_velocity_table
+from tensim.control import ControllerFileError, load_velocity_table
 from tensim.control.files import check_table_columns
 from tensim.hardware import read_log, read_pairs
 from tensim.hardware.loadcell import load_calibration
 from tensim.io import import_ntrt
 from tensim.limits import check_run
-from tensim.models import preset
+from tensim.models import load_controller, preset
 from tensim.structure import StructureError, load_structure, structure_from_dict
 from tensim.terrain import TerrainError, parse_terrain
 

@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 import tensim
 from tensim.cli import main
-from tensim.control import SineController, SpineWave, load_controller
+from tensim.control import SineController, SpineWave
 from tensim.experiments.climb import climb_controller, run_climb, wall_progress
 from tensim.experiments.goal import (
     GOAL_TARGET,
@@ -29,7 +29,7 @@ from tensim.experiments.sidewind import (
     transferred_controller,
     transferred_cpg,
 )
-from tensim.models import preset
+from tensim.models import load_controller, preset
 from tensim.sim import TimeSeries
 from tensim.terrain import Flat, Rough, Wall, parse_terrain
 

@@ -20,6 +20,8 @@ from tensim import __version__
 # subcommand modules, in the order ``tensim --help`` lists them
 COMMAND_MODULES = (
     "tensim.cli.models",
+    "tensim.cli.info",
+    "tensim.cli.controller",
     "tensim.cli.simulate",
     "tensim.cli.experiment",
     "tensim.cli.export",

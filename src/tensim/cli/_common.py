@@ -108,6 +108,42 @@ def load_model(name: str) -> Structure:
                      "existing .yaml structure file")
 
 
+def motor_sources(name: str) -> dict[str, str]:
+    """Where each cable of a preset or structure file got its motor (see
+    :data:`tensim.inspect.MOTOR_SOURCES`)."""
+    from tensim._input import load_yaml_file
+    from tensim.models import PRESETS
+    from tensim.structure import motor_sources as file_sources
+
+    if name in PRESETS:
+        return {c.name: "preset" for c in PRESETS[name].build().cables}
+    return file_sources(load_yaml_file(Path(name)))
+
+
+def motor_summary(structure: Structure) -> dict[str, str]:
+    """Each cable's motor in a line, for run summaries: ``"kinematic 0.07 m/s, 50 N"``,
+    ``"dc, 50 N"`` or ``"none (passive)"``."""
+    out = {}
+    for cable in structure.cables:
+        m = cable.motor
+        out[cable.name] = ("none (passive)" if m.passive else
+                           f"{'dc' if m.dc else f'kinematic {m.max_speed:g} m/s'}, "
+                           f"{m.max_tension:g} N")
+    return out
+
+
+def gains_summary(structure: Structure, config: Any) -> dict[str, Any]:
+    """Each cable's impedance gains in a run (T0 [N], K [N/m], B [N s/m], L* [m]), or None
+    for a cable without a law, for run summaries."""
+    gains = {} if config is None else config.impedance.gains
+    return {c.name: None if c.name not in gains else {
+                "offset_tension_N": gains[c.name].offset_tension,
+                "stiffness_gain_N_per_m": gains[c.name].stiffness_gain,
+                "damping_gain_N_s_per_m": gains[c.name].damping_gain,
+                "target_length_m": gains[c.name].target_length}
+            for c in structure.cables}
+
+
 def print_summary(summary: dict[str, Any], out: Path) -> None:
     """Prints where a run went, its speed and its tensions."""
     tensions = summary.get("max_tension_N", {})

@@ -40,16 +40,79 @@ def _drawer(plans: list[FigurePlan], duration: float | None, dt: float | None
     return FigureDrawer(plans, background=background_pays(steps))
 
 
+def _robot_controller(args: argparse.Namespace, structure: Structure | None
+                      ) -> tuple[Any, str | None]:
+    """The ``--controller`` file for the experiment's robot (None: the experiment's default)."""
+    from tensim.models import load_controller, preset
+
+    if args.controller is None:
+        return None, None
+    return (load_controller(args.controller, structure or preset("tetraspine3").build()),
+            args.controller)
+
+
+def _push(args: argparse.Namespace) -> Any:
+    """The disturbance test's :class:`Push` from ``--push``, ``--hold`` and ``--peak-force``."""
+    from tensim.experiments.disturbance import PEAK_FORCE, Push
+
+    if args.push is None and args.hold is None and args.peak_force is None:
+        return Push()
+    holds: tuple[tuple[str, float], ...] = Push().holds
+    if args.hold is not None:
+        entries = [h.strip() for h in args.hold.split(",") if h.strip()]
+        named = [e.partition(":") for e in entries]
+        try:
+            holds = tuple((node, float(share) if share else 1.0 / len(named))
+                          for node, _, share in named)
+        except ValueError:
+            raise ValueError(f"--hold {args.hold!r}: expected NODE[:SHARE],... with shares as "
+                             "numbers, e.g. b0:0.5,b1:0.5") from None
+    return Push(args.push or Push().node, holds, peak=args.peak_force or PEAK_FORCE)
+
+
+def _experiment_robot(args: argparse.Namespace) -> tuple[Structure | None, str | None]:
+    """``--robot``'s structure (None: Tetraspine3) and the name the summary gives it."""
+    structure = _structure(args)
+    return structure, args.robot
+
+
 def _disturbance(args: argparse.Namespace, out: Path) -> dict[str, Any]:
+    import sys
+
     from tensim.experiments import run_disturbance, write_disturbance
-    from tensim.experiments.disturbance import DURATION, disturbance_figures
+    from tensim.experiments.disturbance import (
+        BEFORE,
+        DURATION,
+        DURING,
+        check_disturbance,
+        disturbance_figures,
+        robot_controller,
+    )
+    from tensim.models import preset
 
     duration = args.duration or DURATION
-    with _drawer(disturbance_figures(), duration, args.dt) as drawer:
+    structure, name = _experiment_robot(args)
+    push = _push(args)
+    robot = structure or preset("tetraspine3").build()
+    for note in check_disturbance(robot, push, duration):  # before anything runs
+        print(f"tensim: note: {note}", file=sys.stderr)
+    given, label = _robot_controller(args, structure)
+    config, label = robot_controller(structure, given, label)
+    plans = disturbance_figures() if structure is None else disturbance_figures(
+        tuple(c.name for c in robot.cables), robot.name)
+    with _drawer(plans, duration, args.dt) as drawer:
         result, summary = run_disturbance(dt=args.dt, world=world_from_args(args),
-                                          duration=duration, structure=_structure(args),
-                                          progress=Progress("disturbance", args.quiet))
-        write_disturbance(out, result, summary, _structure(args), drawer)
+                                          duration=duration, structure=structure,
+                                          progress=Progress("disturbance", args.quiet),
+                                          push=push, controller=config, model=name,
+                                          controller_label=label)
+        write_disturbance(out, result, summary, structure, drawer, config)
+    change = summary.get("tension_change_hold_N")
+    if change:
+        print(f"mean tension change, hold ({DURING[0]:g}-{DURING[1]:g} s) minus before "
+              f"({BEFORE[0]:g}-{BEFORE[1]:g} s) [N]:")
+        for name, value in change.items():
+            print(f"  {name:<16} {value:+8.3f}")
     return summary
 
 
@@ -81,7 +144,8 @@ def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[
         cables = [c.name for c in (structure or preset("tetraspine3").build()).cables]
         with _drawer(gait_figures(name, cables), args.duration, args.dt) as drawer:
             result, summary, config = run_gait(
-                name, args.controller or default, structure=structure,
+                name, args.controller or default, model=args.robot or "tetraspine3",
+                structure=structure,
                 duration=args.duration, world=world_from_args(args),
                 progress=Progress(name, args.quiet),
                 # V* is known before the run: drawn while it simulates
@@ -101,12 +165,21 @@ def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[
 
 
 def _drag(args: argparse.Namespace, out: Path) -> dict[str, Any]:
-    from tensim.experiments.drag import run_drag, write_drag
+    from tensim.experiments.disturbance import robot_controller
+    from tensim.experiments.drag import DragSettings, check_drag, run_drag, write_drag
+    from tensim.models import preset
 
-    structure = _structure(args)
-    result, summary = run_drag(world=world_from_args(args), duration=args.duration,
-                               structure=structure, progress=Progress("drag", args.quiet))
-    write_drag(out, result, summary, structure)
+    structure, name = _experiment_robot(args)
+    settings = DragSettings(node=args.tow) if args.tow else DragSettings()
+    check_drag(structure or preset("tetraspine3").build(), settings)  # before anything runs
+    given, label = _robot_controller(args, structure)
+    config, label = (None, None) if structure is None and given is None else \
+        robot_controller(structure, given, label)
+    result, summary = run_drag(settings=settings, world=world_from_args(args),
+                               duration=args.duration, structure=structure,
+                               progress=Progress("drag", args.quiet), controller=config,
+                               name=name, controller_label=label)
+    write_drag(out, result, summary, structure, config)
     print(f"steady drag force {summary['drag_force_N']:.3f} N "
           f"(mu m g = {summary['coulomb_force_N']:.3f} N); "
           f"effective friction {summary['effective_friction']:.4f}")
@@ -188,9 +261,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_world_options(p)
     add_controller_option(p)
     p.add_argument("--robot", default=None, metavar="FILE.yaml",
-                   help="disturbance, sine, cpg, drag: a Tetraspine3 variant with the same node "
-                        "and cable names instead of the preset (e.g. the fitted_structure.yaml "
-                        "of `tensim sysid`)")
+                   help="disturbance, sine, cpg, drag: the robot instead of the tetraspine3 "
+                        "preset (e.g. the fitted_structure.yaml of `tensim sysid`; sine and cpg "
+                        "need Tetraspine3's cable names, disturbance and drag take any robot "
+                        "with --push/--hold or --tow)")
+    p.add_argument("--push", default=None, metavar="NODE",
+                   help="disturbance: the pushed node (default s0_tip)")
+    p.add_argument("--hold", default=None, metavar="NODE[:SHARE],...",
+                   help="disturbance: nodes that take the push back, each its share (default "
+                        "s1_tip:0.45,s2_tip:0.55; no share: equal shares)")
+    p.add_argument("--peak-force", type=positive, default=None, metavar="N",
+                   help="disturbance: the push's plateau [N] (default 22.56)")
+    p.add_argument("--tow", default=None, metavar="NODE",
+                   help="drag: the towed node (default s0_tip)")
     p.add_argument("--duration", type=positive, default=None,
                    help="simulated time [s] (default: the experiment's own)")
     p.add_argument("--target", default=None, metavar="X,Y",
@@ -203,6 +286,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.target is not None and args.name != "goal":
         raise ValueError(f"--target is for the goal experiment, not {args.name!r}")
+    for option, names in (("push", ("disturbance",)), ("hold", ("disturbance",)),
+                          ("peak_force", ("disturbance",)), ("tow", ("drag",))):
+        if getattr(args, option) is not None and args.name not in names:
+            raise ValueError(f"--{option.replace('_', '-')} is for the {names[0]} experiment, "
+                             f"not {args.name!r}")
     from tensim.limits import check_run
     from tensim.runs import prepare_outputs, replace_folder
 

@@ -29,8 +29,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tensim.control import load_controller, save_velocity_table
+    from tensim.control import save_velocity_table
     from tensim.control.files import sampled_table
+    from tensim.models import load_controller
 
     structure = load_model(args.model)
     config = load_controller(args.controller, structure)

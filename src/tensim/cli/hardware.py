@@ -123,13 +123,13 @@ def _register_compare(sub: argparse._SubParsersAction) -> None:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from tensim.control import load_controller
     from tensim.hardware import compare_tensions, load_calibration, load_log, replay
     from tensim.hardware.compare import displacement_errors
     from tensim.hardware.logs import check_items
     from tensim.hardware.report import write_comparison
     from tensim.hardware.sensor import load_measurement
     from tensim.model import compile_structure
+    from tensim.models import load_controller
     from tensim.runs import replace_folder
     from tensim.sim import TimeSeries
 
@@ -261,10 +261,10 @@ def _register_sysid(sub: argparse._SubParsersAction) -> None:
 
 
 def _sysid(args: argparse.Namespace) -> int:
-    from tensim.control import load_controller
     from tensim.hardware import SysidSettings, identify, load_calibration, load_log
     from tensim.hardware.parameters import parse_assignments, parse_bounds
     from tensim.hardware.report import write_sysid
+    from tensim.models import load_controller
     from tensim.runs import replace_folder
 
     loadcell = load_calibration(args.loadcell) if args.loadcell else None
@@ -377,11 +377,11 @@ def _register_make_log(sub: argparse._SubParsersAction) -> None:
 def _make_log(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from tensim.control import load_controller
     from tensim.hardware import PAPER_LOADCELL, SensorModel, simulated_log, write_log
     from tensim.hardware.loads import experiment_params
     from tensim.hardware.parameters import parse_assignments
     from tensim.limits import check_run
+    from tensim.models import load_controller
 
     check_run(args.duration, args.dt, args.command_period, force=args.force)
     structure = load_model(args.model)

@@ -50,14 +50,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     problem = p.add_argument_group("problem (taken from DIR when resuming)")
     problem.add_argument("--model", help=f"preset or structure .yaml file (default {d['model']})")
     problem.add_argument("--controller", choices=("cpg", "sine", "sine-pattern", "wave"),
-                         help="controller family: spine CPG (116 parameters for Tetraspine3), "
-                         "per-cable sine waves, the paper's 4-number sine pattern, or a "
-                         "travelling wave of joint bending along any Tetraspine (8 numbers) "
-                         f"(default {d['controller']})")
+                         help="controller family, on any robot with motorised cables: CPG "
+                         "coupled by shared rigid bodies (116 parameters for Tetraspine3; "
+                         "kind_<name> tags share parameters), per-cable sine waves, the paper's "
+                         "4-number Tetraspine sine pattern, or a travelling wave (of joint "
+                         "bending along a Tetraspine, else along the cables in wave_<k> tag or "
+                         f"build-pose order) (default {d['controller']}; see docs/any_robot.md)")
     problem.add_argument("--base-controller", metavar="FILE|NAME",
                          help="controller file whose impedance laws the gait drives (default: "
                          "the shipped tetraspine3_cpg / tetraspine3_sine for tetraspine3, "
-                         "else the preset's own impedance controller)")
+                         "else the preset's own impedance controller, else laws that hold the "
+                         "build pose, as `tensim controller init` writes)")
     problem.add_argument("--trial-duration", type=positive, metavar="S",
                          help=f"simulated time of one trial [s] (default {d['trial_duration']})")
     problem.add_argument("--segment", help="rigid body whose centre of mass is scored, or com "
@@ -128,8 +131,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _problem(args: argparse.Namespace) -> TrialProblem:
-    from tensim.control import load_controller
     from tensim.learn import Objective, TrialProblem, default_base, parse_direction
+    from tensim.models import load_controller
 
     structure = load_model(args.model)
     base = (load_controller(args.base_controller, structure) if args.base_controller
@@ -241,6 +244,8 @@ def _report(out: Path, summary: dict[str, Any]) -> int:
     problem = config["problem"]
     print(f"wrote {out}/ (evaluations.jsonl, learning_curve.png, summary.json"
           + (", best_controller.yaml)" if "best_controller" in summary else ")"))
+    if "dimension" in problem:
+        print(f"{problem['family']} gait of {problem['dimension']} parameters")
     if summary["evaluations"] and summary["best_status"] != "ok":
         failed = ", ".join(f"{n} {status}" for status, n in summary["failed"].items())
         print(f"tensim: learn: every one of the {summary['evaluations']} trials failed "

@@ -53,6 +53,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help="simulated time [s] (default 10)")
     add_world_options(sim)
     add_controller_option(sim)
+    sim.add_argument("--load", action="append", default=[], metavar="NODE:FX,FY,FZ@T0-T1",
+                     help="push a node, as `tensim simulate --load`")
+    sim.add_argument("--loads", default=None, metavar="FILE",
+                     help="loads file, e.g. a run folder's loads.yaml (a recorded run replays "
+                          "its pushes with its poses)")
     run = p.add_argument_group("a recorded run (RUN_DIR)")
     run.add_argument("--start", type=finite, default=None, help="first recorded time shown [s]")
     run.add_argument("--stop", type=finite, default=None, help="last recorded time shown [s]")
@@ -84,6 +89,9 @@ def run_render(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     try:
         if source.is_dir():
+            if args.load or args.loads:
+                raise ValueError(f"--load and --loads are for a fresh simulation; {source} is a "
+                                 "recorded run, whose poses already show its loads")
             result = _render_run(args, source, out, settings, progress)
         else:
             check_run(args.duration, args.dt, force=args.force)
@@ -132,13 +140,17 @@ def _render_run(args: argparse.Namespace, folder: Path, out: Path, settings: Vid
 
 def _render_model(args: argparse.Namespace, out: Path, settings: VideoSettings,
                   progress: Progress) -> VideoResult:
-    from tensim.control import resolve_controller
+    from tensim.loads import check_loads, load_loads, parse_push
     from tensim.model import compile_structure
+    from tensim.models import resolve_controller
     from tensim.viz.video import render_simulation
 
     structure = load_model(args.source)
     config = resolve_controller(args.source, structure, args.controller)
+    loads = [*(load_loads(args.loads) if args.loads else []), *map(parse_push, args.load)]
+    for note in check_loads(loads, structure, args.duration):
+        print(f"tensim: note: {note}", file=sys.stderr)
     compiled = compile_structure(structure, world_from_args(args))
     controller = config.build(compiled.model.opt.timestep) if config else None
     return render_simulation(compiled, out, args.duration, settings, controller=controller,
-                             progress=progress)
+                             loads=loads, progress=progress)

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from tensim.cli._common import (
     Progress,
     add_controller_option,
     add_world_options,
+    gains_summary,
     load_model,
+    motor_summary,
     positive,
     print_summary,
     world_from_args,
@@ -26,18 +29,27 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--velocity-input", default=None, metavar="FILE",
                    help="play back an exported V* table (from export-trajectory) instead of "
                         "the controller's gait")
+    p.add_argument("--load", action="append", default=[], metavar="NODE:FX,FY,FZ@T0-T1",
+                   help="push NODE with the force (FX, FY, FZ) [N] from T0 to T1 [s], ramped "
+                        "over 0.1 s at each end (append /RAMP for another ramp [s]); repeat for "
+                        "more loads, e.g. --load t0:5,0,0@1-3")
+    p.add_argument("--loads", default=None, metavar="FILE",
+                   help="loads file (YAML: a 'loads' list; see tensim.loads), e.g. the "
+                        "loads.yaml of an earlier run folder")
     p.add_argument("--record-dt", type=positive, default=0.01, help="recording period [s]")
     p.add_argument("--out", default="runs/simulate", help="output folder")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from tensim.control import load_velocity_table, resolve_controller
+    from tensim.control import load_velocity_table
     from tensim.control.files import check_table_columns
     from tensim.control.velocity_table import VelocityFileError
     from tensim.design.check import warn_findings
     from tensim.limits import check_run
+    from tensim.loads import check_loads, load_loads, loads_to_dict, parse_push, save_loads
     from tensim.model import compile_structure
+    from tensim.models import resolve_controller
     from tensim.runs import (
         check_run_folder,
         prepare_outputs,
@@ -67,6 +79,9 @@ def run(args: argparse.Namespace) -> int:
     duration = args.duration or (config.duration if config and config.gait else 10.0)
     check_run(duration, args.dt, args.record_dt, force=args.force)
     check_run_folder(Path(args.out))
+    loads = [*(load_loads(args.loads) if args.loads else []), *map(parse_push, args.load)]
+    for note in check_loads(loads, structure, duration):
+        print(f"tensim: note: {note}", file=sys.stderr)
     compiled = compile_structure(structure, world_from_args(args))
     controller = config.build(compiled.model.opt.timestep) if config else None
     cables = list(compiled.index.cables)
@@ -78,11 +93,17 @@ def run(args: argparse.Namespace) -> int:
     steps = round(duration / compiled.model.opt.timestep)
     out = Path(args.out)
     with FigureDrawer(plans, background=background_pays(steps)) as drawer:
-        result = simulate(compiled, duration, controller=controller, record_dt=args.record_dt,
-                          progress=Progress(args.model, args.quiet))
+        result = simulate(compiled, duration, controller=controller, loads=loads,
+                          record_dt=args.record_dt, progress=Progress(args.model, args.quiet))
         summary = {"model": args.model, "controller": _controller_label(args, config),
-                   **result.summary(), **world_record(compiled.world)}
+                   "motors": motor_summary(structure),
+                   "gains": gains_summary(structure, config), **result.summary(),
+                   **world_record(compiled.world)}
+        if loads:
+            summary["loads"] = loads_to_dict(loads)["loads"]
         with replace_folder(out) as stage:
+            if loads:
+                save_loads(loads, stage / "loads.yaml")
             for plan in plans:
                 drawer.draw(plan.file, result.trajectory, stage)
             write_run(stage, result, {**summary, "figures": [p.file for p in plans]},

@@ -33,8 +33,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tensim.control import resolve_controller
     from tensim.model import compile_structure
+    from tensim.models import resolve_controller
     from tensim.viz.cables import TensionColors
     from tensim.viz.pacing import KEY_HELP
     from tensim.viz.viewer import DisplayUnavailable, check_display, view

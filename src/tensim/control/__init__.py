@@ -16,11 +16,10 @@ from tensim.control.files import (
     ControllerFileError,
     controller_path,
     load_controller,
-    resolve_controller,
     save_controller,
     shipped_controllers,
 )
-from tensim.control.impedance import ImpedanceController, ImpedanceGains
+from tensim.control.impedance import ImpedanceController, ImpedanceGains, default_impedance
 from tensim.control.parameters import Bounds, Parameter, ParameterLayout, ParameterVector
 from tensim.control.sine import SineController, SineGait, tagged_sine, tetraspine_sine
 from tensim.control.spine import (
@@ -64,10 +63,10 @@ __all__ = [
     "VelocityFileError",
     "VelocityTable",
     "controller_path",
+    "default_impedance",
     "integrate",
     "load_controller",
     "load_velocity_table",
-    "resolve_controller",
     "save_controller",
     "save_velocity_table",
     "shared_body_pairs",

@@ -31,6 +31,11 @@ def joint_index(cable: Cable) -> int:
     return joints[0]
 
 
+def has_joint_tag(cable: Cable) -> bool:
+    """Whether a cable carries a ``joint_<j>`` tag."""
+    return any(_JOINT_TAG.fullmatch(tag) for tag in cable.tags)
+
+
 def sample_times(duration: float, sample_dt: float) -> np.ndarray:
     """Sample times 0, dt, 2 dt, ... up to ``duration`` inclusive [s].
 

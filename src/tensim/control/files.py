@@ -10,12 +10,13 @@ K N/m, B N·s/m, V* m/s, frequencies Hz, phases rad, times s. The layout::
     model: tetraspine3            # the preset it was made for (used when no robot is given)
     description: free text
     impedance:
-      groups:                     # optional: fields shared by every cable with a tag, in order
+      groups:                     # optional: fields shared by every motorised cable with a tag
         - {tag: top, stiffness_gain: 500, damping_gain: 150}
       cables:                     # per cable; overrides its groups; all four fields in the end
         inner_top_1: {offset_tension: 28, target_length: 0.19}
       passive: [outer]            # optional: cables (names or tags) left without gains on
-                                  # purpose; any other cable without gains is an error
+                                  # purpose; any other motorised cable without gains is an
+                                  # error (cables without a motor never get gains)
     gait:                         # optional
       type: cpg                   # cpg | sine | table
       duration: 60                # s of gait
@@ -42,7 +43,6 @@ was expected. :func:`save_controller` writes the fully expanded form (per-cable 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import math
 import os
@@ -243,7 +243,7 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str
         if not isinstance(tag, str):
             raise ControllerFileError(f"expected a tag name, got {describe(tag)}",
                                       field=f"{where}.tag")
-        members = [c.name for c in structure.cables if tag in c.tags]
+        members = [c.name for c in structure.cables if tag in c.tags and not c.motor.passive]
         if not members:
             raise ControllerFileError(f"no cable of {structure.name!r} has the tag {tag!r}",
                                       field=f"{where}.tag")
@@ -256,6 +256,11 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str
         where = f"{field}.cables.{name}"
         if name not in known:
             raise ControllerFileError(f"{structure.name!r} has no cable {name!r}", field=where)
+        if structure.cable(name).motor.passive:
+            raise ControllerFileError(f"cable {name!r} has no motor in {structure.name!r}, so "
+                                      "no controller can drive it; give it a 'motor' in the "
+                                      "structure file (or its 'defaults'), or drop its gains",
+                                      field=where)
         fields = _mapping(fields, where, f"gain fields {list(_GAIN_FIELDS)}")
         _only(fields, _GAIN_FIELDS, where)
         partial.setdefault(name, {}).update(
@@ -273,7 +278,7 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str
             gains[cable.name] = ImpedanceGains(**fields)
         except ValueError as err:
             raise ControllerFileError(str(err), field=f"{field}.cables.{cable.name}") from None
-    missing = [c.name for c in structure.cables if c.name not in gains
+    missing = [c.name for c in structure.cables if c.name not in gains and not c.motor.passive
                and not any(p == c.name or p in c.tags for p in passive)]
     if missing:
         raise ControllerFileError(
@@ -368,6 +373,11 @@ def _sine(raw: dict[str, Any], structure: Structure, field: str) -> SineGait:
         where = f"{field}.cables.{name}"
         if name not in known:
             raise ControllerFileError(f"{structure.name!r} has no cable {name!r}", field=where)
+        if structure.cable(name).motor.passive:
+            raise ControllerFileError(f"cable {name!r} has no motor in {structure.name!r}, so "
+                                      "no controller can drive it; give it a 'motor' in the "
+                                      "structure file (or its 'defaults'), or drop its gains",
+                                      field=where)
         wave = _mapping(wave, where, f"{list(_SINE_FIELDS)}")
         _only(wave, _SINE_FIELDS, where)
         for key in _SINE_FIELDS:
@@ -457,51 +467,41 @@ def _parse(path: Path) -> Any:
         raise ControllerFileError(str(err)) from None
 
 
-def _check_model(data: Any, structure: Structure) -> None:
-    """Refuses a file made for a preset whose cables are not ``structure``'s."""
-    from tensim.models import PRESETS
-
-    model = data.get("model") if isinstance(data, dict) else None
-    if isinstance(model, str) and model in PRESETS \
-            and _preset_cables(model) != frozenset(c.name for c in structure.cables):
-        raise ControllerFileError(f"the file is made for {model!r}, whose cables are not those "
-                                  f"of the robot {structure.name!r}; pass a controller for that "
-                                  "robot", field="model")
-
-
-@functools.cache
-def _preset_cables(model: str) -> frozenset[str]:
-    from tensim.models import PRESETS
-
-    return frozenset(c.name for c in PRESETS[model].build().cables)
-
-
 def load_controller(source: str | os.PathLike[str], structure: Structure | None = None
                     ) -> ControllerConfig:
     """Reads a controller file, or a shipped controller by name (see :func:`shipped_controllers`).
 
+    This layer knows no presets: :func:`tensim.models.load_controller` also builds the preset
+    a file names when no robot is given, and refuses a file made for another preset.
+
     Args:
         source: a .yaml/.yml/.json path, or the name of a shipped controller.
-        structure: the robot; None builds the preset the file names in ``model``.
+        structure: the robot the file drives.
 
     Raises:
         FileNotFoundError: neither a file nor a shipped controller.
         ControllerFileError: naming the file, the field and what was expected (also a file
-            that is not UTF-8 YAML/JSON, has duplicate keys, or names another preset in
-            ``model`` whose cables are not ``structure``'s).
+            that is not UTF-8 YAML/JSON or has duplicate keys), or no ``structure``.
     """
     path = controller_path(source)
-    data = _parse(path)
-    try:
-        if structure is None:
-            from tensim.models import PRESETS
+    if structure is None:
+        raise ControllerFileError("pass the structure it drives (tensim.models.load_controller "
+                                  "builds the preset a file names)", source=str(path))
+    return controller_from_file(path, read_controller_data(path), structure)
 
-            model = data.get("model") if isinstance(data, dict) else None
-            if model not in PRESETS:
-                raise ControllerFileError(f"names no preset ({model!r}); pass the structure "
-                                          "it drives", field="model")
-            structure = PRESETS[model].build()
-        _check_model(data, structure)
+
+def read_controller_data(path: Path) -> Any:
+    """The plain mapping a controller file holds (before it is checked against a robot).
+
+    Raises:
+        ControllerFileError: not UTF-8 YAML/JSON, or duplicate keys.
+    """
+    return _parse(path)
+
+
+def controller_from_file(path: Path, data: Any, structure: Structure) -> ControllerConfig:
+    """:func:`controller_from_dict` on a file's mapping; errors name the file."""
+    try:
         return controller_from_dict(data, structure, path.parent)
     except ControllerFileError as err:
         raise err.with_source(str(path)) from None
@@ -604,20 +604,3 @@ def controller_path(source: str | os.PathLike[str]) -> Path:
         return shipped[str(source)]
     raise FileNotFoundError(f"no controller file {str(source)!r}; shipped controllers: "
                             f"{', '.join(shipped)}")
-
-
-def resolve_controller(model: str, structure: Structure, source: str | None
-                       ) -> ControllerConfig | None:
-    """The controller for a command: the file or shipped name given, else the preset's own.
-
-    Returns None for a structure without a default controller.
-    """
-    if source is not None:
-        return load_controller(source, structure)
-    from tensim.models import PRESETS
-
-    if model in PRESETS:
-        impedance = PRESETS[model].controller()
-        if impedance is not None:
-            return ControllerConfig(impedance, model=model)
-    return None

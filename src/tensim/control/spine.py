@@ -1,24 +1,32 @@
-"""Spine CPGs: the coupling rule, the learnable parameter layout and the gait it gives.
+"""CPGs on any structure: the coupling rule, the learnable parameter layout and the gait.
 
-Every cable's oscillator is coupled to every cable that shares a rigid body with it (paper
-section II-B). :func:`spine_parameters` lays out the learnable parameters with the symmetry
-rule below; :meth:`CPGParameters.gait` turns one parameter vector into a :class:`SpineCPG`.
+Every actuated cable has an oscillator, coupled to every other cable that shares a rigid body
+with it (paper section II-B; :func:`shared_body_pairs`). :func:`spine_parameters` lays out the
+learnable parameters with the symmetry rule below; :meth:`CPGParameters.gait` turns one
+parameter vector into a :class:`SpineCPG`. Nothing here is particular to a spine: the rule
+reads two things off each cable's tags, and a robot without those tags gets one class per
+coupled pair of cables.
 
-Symmetry rule (57 coupling classes for Tetraspine3). A directed coupling i <- j (i driven, j
-driving) belongs to the class (d, {kind_i, kind_j}): d = joint(i) − joint(j) is the joint
-offset, and the *unordered* pair of cable kinds (outer_top, inner_left, ...) ignores which of
-the two cables is driven. Every coupling of a class shares one weight and one phase offset.
-This is the "upper triangular" edge table of the original simulator's spine CPG controller
-(NTRT BaseSpineCPGControl / tgCPGStringControl): per joint offset, a symmetric kind x kind
-table, with the diagonal of offset 0 (a cable with itself) left out. With K kinds per joint
-that is K(K−1)/2 classes at d = 0 and K(K+1)/2 at each of d = ±1. Tetraspine has K = 6, and
-a cable couples only to cables of its own or a neighbouring joint (those share a segment), so
-there are 15 + 21 + 21 = 57 classes, i.e. 114 coupling parameters, plus one shared amplitude and
-one shared frequency: 116 parameters, for any spine of 3 or more segments (the classes repeat
-along the spine; a 2-segment spine has only the 15 offset-0 classes). Within a class at d = 0,
-a coupling and its reverse (i <- j and j <- i) share a parameter; the reverse gets the negated
-phase (φ_ji = −φ_ij), so a pair of cables has one consistent phase lag. The original simulator
-gave both the same phase, which can only lock at 0 or π; the negation is this package's choice.
+- its *position* along the robot: its ``joint_<j>`` tag, else 0 (:func:`cable_position`);
+- its *kind*: its ``kind_<name>`` tag, else its name without the ``_<j>`` suffix of its
+  joint tag, else its name (:func:`cable_kind`). Cables of one kind are symmetric copies.
+
+Symmetry rule. A directed coupling i <- j (i driven, j driving) belongs to the class
+(d, {kind_i, kind_j}): d = position(i) − position(j) is the joint offset, and the *unordered*
+pair of kinds ignores which of the two cables is driven. Every coupling of a class shares one
+weight and one phase offset. This is the "upper triangular" edge table of the original
+simulator's spine CPG controller (NTRT BaseSpineCPGControl / tgCPGStringControl): per joint
+offset, a symmetric kind x kind table, with the diagonal of offset 0 (a cable with itself) left
+out. With K kinds per joint that is K(K−1)/2 classes at d = 0 and K(K+1)/2 at each of d = ±1.
+Tetraspine has K = 6, and a cable couples only to cables of its own or a neighbouring joint
+(those share a segment), so its 132 couplings fall in 15 + 21 + 21 = 57 classes, i.e. 114
+coupling parameters, plus one shared amplitude and one shared frequency: 116 parameters, for any
+spine of 3 or more segments (the classes repeat along the spine; a 2-segment spine has only the
+15 offset-0 classes). Within a class at d = 0, a coupling and its reverse (i <- j and j <- i)
+share a parameter; the reverse gets the negated phase (φ_ji = −φ_ij), so a pair of cables has
+one consistent phase lag. The original simulator gave both the same phase, which can only lock
+at 0 or π; the negation is this package's choice. An untagged robot whose cables all couple
+(a 3-bar prism: 9 cables, 72 couplings) gets 36 classes, one per pair: 74 parameters.
 """
 
 from __future__ import annotations
@@ -30,7 +38,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from tensim.control._common import joint_index, per_item
+from tensim.control._common import has_joint_tag, joint_index, per_item
 from tensim.control.cpg import (
     DEFAULT_SETTINGS,
     Coupling,
@@ -201,10 +209,31 @@ class CPGParameters(ParameterLayout):
         return SpineCPG(self, tuple(float(x) for x in v), initial_phase, initial_amplitude)
 
 
-def _default_kind(cable: Cable) -> str:
-    """The cable name without its ``_<joint>`` suffix (``outer_top_2`` -> ``outer_top``)."""
-    suffix = f"_{joint_index(cable)}"
-    return cable.name.removesuffix(suffix)
+def cable_position(cable: Cable) -> int:
+    """A cable's joint along the robot: its ``joint_<j>`` tag, else 0.
+
+    Raises:
+        ValueError: more than one ``joint_<j>`` tag.
+    """
+    return joint_index(cable) if has_joint_tag(cable) else 0
+
+
+def cable_kind(cable: Cable) -> str:
+    """A cable's symmetry kind: its ``kind_<name>`` tag, else its name without the ``_<j>`` of
+    its joint tag (``outer_top_2`` -> ``outer_top``), else its name.
+
+    Raises:
+        ValueError: more than one ``kind_<name>`` tag.
+    """
+    kinds = [t.removeprefix("kind_") for t in cable.tags if t.startswith("kind_")]
+    if len(kinds) > 1:
+        raise ValueError(f"cable {cable.name!r} has {len(kinds)} 'kind_<name>' tags {kinds}; a "
+                         "cable has one symmetry kind")
+    if kinds:
+        return kinds[0]
+    if has_joint_tag(cable):
+        return cable.name.removesuffix(f"_{joint_index(cable)}")
+    return cable.name
 
 
 def _offset_label(offset: int) -> str:
@@ -215,9 +244,9 @@ def spine_parameters(structure: Structure, cables: Sequence[str] | None = None, 
                      weight: Bounds = DEFAULT_WEIGHT, phase: Bounds = DEFAULT_PHASE,
                      amplitude: Bounds = DEFAULT_AMPLITUDE,
                      frequency: Bounds = DEFAULT_FREQUENCY, convergence: float = 20.0,
-                     kind: Callable[[Cable], str] = _default_kind,
-                     joint: Callable[[Cable], int] = joint_index) -> CPGParameters:
-    """The parameter layout of a spine CPG with the module's symmetry rule.
+                     kind: Callable[[Cable], str] = cable_kind,
+                     joint: Callable[[Cable], int] = cable_position) -> CPGParameters:
+    """The parameter layout of a CPG on any structure with the module's symmetry rule.
 
     The couplings are those of :func:`spine_network`; coupling i <- j belongs to the class
     (joint(i) − joint(j), {kind(i), kind(j)}); see the module docstring. Tetraspine3 gives 57
@@ -228,8 +257,8 @@ def spine_parameters(structure: Structure, cables: Sequence[str] | None = None, 
         cables: the actuated cables (None: every cable).
         weight, phase, amplitude, frequency: ranges [rad/m, rad, m/s, Hz].
         convergence: a [1/s].
-        kind: a cable's kind (default: its name without the ``_<joint>`` suffix).
-        joint: a cable's joint index (default: from its ``joint_<j>`` tag).
+        kind: a cable's symmetry kind (default :func:`cable_kind`).
+        joint: a cable's joint index (default :func:`cable_position`).
     """
     names = _cable_names(structure, cables)
     kinds = [kind(structure.cable(n)) for n in names]

@@ -14,6 +14,10 @@ Each mode has an amplitude [m/s] and phase [rad]; joint j runs ``joint_lag`` beh
 so the bending travels along the spine. A caterpillar crawl is a pitch wave; sidewinding is a yaw
 wave with a pitch wave a quarter period apart. :class:`SpineWaveParameters` makes the eight
 numbers a learnable layout, so ``tensim learn --controller wave`` searches gaits of this form.
+
+On any other robot, :class:`TravellingWaveParameters` passes one sine wave over an ordered set of
+cables (the order given, or derived from the build pose by :func:`wave_order`), each cable
+``lag`` behind the one before it.
 """
 
 from __future__ import annotations
@@ -21,11 +25,12 @@ from __future__ import annotations
 import cmath
 import dataclasses
 import math
+import re
 from collections.abc import Sequence
 
 import numpy as np
 
-from tensim.control._common import joint_index
+from tensim.control._common import has_joint_tag, joint_index
 from tensim.control.parameters import Bounds, Parameter, ParameterLayout
 from tensim.control.sine import SineGait
 from tensim.structure import Structure
@@ -148,3 +153,140 @@ def spine_wave_parameters(structure: Structure, start: SpineWave | None = None, 
     entries = tuple(Parameter(name, dataclasses.replace(b, nominal=float(n))) for name, b, n in
                     zip(WAVE_NAMES, bounds, nominal, strict=True))
     return SpineWaveParameters(structure, entries)
+
+
+# -- a travelling wave over any ordered set of cables ---------------------------------------------
+
+TRAVEL_NAMES = ("amplitude", "frequency", "lag")
+_WAVE_TAG = re.compile(r"wave_(\d+)")
+TRAVEL_AMPLITUDE = Bounds(0.0, 0.07, 0.02)  # m/s
+TRAVEL_LAG = Bounds(-math.pi, math.pi, math.pi / 2)  # rad
+
+
+def wave_order(structure: Structure, cables: Sequence[str], how: str = "auto"
+               ) -> tuple[str, ...]:
+    """The cables in the order a travelling wave passes them, from tags or the build pose.
+
+    ``"tags"`` sorts by each cable's ``wave_<k>`` tag (the user's order; equal k move
+    together); ``"axis"`` sorts the cables' midpoints along the longest horizontal principal
+    axis of the nodes (front to back along a spine); ``"around"`` by their angle about the
+    vertical axis through the nodes' centroid (round a prism's rings); ``"auto"`` takes
+    ``"tags"`` where every cable has a ``wave_<k>`` tag, else ``"axis"`` where that axis is at
+    least 1.5 times as long as the other horizontal one, else ``"around"``. Ties keep the given
+    order.
+
+    Raises:
+        ValueError: an unknown ``how``, or ``"tags"`` with a cable lacking its ``wave_<k>``.
+        KeyError: an unknown cable.
+    """
+    if how not in ("auto", "tags", "axis", "around"):
+        raise ValueError(f"wave order must be 'auto', 'tags', 'axis', 'around' or a list of "
+                         f"cables, got {how!r}")
+    tagged = {c: [int(m.group(1)) for t in structure.cable(c).tags
+                  if (m := _WAVE_TAG.fullmatch(t))] for c in cables}
+    if how == "tags" or (how == "auto" and all(len(k) == 1 for k in tagged.values())):
+        bad = [c for c, k in tagged.items() if len(k) != 1]
+        if bad:
+            raise ValueError(f"cables {bad} need exactly one 'wave_<k>' tag to set their place "
+                             "in the wave")
+        return tuple(sorted(cables, key=lambda c: tagged[c][0]))
+    points = np.array([structure.position(n.name)[:2] for n in structure.nodes])
+    centre = points.mean(axis=0)
+    spread, axes = np.linalg.eigh(np.cov((points - centre).T) + 1e-15 * np.eye(2))
+    if how == "auto":
+        how = "axis" if spread[1] >= 1.5**2 * spread[0] else "around"
+    mid = {c: np.mean([structure.position(n)[:2] for n in structure.cable(c).nodes], axis=0)
+           for c in cables}
+    if how == "axis":
+        along = axes[:, 1] * (1.0 if axes[0, 1] >= 0 else -1.0)  # front: toward +x
+        key = {c: -float((mid[c] - centre) @ along) for c in cables}
+    else:
+        key = {c: float(np.arctan2(*(mid[c] - centre)[::-1])) for c in cables}
+    rank = {c: i for i, c in enumerate(cables)}
+    return tuple(sorted(cables, key=lambda c: (round(key[c], 9), rank[c])))
+
+
+@dataclasses.dataclass(frozen=True)
+class TravellingWaveParameters(ParameterLayout):
+    """A travelling sine wave over ordered cables: the k-th cable in ``order`` gets
+    V* = amplitude sin(2π frequency t − k lag) [m/s] (cables of one ``wave_<k>`` tag share k);
+    the vector is [amplitude, frequency, lag]
+    ([m/s, Hz, rad]).
+
+    Attributes:
+        order: the driven cables, in the order the wave passes them.
+        entries: the parameters (see :func:`travelling_wave_parameters`).
+        steps: each cable's k (None: its place in ``order``).
+    """
+
+    order: tuple[str, ...]
+    entries: tuple[Parameter, ...]
+    steps: tuple[int, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if self.steps is None:
+            object.__setattr__(self, "steps", tuple(range(len(self.order))))
+        if len(self.steps) != len(self.order):  # type: ignore[arg-type]
+            raise ValueError(f"{len(self.order)} cables need as many steps, got {self.steps}")
+        if tuple(p.name for p in self.entries) != TRAVEL_NAMES:
+            raise ValueError(f"a travelling wave layout has the entries {TRAVEL_NAMES}")
+        if not self.order or len(set(self.order)) != len(self.order):
+            raise ValueError(f"a travelling wave needs unique cables, got {self.order}")
+
+    @property
+    def parameters(self) -> tuple[Parameter, ...]:
+        """The entries, in vector order."""
+        return self.entries
+
+    def gait(self, values: Sequence[float] | np.ndarray | None = None) -> SineGait:
+        """The per-cable sine gait of a parameter vector (None: the nominal values)."""
+        amplitude, frequency, lag = (float(x) for x in self.check_bounds(
+            self.nominal if values is None else values))
+        assert self.steps is not None
+        return SineGait(self.order, (amplitude,) * len(self.order), frequency,
+                        tuple(float(math.remainder(-k * lag, 2 * math.pi)) for k in self.steps))
+
+
+def travelling_wave_parameters(structure: Structure, cables: Sequence[str],
+                               order: str | Sequence[str] = "auto", *,
+                               amplitude: Bounds = TRAVEL_AMPLITUDE,
+                               frequency: Bounds = WAVE_FREQUENCY,
+                               lag: Bounds = TRAVEL_LAG) -> TravellingWaveParameters:
+    """The travelling-wave layout over ``cables`` on any structure.
+
+    Args:
+        structure: the robot.
+        cables: the driven cables.
+        order: the cables in wave order (the same set as ``cables``), or how to derive it
+            (see :func:`wave_order`).
+        amplitude, frequency, lag: ranges [m/s, Hz, rad].
+
+    Raises:
+        ValueError: no cables, or an order that is not a permutation of ``cables``.
+        KeyError: an unknown cable.
+    """
+    cables = tuple(cables)
+    if not cables:
+        raise ValueError("a travelling wave needs at least one driven cable")
+    steps = None
+    if isinstance(order, str):
+        ordered = wave_order(structure, cables, order)
+        tags = [[int(m.group(1)) for t in structure.cable(c).tags
+                 if (m := _WAVE_TAG.fullmatch(t))] for c in ordered]
+        if order in ("tags", "auto") and all(len(k) == 1 for k in tags):
+            steps = tuple(k[0] - tags[0][0] for k in tags)
+    else:
+        ordered = tuple(order)
+        if sorted(ordered) != sorted(cables):
+            raise ValueError(f"wave order {list(ordered)} must list each driven cable "
+                             f"{sorted(cables)} once")
+    entries = tuple(Parameter(name, b) for name, b in
+                    zip(TRAVEL_NAMES, (amplitude, frequency, lag), strict=True))
+    return TravellingWaveParameters(ordered, entries, steps)
+
+
+def spine_tagged(structure: Structure) -> bool:
+    """Whether every cable carries the Tetraspine tags :class:`SpineWave` places cables by."""
+    return bool(structure.cables) and all(
+        has_joint_tag(c) and sum(s in c.tags for s in SIDES) == 1
+        and ("inner" in c.tags) != ("outer" in c.tags) for c in structure.cables)

@@ -17,17 +17,15 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import mujoco
 import numpy as np
+from matplotlib.figure import Figure
 
+from tensim.control import ControllerConfig
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.runs import world_record, write_run
-from tensim.sim import Simulation, SimulationResult, TimeSeries
+from tensim.sim import Controller, Simulation, SimulationResult, TimeSeries
 from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions
 from tensim.viz.plots import save_figure, thin
@@ -121,23 +119,52 @@ class _Tow:
         self.forces.append(force)
 
 
+def check_drag(structure: Structure, settings: DragSettings) -> None:
+    """Checks the towed node is the robot's, before anything runs.
+
+    Raises:
+        ValueError: naming the robot's nodes.
+    """
+    nodes = [n.name for n in structure.nodes]
+    if settings.node not in nodes:
+        raise ValueError(f"the drag test tows node {settings.node!r}, which {structure.name!r} "
+                         f"lacks; name one with --tow (nodes: {', '.join(nodes)})")
+
+
 def run_drag(model: str = "tetraspine3", settings: DragSettings | None = None, *,
              structure: Structure | None = None,
              world: WorldOptions | None = None, duration: float | None = None,
-             progress: Callable[[float, float], None] | None = None
+             progress: Callable[[float, float], None] | None = None,
+             controller: ControllerConfig | None = None, name: str | None = None,
+             controller_label: str | None = None
              ) -> tuple[SimulationResult, dict[str, Any]]:
     """Drags ``model`` (under its own impedance controller, V* = 0) and measures the force.
 
-    ``structure`` replaces the preset's robot (e.g. one fitted to hardware logs); it must keep
-    the preset's node and cable names.
+    Args:
+        model: the preset.
+        settings: how it is towed.
+        structure: the robot instead of the preset's (any robot: tow one of its nodes).
+        controller: its controller (None: the preset's impedance laws).
+        name: the robot's name in the summary (None: ``model``, or the structure's name).
+        controller_label: the controller's name in the summary.
+
+    Raises:
+        ValueError: a towed node the robot lacks.
     """
     settings = settings or DragSettings()
     if duration is not None:
         settings = dataclasses.replace(settings, duration=duration)
     p = preset(model)
+    label = name or (model if structure is None else structure.name)
     structure = structure or p.build()
+    check_drag(structure, settings)
     compiled = compile_structure(structure, world or WorldOptions())
-    with Simulation(compiled, controller=p.controller(), record_dt=settings.record_dt) as sim:
+    laws: Controller | None = p.controller()
+    if controller is not None:
+        laws = controller.build(compiled.model.opt.timestep)
+    else:
+        controller_label = None
+    with Simulation(compiled, controller=laws, record_dt=settings.record_dt) as sim:
         tow = _Tow(sim, settings)
         tow(sim)
         start = time.perf_counter()
@@ -155,7 +182,8 @@ def run_drag(model: str = "tetraspine3", settings: DragSettings | None = None, *
     steady_speed = float(np.polyfit(times[window], com_x[window], 1)[0]) if window.sum() > 2 \
         else math.nan
     summary = {
-        "experiment": "drag", "model": model, "controller": DEFAULT_CONTROLLER,
+        "experiment": "drag", "model": label,
+        "controller": controller_label or DEFAULT_CONTROLLER,
         **result.summary(),
         "drag_force_N": round(drag, 5),
         "drag_force_std_N": round(float(forces[window].std()), 5),
@@ -174,13 +202,10 @@ def run_drag(model: str = "tetraspine3", settings: DragSettings | None = None, *
     return result, summary
 
 
-def write_drag(out: Path, result: SimulationResult, summary: dict[str, Any],
-               structure: Structure | None = None) -> Path:
-    """Writes the tow force over time, the cable tensions, trajectory (with the line force as
-    channel ``tow_force/line``), the robot (``structure``, None: the preset) and summary."""
-    out.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(7, 3.2))
-    series = result.trajectory
+def drag_figure(series: TimeSeries, summary: dict[str, Any]) -> Figure:
+    """The tow-line force over time against μ m g, with the steady window shaded."""
+    fig = Figure(figsize=(7, 3.2))
+    ax = fig.subplots()
     ax.plot(*thin(series.time, series[TOW_CHANNEL]), color="black", lw=1.0, label="tow line")
     ax.axhline(summary["coulomb_force_N"], color="tab:red", ls="--", lw=1.0,
                label=f"μ m g = {summary['coulomb_force_N']:.3f} N")
@@ -194,9 +219,22 @@ def write_drag(out: Path, result: SimulationResult, summary: dict[str, Any],
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    save_figure(fig, out / "drag_force.png")
-    plot_cable_tensions(result.trajectory, out / "tensions.png",
-                        title="Tetraspine3 drag test: measured tension (black), commanded "
-                              "(blue dashed)")
-    return write_run(out, result, {**summary, "figures": ["drag_force.png", "tensions.png"]},
-                     structure=structure)
+    return fig
+
+
+def write_drag(out: Path, result: SimulationResult, summary: dict[str, Any],
+               structure: Structure | None = None,
+               controller: ControllerConfig | None = None) -> Path:
+    """Writes the tow force over time, the cable tensions, trajectory (with the line force as
+    channel ``tow_force/line``), the robot (``structure``, None: the preset), its controller
+    and summary."""
+    out.mkdir(parents=True, exist_ok=True)
+    save_figure(drag_figure(result.trajectory, summary), out / "drag_force.png")
+    robot = "Tetraspine3" if structure is None else summary.get("model", structure.name)
+    if result.cables:
+        plot_cable_tensions(result.trajectory, out / "tensions.png",
+                            title=f"{robot} drag test: measured tension (black), commanded "
+                                  "(blue dashed)")
+    figures = ["drag_force.png", "tensions.png"] if result.cables else ["drag_force.png"]
+    return write_run(out, result, {**summary, "figures": figures}, structure=structure,
+                     controller=controller)

@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from tensim.control import ControllerConfig, VelocityTable, load_controller
+from tensim.control import ControllerConfig, VelocityTable
 from tensim.model import WorldOptions, compile_structure
-from tensim.models import preset
+from tensim.models import load_controller, preset
 from tensim.runs import world_record, write_run
 from tensim.sim import COM, SimulationResult, TimeSeries, simulate
 from tensim.structure import Structure

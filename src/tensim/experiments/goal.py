@@ -14,16 +14,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
-from tensim.control import ControllerConfig, load_controller
+from tensim.control import ControllerConfig
 from tensim.experiments.scenarios import resolve, run_scenario, write_scenario
 from tensim.learn.objective import target_distance, target_progress
 from tensim.model import WorldOptions
+from tensim.models import load_controller
 from tensim.sim import COM, SimulationResult, TimeSeries
 from tensim.terrain import Rough, Terrain
 from tensim.viz.plots import save_figure
@@ -117,10 +115,10 @@ def run_goal(*, target_xy: tuple[float, float] = GOAL_TARGET, terrain: Terrain |
     return result, {**summary, **goal_summary(result.trajectory, target_xy)}, config, terrain
 
 
-def plot_goal_distance(trajectory: TimeSeries, target_xy: tuple[float, float],
-                       path: Path) -> Path:
+def goal_distance_figure(trajectory: TimeSeries, target_xy: tuple[float, float]) -> Figure:
     """Horizontal distance of the centre of mass to the target over time."""
-    fig, ax = plt.subplots(figsize=(6, 3))
+    fig = Figure(figsize=(6, 3))
+    ax = fig.subplots()
     ax.plot(trajectory.time, goal_distance(trajectory, target_xy), color="black", lw=1.0)
     ax.axhline(REACHED_RADIUS, color="tab:green", ls="--", lw=0.8, label="reached")
     ax.set_xlabel("time [s]")
@@ -129,7 +127,13 @@ def plot_goal_distance(trajectory: TimeSeries, target_xy: tuple[float, float],
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    return save_figure(fig, path)
+    return fig
+
+
+def plot_goal_distance(trajectory: TimeSeries, target_xy: tuple[float, float],
+                       path: Path) -> Path:
+    """Writes :func:`goal_distance_figure` as a PNG."""
+    return save_figure(goal_distance_figure(trajectory, target_xy), path)
 
 
 def write_goal(out: Path, result: SimulationResult, summary: dict[str, Any],

@@ -12,16 +12,14 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
-from tensim.control import ControllerConfig, load_controller
+from tensim.control import ControllerConfig
 from tensim.control.wave import SpineWave
 from tensim.experiments.gait import locomotion
 from tensim.model import WorldOptions, compile_structure
-from tensim.models import preset
+from tensim.models import load_controller, preset
 from tensim.runs import world_record, write_run
 from tensim.sim import COM, SimulationResult, TimeSeries, simulate
 from tensim.terrain import Terrain, format_terrain
@@ -130,9 +128,11 @@ def _shown_cables(cables: tuple[str, ...]) -> list[str] | None:
     return shown or None
 
 
-def plot_side_view(series: TimeSeries, terrain: Terrain, path: Path) -> Path:
+def side_view_figure(series: TimeSeries, terrain: Terrain) -> Figure:
     """Side view (x, z) of every segment's centre of mass over the terrain's profile at y = 0."""
-    fig, ax = plt.subplots(figsize=(9, 3.2))
+    fig = Figure(figsize=(9, 3.2))
+    ax = fig.subplots()
+    viridis = matplotlib.colormaps["viridis"]
     x_all = np.concatenate([series[f"pos_x/{b}"] for b in segments(series)])
     x = np.linspace(x_all.min() - 0.3, x_all.max() + 0.3, 800)
     ground = terrain.geometry().height(x, np.zeros_like(x))
@@ -140,11 +140,16 @@ def plot_side_view(series: TimeSeries, terrain: Terrain, path: Path) -> Path:
         ground)].min(initial=0.0) - 0.05, color="0.8", lw=0, label="terrain (y = 0)")
     for k, body in enumerate(segments(series)):
         ax.plot(series[f"pos_x/{body}"], series[f"pos_z/{body}"], lw=0.8,
-                color=plt.cm.viridis(k / max(1, len(segments(series)) - 1)),
+                color=viridis(k / max(1, len(segments(series)) - 1)),
                 label=body if k in (0, len(segments(series)) - 1) else None)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("z [m] (not to scale with x)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
-    return save_figure(fig, path)
+    return fig
+
+
+def plot_side_view(series: TimeSeries, terrain: Terrain, path: Path) -> Path:
+    """Writes :func:`side_view_figure` as a PNG."""
+    return save_figure(side_view_figure(series, terrain), path)

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from tensim.control import ControllerConfig, SpineCPG, load_controller, spine_parameters
+from tensim.control import ControllerConfig, SpineCPG, spine_parameters
 from tensim.experiments.scenarios import (
     COMMAND_PERIOD,
     MODEL,
@@ -26,7 +26,7 @@ from tensim.experiments.scenarios import (
     write_scenario,
 )
 from tensim.model import WorldOptions
-from tensim.models import preset
+from tensim.models import load_controller, preset
 from tensim.sim import SimulationResult
 from tensim.terrain import Flat, Terrain
 

@@ -11,11 +11,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
 from tensim.experiments.disturbance import DURATION, run_disturbance
 from tensim.model import WorldOptions
@@ -105,13 +102,13 @@ def run_timestep_study(announce: Callable[[str], None] | None = None, *,
     }
 
 
-def write_timestep_study(out: Path, summary: dict[str, Any]) -> Path:
-    """Writes ``summary.json`` and a bar chart of each cable's change."""
-    out.mkdir(parents=True, exist_ok=True)
+def timestep_figure(summary: dict[str, Any]) -> Figure:
+    """A bar chart of each cable's max-tension change against the reference rate."""
     changes = summary["change_percent"]
     cables = list(next(iter(changes.values())))
     x = np.arange(len(cables))
-    fig, ax = plt.subplots(figsize=(10, 3.5))
+    fig = Figure(figsize=(10, 3.5))
+    ax = fig.subplots()
     width = 0.8 / len(changes)
     for k, (hz, values) in enumerate(changes.items()):
         ax.bar(x + k * width, [values[c] for c in cables], width, label=f"{hz} Hz")
@@ -121,6 +118,12 @@ def write_timestep_study(out: Path, summary: dict[str, Any]) -> Path:
     ax.legend()
     ax.grid(alpha=0.3, axis="y")
     fig.tight_layout()
-    save_figure(fig, out / "timestep.png")
+    return fig
+
+
+def write_timestep_study(out: Path, summary: dict[str, Any]) -> Path:
+    """Writes ``summary.json`` and :func:`timestep_figure`."""
+    out.mkdir(parents=True, exist_ok=True)
+    save_figure(timestep_figure(summary), out / "timestep.png")
     finish_run(out, {**summary, "figures": ["timestep.png"]})  # log, report, summary.json
     return out

@@ -1,12 +1,15 @@
 """Controller families a gait is learned for, and the base controllers they start from.
 
-A family names a :class:`~tensim.control.parameters.ParameterLayout`: ``cpg`` the spine CPG
-of :mod:`tensim.control.spine` (116 parameters for Tetraspine3), ``sine`` per-cable sine waves
-with a shared frequency, ``sine-pattern`` the paper's four-number Tetraspine sine pattern,
-``wave`` a travelling wave of joint bending along any Tetraspine (:mod:`tensim.control.wave`,
-eight parameters whatever the spine's length). The
-base controller file gives the impedance laws, the command period and, where its gait is of
-the family, the layout's bounds and the starting point.
+A family names a :class:`~tensim.control.parameters.ParameterLayout`: ``cpg`` the CPG of
+:mod:`tensim.control.spine` on any structure (116 parameters for Tetraspine3), ``sine``
+per-cable sine waves with a shared frequency, ``sine-pattern`` the paper's four-number
+Tetraspine sine pattern, ``wave`` a travelling wave (:mod:`tensim.control.wave`): of joint
+bending along a Tetraspine (eight parameters whatever the spine's length), on any other robot one
+sine wave passed along its driven cables in ``wave_<k>`` tag order or an order derived from the
+build pose (three parameters). Every family drives the cables the base controller gives
+impedance laws. The base controller file gives the impedance laws, the command period and,
+where its gait is of the family, the layout's bounds and the starting point; a structure
+without a controller of its own starts from :func:`tensim.control.default_impedance`.
 """
 
 from __future__ import annotations
@@ -18,13 +21,15 @@ from tensim.control import (
     ParameterLayout,
     SineGait,
     SpineCPG,
+    default_impedance,
     load_controller,
-    resolve_controller,
     spine_parameters,
     spine_wave_parameters,
 )
 from tensim.control._common import as_tuple
 from tensim.control.sine_parameters import sine_parameters, tetraspine_sine_parameters
+from tensim.control.wave import spine_tagged, travelling_wave_parameters
+from tensim.models import resolve_controller
 from tensim.structure import Structure
 
 FAMILIES = ("cpg", "sine", "sine-pattern", "wave")
@@ -68,23 +73,36 @@ def gait_layout(family: str, structure: Structure, base: ControllerConfig
         sine_layout = sine_parameters(structure, None if start else cables, start=start)
         return sine_layout, sine_layout.nominal
     if family == "wave":
-        waves = spine_wave_parameters(structure)
-        return waves, waves.nominal
+        if spine_tagged(structure):
+            waves = spine_wave_parameters(structure)
+            return waves, waves.nominal
+        travel = travelling_wave_parameters(structure, cables)
+        return travel, travel.nominal
+    if not spine_tagged(structure):
+        raise ValueError(f"sine-pattern is the paper's Tetraspine pattern: every cable needs "
+                         f"'joint_<j>', 'inner'/'outer' and a side tag, which {structure.name!r} "
+                         "lacks; use --controller sine, wave or cpg")
     pattern = tetraspine_sine_parameters(structure)
     return pattern, pattern.nominal
 
 
 def default_base(model: str, family: str, structure: Structure) -> ControllerConfig:
     """The base controller when none is given: a shipped file for Tetraspine3, else the
-    preset's own impedance laws.
+    preset's own impedance laws, else laws that hold the build pose
+    (:func:`~tensim.control.default_impedance`).
 
     Raises:
-        ValueError: the model has no impedance controller to start from.
+        ValueError: the model has no motorised cable to drive.
     """
     if model == "tetraspine3":
         return load_controller(SHIPPED_BASE[check_family(family)], structure)
     config = resolve_controller(model, structure, None)
     if config is None:
-        raise ValueError(f"model {model!r} has no impedance controller to learn a gait on; "
-                         "give --base-controller FILE with its impedance laws")
+        try:
+            impedance = default_impedance(structure)
+        except ValueError as err:
+            raise ValueError(f"cannot learn a gait for {model!r}: {err}; a gait drives "
+                             "motorised cables through their impedance laws") from None
+        config = ControllerConfig(impedance, description="default_impedance: holds the "
+                                  "build pose")
     return config

@@ -5,16 +5,27 @@ Nothing here imports MuJoCo; :mod:`tensim.model` compiles a structure into a MuJ
 
 from tensim.structure._errors import StructureError
 from tensim.structure._mass import MassProperties, mass_properties
-from tensim.structure._records import Cable, CableContact, DCMotor, Motor, Node, PointMass, Rod
+from tensim.structure._records import (
+    PASSIVE,
+    Cable,
+    CableContact,
+    DCMotor,
+    Motor,
+    Node,
+    PointMass,
+    Rod,
+)
 from tensim.structure._structure import RigidGroup, Structure
 from tensim.structure._yaml import (
     load_structure,
+    motor_sources,
     save_structure,
     structure_from_dict,
     structure_to_dict,
 )
 
 __all__ = [
+    "PASSIVE",
     "Cable",
     "CableContact",
     "DCMotor",
@@ -28,6 +39,7 @@ __all__ = [
     "StructureError",
     "load_structure",
     "mass_properties",
+    "motor_sources",
     "save_structure",
     "structure_from_dict",
     "structure_to_dict",

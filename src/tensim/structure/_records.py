@@ -268,7 +268,9 @@ class Motor:
     By default the motor is kinematic: the rest length moves toward its command at up to
     ``max_speed``. With ``dc`` it is a DC motor (:class:`DCMotor`) whose speed is a state
     driven by its torque-speed curve, its inertia, friction and the cable's tension;
-    ``max_speed`` then has no effect.
+    ``max_speed`` then has no effect. A ``passive`` cable has no motor: its rest length stays
+    what it was built with and no controller may drive it (:data:`PASSIVE`; a structure
+    file's cable without a ``motor`` gets it unless the file's ``defaults`` give one).
 
     Attributes:
         max_speed: fastest rest-length change of the kinematic motor [m/s].
@@ -277,6 +279,7 @@ class Motor:
         min_rest_length: floor on the rest length [m].
         min_length: the motor stops reeling in once the actual length is at or below this [m].
         dc: the DC motor, or None for the kinematic one.
+        passive: no motor at all (the other fields are then unused).
     """
 
     max_speed: float = 0.07
@@ -284,8 +287,13 @@ class Motor:
     min_rest_length: float = 0.01
     min_length: float = 0.01
     dc: DCMotor | None = None
+    passive: bool = False
 
     def __post_init__(self) -> None:
+        _check(isinstance(self.passive, bool), "motor",
+               f"passive must be true or false, got {describe(self.passive)}")
+        _check(not (self.passive and self.dc is not None), "motor",
+               "a passive cable has no motor, so no dc motor either")
         _check(self.dc is None or isinstance(self.dc, DCMotor), "motor",
                f"dc must be a mapping of DC-motor parameters, got {describe(self.dc)}")
         for field, unit in (("max_speed", "m/s"), ("max_tension", "N"),
@@ -297,6 +305,10 @@ class Motor:
         for field in ("min_rest_length", "min_length"):
             value = getattr(self, field)
             _check(value >= 0, "motor", f"{field} must be >= 0 m, got {value}")
+
+
+# a cable without a motor: its rest length stays as built (no floor lifts a short one)
+PASSIVE = Motor(min_rest_length=0.0, min_length=0.0, passive=True)
 
 
 @dataclasses.dataclass(frozen=True)

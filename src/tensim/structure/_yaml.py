@@ -3,7 +3,8 @@
 The file is a mapping with ``name``, ``nodes``, ``rods``, ``cables``, ``point_masses`` (lists of
 mappings whose keys are the record fields) and an optional ``defaults`` mapping with ``rod``,
 ``cable`` and ``point_mass`` entries merged under every item of that kind. Cables take a nested
-``motor`` mapping (in it, a ``dc`` mapping for a DC motor), when routed a ``via`` list of the
+``motor`` mapping (in it, a ``dc`` mapping for a DC motor; a cable with no ``motor``, here or in
+``defaults``, is passive: no motor winds it), when routed a ``via`` list of the
 nodes they pass through, and a ``contact`` that is ``true`` or a mapping of
 :class:`CableContact` fields. All values are SI units (the README lists every field).
 """
@@ -20,7 +21,16 @@ import yaml
 from tensim._files import write_text
 from tensim._input import InputError, describe, load_yaml_file
 from tensim.structure._errors import StructureError
-from tensim.structure._records import Cable, CableContact, DCMotor, Motor, Node, PointMass, Rod
+from tensim.structure._records import (
+    PASSIVE,
+    Cable,
+    CableContact,
+    DCMotor,
+    Motor,
+    Node,
+    PointMass,
+    Rod,
+)
 from tensim.structure._structure import Structure
 
 _SECTIONS = {"nodes": Node, "rods": Rod, "cables": Cable, "point_masses": PointMass}
@@ -42,8 +52,9 @@ def _build(cls: type, raw: Any, item: str) -> Any:
         raise StructureError(f"unknown field {unknown[0]!r}; expected one of {_fields(cls)}",
                              item=item)
     values = dict(raw)
-    if cls is Cable and "motor" in values:
-        values["motor"] = _build(Motor, values["motor"], f"{item} motor")
+    if cls is Cable:  # no motor given, here or in the defaults: a passive cable
+        motor = values.get("motor")
+        values["motor"] = PASSIVE if motor is None else _build(Motor, motor, f"{item} motor")
     if cls is Motor and values.get("dc") is not None:
         values["dc"] = _build(DCMotor, values["dc"], f"{item} dc")
     if cls is Cable and isinstance(values.get("contact"), dict):
@@ -117,8 +128,11 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
         for key, value in dataclasses.asdict(record).items():
             if value is None or value == ():
                 continue
+            if key == "motor" and value.get("passive"):
+                continue  # a passive cable is one without a motor
             if isinstance(value, dict):  # a nested record (motor, contact): drop its Nones
-                value = {k: v for k, v in value.items() if v is not None}
+                value = {k: v for k, v in value.items()
+                         if v is not None and not (k == "passive" and v is False)}
             out[key] = [list(v) if isinstance(v, tuple) else v for v in value] \
                 if isinstance(value, tuple) else value
         return out
@@ -127,6 +141,23 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
         "name": structure.name,
         **{section: [plain(r) for r in getattr(structure, section)] for section in _SECTIONS},
     }
+
+
+def motor_sources(data: Any) -> dict[str, str]:
+    """Where each cable of a structure mapping got its motor: ``"cable"`` (its own
+    ``motor``), ``"defaults"`` (the file's ``defaults.cable.motor``) or ``"none"`` (passive).
+
+    Args:
+        data: the mapping a structure file holds (valid: :func:`structure_from_dict` accepts it).
+    """
+    default = ((data.get("defaults") or {}).get("cable") or {}).get("motor")
+    sources = {}
+    for raw in data.get("cables") or []:
+        if raw.get("motor") is not None:
+            sources[raw["name"]] = "cable"
+        else:
+            sources[raw["name"]] = "defaults" if default is not None else "none"
+    return sources
 
 
 def load_structure(path: str | os.PathLike[str]) -> Structure:
