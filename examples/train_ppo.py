@@ -1,0 +1,213 @@
+"""Train a walking policy with Stable-Baselines3 PPO on the batch engine, then evaluate it.
+
+    python examples/train_ppo.py train --steps 150000 --seed 0 --out runs/ppo_seed0
+    python examples/train_ppo.py report docs/rl/ppo_tetraspine3.json
+
+``train`` writes into ``--out``: policy.zip (SB3's format), obs_norm.npz (the observation
+normaliser's statistics), curve.csv and learning_curve.png (mean return of the last episodes
+against env steps), results.json (the evaluation) and video.mp4 (one 30 s evaluation episode,
+where offscreen OpenGL works). The evaluation walks the deterministic policy for ``--eval-s``
+seconds from several seeded starts and the shipped CPG gait from the build pose, measuring the
+centre of mass's displacement along +y. ``report`` prints the table of one or more
+results.json files (or a combined list). Needs ``pip install tensim[rl]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from tensim._files import write_json
+from tensim.rl import EnvConfig, Randomization, TensegrityVectorEnv
+from tensim.rl._render import Renders
+
+EVAL_SEEDS = (100, 101, 102)
+
+
+def training_config(args: argparse.Namespace) -> EnvConfig:
+    """The environment of the training: +y, mild physics randomisation, 3 mm pose noise."""
+    return EnvConfig(model=args.model, control_dt=args.control_dt, episode_s=args.episode_s,
+                     direction=(0.0, 1.0), threads=args.threads,
+                     randomization=Randomization(friction=(0.9, 1.1), stiffness=(0.9, 1.1),
+                                                 mass=(0.95, 1.05), pose_noise_m=0.003))
+
+
+def train(args: argparse.Namespace) -> None:
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    from tensim.rl.sb3 import SB3VecEnv
+
+    torch.set_num_threads(1)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    config = training_config(args)
+    venv = SB3VecEnv(args.envs, config)
+    venv.seed(args.seed)
+    envs = VecNormalize(VecMonitor(venv), norm_obs=True, norm_reward=True, gamma=0.99)
+    model = PPO("MlpPolicy", envs, n_steps=256, batch_size=256, n_epochs=5, gamma=0.99,
+                learning_rate=3e-4, seed=args.seed, device="cpu", verbose=0)
+    curve: list[tuple[int, float, float]] = []
+    started = time.process_time()
+
+    class Progress(BaseCallback):
+        def _on_step(self) -> bool:
+            return True
+
+        def _on_rollout_end(self) -> None:
+            returns = [e["r"] for e in self.model.ep_info_buffer]
+            if returns:
+                curve.append((self.num_timesteps, float(np.mean(returns)),
+                              time.process_time() - started))
+                print(f"{self.num_timesteps:>8} steps  mean return {curve[-1][1]:+.3f} m  "
+                      f"cpu {curve[-1][2]:.0f} s", flush=True)
+
+    model.learn(args.steps, callback=Progress())
+    cpu_s = time.process_time() - started
+    model.save(out / "policy.zip")
+    rms = envs.obs_rms
+    np.savez(out / "obs_norm.npz", mean=rms.mean, var=rms.var, clip=envs.clip_obs,
+             epsilon=envs.epsilon)
+    np.savetxt(out / "curve.csv", np.array(curve), delimiter=",",
+               header="env_steps,mean_return_m,cpu_s", comments="")
+    plot_curve(np.array(curve), out / "learning_curve.png", args.model)
+    results = evaluate(out, args)
+    results.update(model=args.model, seed=args.seed, env_steps=args.steps, cpu_s=round(cpu_s),
+                   envs=args.envs, control_dt=args.control_dt, episode_s=args.episode_s)
+    write_json(out / "results.json", results)
+    print(table([results]))
+
+
+class Policy:
+    """A saved policy with its observation normaliser: observations -> actions."""
+
+    def __init__(self, folder: Path):
+        from stable_baselines3 import PPO
+
+        self.model = PPO.load(folder / "policy.zip", device="cpu")
+        with np.load(folder / "obs_norm.npz", allow_pickle=False) as f:
+            self.mean, self.var = f["mean"], f["var"]
+            self.clip, self.epsilon = float(f["clip"]), float(f["epsilon"])
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        z = np.clip((obs - self.mean) / np.sqrt(self.var + self.epsilon), -self.clip, self.clip)
+        return self.model.predict(z, deterministic=True)[0]
+
+
+def evaluate(folder: Path, args: argparse.Namespace) -> dict[str, object]:
+    """Distance along +y in ``args.eval_s`` seconds: the policy from each evaluation seed,
+    and the shipped CPG gait."""
+    policy = Policy(folder)
+    config = dataclasses.replace(training_config(args), episode_s=args.eval_s)
+    env = TensegrityVectorEnv(len(EVAL_SEEDS), config)
+    obs, _ = env.reset(seed=list(EVAL_SEEDS))
+    start = env.worlds.f["subtree_com"][:, 0, :2].copy()
+    frames: list[np.ndarray | None] = []
+    every = max(1, round(1.0 / (15 * config.control_dt)))  # about 15 frames per second
+    renders = None if args.no_video else _renders(env)
+    for k in range(config.max_steps):  # the last step ends the episodes (next-step reset)
+        if k % every == 0 and renders is not None:
+            frames.append(renders.image(env.worlds.data(0)))  # the first start only
+        obs = env.step(policy(obs))[0]
+    end = env.worlds.f["subtree_com"][:, 0, :2].copy()
+    distances = (end - start)[:, 1]
+    if frames:
+        from tensim.viz.video import write_video
+
+        write_video(frames, folder / "video.mp4", round(1.0 / (every * config.control_dt)))
+    return {"eval_s": args.eval_s, "eval_seeds": list(EVAL_SEEDS),
+            "policy_m": [round(float(d), 4) for d in distances],
+            "cpg_m": round(cpg_distance(args.eval_s), 4)}
+
+
+def _renders(env: TensegrityVectorEnv) -> Renders | None:
+    from tensim.viz._gl import OffscreenUnavailable
+
+    try:
+        return Renders(env.robot.compiled, env.robot.stiffness)
+    except OffscreenUnavailable as err:
+        print(f"no video: {err}", file=sys.stderr)
+        return None
+
+
+def cpg_distance(seconds: float) -> float:
+    """The shipped CPG gait's centre-of-mass displacement along +y in ``seconds`` [m]."""
+    from tensim.control import load_controller
+    from tensim.model import WorldOptions, compile_structure
+    from tensim.models import preset
+    from tensim.sim import COM, simulate
+
+    structure = preset("tetraspine3").build()
+    compiled = compile_structure(structure, WorldOptions())
+    controller = load_controller("tetraspine3_cpg", structure).build(compiled.model.opt.timestep)
+    run = simulate(compiled, seconds, controller=controller)
+    y = run.trajectory[f"pos_y/{COM}"]
+    return float(y[-1] - y[0])
+
+
+def plot_curve(curve: np.ndarray, path: Path, model: str) -> None:
+    """The learning curve as a PNG (matplotlib's object API, no pyplot)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6, 3.5), layout="constrained")
+    ax = fig.add_subplot()
+    if curve.size:
+        ax.plot(curve[:, 0], curve[:, 1])
+    ax.set_xlabel("env steps")
+    ax.set_ylabel("mean episode return [m along +y]")
+    ax.set_title(f"PPO on {model}")
+    ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=120)
+
+
+def table(results: list[dict]) -> str:
+    """The evaluation table of ``results``."""
+    lines = ["model        seed  env steps  cpu [s]  policy +y in 30 s [m] (3 starts)  CPG [m]"]
+    for r in results:
+        walked = " ".join(f"{d:+.3f}" for d in r["policy_m"])
+        lines.append(f"{r['model']:<12} {r['seed']:>4}  {r['env_steps']:>9}  {r['cpu_s']:>7}  "
+                     f"{walked:<33}  {r['cpg_m']:+.3f}")
+    return "\n".join(lines)
+
+
+def report(paths: list[str]) -> None:
+    results: list[dict] = []
+    for path in paths:
+        data = json.loads(Path(path).read_text())
+        results += data if isinstance(data, list) else [data]
+    print(table(results))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    t = sub.add_parser("train", help="train, evaluate, save")
+    t.add_argument("--model", default="tetraspine3")
+    t.add_argument("--steps", type=int, default=150_000, help="env steps (all robots)")
+    t.add_argument("--envs", type=int, default=8, help="robots stepped together")
+    t.add_argument("--threads", type=int, default=1, help="batch engine threads")
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--control-dt", type=float, default=0.05, help="[s]")
+    t.add_argument("--episode-s", type=float, default=10.0, help="training episodes [s]")
+    t.add_argument("--eval-s", type=float, default=30.0, help="evaluation episodes [s]")
+    t.add_argument("--no-video", action="store_true")
+    t.add_argument("--out", default="runs/ppo")
+    r = sub.add_parser("report", help="print the table of saved results.json files")
+    r.add_argument("paths", nargs="+")
+    args = parser.parse_args()
+    if args.command == "train":
+        train(args)
+    else:
+        report(args.paths)
+
+
+if __name__ == "__main__":
+    main()
