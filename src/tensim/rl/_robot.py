@@ -106,7 +106,7 @@ class Robot:
         size = sum(stop - start for start, stop in self.layout.values())
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (size,), dtype=np.float64)
 
-    def command(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def command(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray, Any]:
         """(n_robots, n_cables) actions -> the ``ctrl`` commands in SI units, the actions as
         applied (in the action space's units) and whether each robot's action was clipped.
 
@@ -124,7 +124,7 @@ class Robot:
             raise InputError(f"robot {int(np.argmax(bad))}: action holds NaN or infinite "
                              f"values: {action[int(np.argmax(bad))]}")
         low, high = box.low.astype(float), box.high.astype(float)
-        out = ((action < low - 1e-6) | (action > high + 1e-6)).any(axis=1)
+        out = np.any((action < low - 1e-6) | (action > high + 1e-6), axis=1)
         if out.any() and not self.config.clip_actions:
             i = int(np.argmax(out))
             raise InputError(f"robot {i}: action outside the box [{low.min()}, {high.max()}]"

@@ -69,7 +69,7 @@ class TensegrityEnv(gym.Env):
                 "unstable": bool(terms["unstable"][0]), "action_clipped": bool(clipped[0])}
         return self.worlds.observe(self._one)[0], float(reward[0]), terminated, truncated, info
 
-    def render(self) -> np.ndarray | None:  # type: ignore[override]
+    def render(self) -> np.ndarray | None:
         """The (height, width, 3) uint8 image of the robot (``render_mode="rgb_array"``)."""
         if self.render_mode is None:
             return None

@@ -33,7 +33,7 @@ class SB3VecEnv(VecEnv):
         super().__init__(num_envs, self.env.single_observation_space,
                          self.env.single_action_space)
         self.render_mode = render_mode
-        self._actions = np.zeros(self.env.action_space.shape)
+        self._actions: np.ndarray = np.zeros((num_envs, self.env.robot.n))
 
     def reset(self) -> np.ndarray:
         """Every robot starts an episode (with the seeds given to :meth:`seed`, once)."""

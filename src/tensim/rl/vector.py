@@ -48,7 +48,7 @@ class TensegrityVectorEnv(VectorEnv):
                  render_mode: str | None = None, max_episode_steps: int | None = None):
         if not (isinstance(num_envs, int) and num_envs >= 1):
             raise InputError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        mode = _MODES.get(autoreset_mode)  # type: ignore[call-overload]
+        mode = _MODES.get(autoreset_mode)
         if mode is None:
             raise InputError(f"autoreset_mode must be 'next_step' or 'same_step' (or an "
                              f"AutoresetMode of those), got {autoreset_mode!r}")
@@ -68,6 +68,7 @@ class TensegrityVectorEnv(VectorEnv):
         self._all = np.arange(num_envs, dtype=np.int32)
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._renders: Renders | None = None
+        self._obs = np.zeros((num_envs, *self.robot.observation_space.shape))
 
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -91,7 +92,6 @@ class TensegrityVectorEnv(VectorEnv):
             self.worlds.seed(ids, [seeds[i] for i in ids])
         self.worlds.reset(ids)
         self._autoreset[ids] = False
-        self._obs = getattr(self, "_obs", np.zeros(self.observation_space.shape))
         self._obs[ids] = self.worlds.observe(ids)
         return self._obs.copy(), {}
 
