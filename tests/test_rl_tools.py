@@ -70,9 +70,8 @@ def test_a_short_ppo_run_trains_on_the_batch_engine():
     model.learn(256)
     assert model.num_timesteps == 256
     obs = venv.reset()
-    venv.step_async(np.zeros((4, 12)))
     for _ in range(5):  # the 5th period ends the episodes: SB3's same-step convention
-        obs, reward, done, infos = venv.step_wait()
+        obs, _, done, infos = venv.step(np.zeros((4, 12)))
     assert done.all() and obs.shape == (4, venv.observation_space.shape[0])
     assert all(info["TimeLimit.truncated"] for info in infos)
     assert not np.array_equal(infos[0]["terminal_observation"], obs[0])  # obs: a new start
