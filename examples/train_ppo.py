@@ -1,15 +1,19 @@
 """Train a walking policy with Stable-Baselines3 PPO on the batch engine, then evaluate it.
 
     python examples/train_ppo.py train --steps 150000 --seed 0 --out runs/ppo_seed0
-    python examples/train_ppo.py report docs/rl/ppo_tetraspine3.json
+    python examples/train_ppo.py evaluate runs/ppo_seed0
+    python examples/train_ppo.py report examples/rl/ppo_tetraspine3.json
+    python examples/train_ppo.py speed --envs 8 --threads 1
 
 ``train`` writes into ``--out``: policy.zip (SB3's format), obs_norm.npz (the observation
 normaliser's statistics), curve.csv and learning_curve.png (mean return of the last episodes
 against env steps), results.json (the evaluation) and video.mp4 (one 30 s evaluation episode,
 where offscreen OpenGL works). The evaluation walks the deterministic policy for ``--eval-s``
 seconds from several seeded starts and the shipped CPG gait from the build pose, measuring the
-centre of mass's displacement along +y. ``report`` prints the table of one or more
-results.json files (or a combined list). Needs ``pip install tensim[rl]``.
+centre of mass's displacement along +y; ``evaluate`` repeats that for a saved folder.
+``report`` prints the table of one or more results.json files (or a combined list). ``speed``
+times env steps: the batch engine alone, the vector env and the SB3 adapter. Needs
+``pip install tensim[rl]``.
 """
 
 from __future__ import annotations
@@ -178,6 +182,49 @@ def table(results: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def speed(args: argparse.Namespace) -> None:
+    """Env steps per second: MuJoCo's batch engine alone, the vector env, and the SB3 adapter,
+    on the same robots, threads and control period (interleaved, best of 3)."""
+    import mujoco
+
+    from tensim.rl.sb3 import SB3VecEnv
+
+    config = dataclasses.replace(training_config(args), threads=args.threads)
+    vector, sb3 = TensegrityVectorEnv(args.envs, config), SB3VecEnv(args.envs, config)
+    raw = vector.worlds.batch
+    actions = np.random.default_rng(0).uniform(-1, 1, (args.envs, vector.robot.n))
+    vector.reset(seed=0)
+    sb3.reset()
+
+    def engine() -> None:
+        raw.step(nstep=config.control_steps, stage=mujoco.mjtStage.mjSTAGE_VEL)
+
+    runs = {"batch engine": engine, "TensegrityVectorEnv": lambda: vector.step(actions),
+            "SB3VecEnv": lambda: sb3.step(actions)}
+    best = dict.fromkeys(runs, 0.0)
+    for _ in range(3):
+        for name, step in runs.items():
+            started = time.perf_counter()
+            for _ in range(args.periods):
+                step()
+            rate = args.periods * args.envs / (time.perf_counter() - started)
+            best[name] = max(best[name], rate)
+    print(f"{args.model}, {args.envs} robots, {args.threads} thread(s), control_dt "
+          f"{config.control_dt} s ({config.control_steps} physics steps), best of 3:")
+    for name, rate in best.items():
+        print(f"  {name:<20} {rate:8.0f} env steps/s  ({rate / best['batch engine']:.2f} of "
+              "the engine)")
+
+
+def reevaluate(folder: Path, no_video: bool) -> None:
+    """Evaluates a saved training folder again (its settings from its results.json)."""
+    saved = json.loads((folder / "results.json").read_text())
+    args = argparse.Namespace(model=saved["model"], control_dt=saved["control_dt"],
+                              episode_s=saved["episode_s"], eval_s=saved["eval_s"], threads=1,
+                              no_video=no_video)
+    print(table([{**saved, **evaluate(folder, args)}]))
+
+
 def report(paths: list[str]) -> None:
     results: list[dict] = []
     for path in paths:
@@ -200,11 +247,25 @@ def main() -> None:
     t.add_argument("--eval-s", type=float, default=30.0, help="evaluation episodes [s]")
     t.add_argument("--no-video", action="store_true")
     t.add_argument("--out", default="runs/ppo")
+    p = sub.add_parser("speed", help="env steps/s: batch engine, vector env, SB3 adapter")
+    p.add_argument("--model", default="tetraspine3")
+    p.add_argument("--envs", type=int, default=8)
+    p.add_argument("--threads", type=int, default=1)
+    p.add_argument("--control-dt", type=float, default=0.05)
+    p.add_argument("--episode-s", type=float, default=10.0)
+    p.add_argument("--periods", type=int, default=200, help="control periods per timing")
+    e = sub.add_parser("evaluate", help="evaluate a saved training folder again")
+    e.add_argument("folder")
+    e.add_argument("--video", action="store_true", help="rewrite its video.mp4 too")
     r = sub.add_parser("report", help="print the table of saved results.json files")
     r.add_argument("paths", nargs="+")
     args = parser.parse_args()
     if args.command == "train":
         train(args)
+    elif args.command == "speed":
+        speed(args)
+    elif args.command == "evaluate":
+        reevaluate(Path(args.folder), not args.video)
     else:
         report(args.paths)
 
