@@ -63,24 +63,32 @@ def test_the_same_seed_repeats_a_rollout_and_other_seeds_start_elsewhere():
     assert len(starts) == 3  # unseeded resets draw new starts
 
 
-def test_a_vector_robot_steps_as_the_single_env_with_seed_plus_its_index():
-    config = dataclasses.replace(NOISY, episode_s=0.2, threads=2)
-    vector = TensegrityVectorEnv(3, config)
-    singles = [TensegrityEnv(config) for _ in range(3)]
-    obs, _ = vector.reset(seed=10)
-    for i, env in enumerate(singles):
-        np.testing.assert_array_equal(obs[i], env.reset(seed=10 + i)[0])
+@pytest.mark.parametrize("mode", ["next_step", "same_step"])
+def test_the_vector_env_steps_as_gymnasiums_sync_vector_env_of_single_envs(mode):
+    """Gymnasium's reference vector env, stepping single envs one by one with the same seeds
+    (seed + i) and autoreset mode, is the slow path the batch-engine vector env must equal."""
+    config = dataclasses.replace(NOISY, episode_s=0.05, threads=2)  # 5-period episodes
+    vector = TensegrityVectorEnv(3, config, autoreset_mode=mode)
+    reference = gym.vector.SyncVectorEnv([lambda: TensegrityEnv(config)] * 3,
+                                         autoreset_mode=AutoresetMode(vector.metadata[
+                                             "autoreset_mode"]))
+    np.testing.assert_array_equal(vector.reset(seed=10)[0], reference.reset(seed=10)[0])
     rng = np.random.default_rng(0)
-    for _ in range(25):  # past the 20-period episode: the next-step autoreset is covered too
+    for k in range(13):  # two episodes and their resets; robot 1 restarts early once
         actions = rng.uniform(-1, 1, (3, 12))
-        obs, reward, terminated, truncated, _ = vector.step(actions)
-        for i, env in enumerate(singles):
-            if vector.worlds.steps[i] == 0:  # this step reset robot i
-                o, r, t, tr = env.reset()[0], 0.0, False, False
-            else:
-                o, r, t, tr, _ = env.step(actions[i])
-            np.testing.assert_array_equal(obs[i], o)
-            assert (reward[i], terminated[i], truncated[i]) == (r, t, tr)
+        if k == 3:
+            mask = np.array([False, True, False])
+            np.testing.assert_array_equal(vector.reset(options={"reset_mask": mask})[0],
+                                          reference.reset(options={"reset_mask": mask})[0])
+        got, want = vector.step(actions), reference.step(actions)
+        for a, b in zip(got[:4], want[:4], strict=True):
+            np.testing.assert_array_equal(a, b)
+        assert ("final_obs" in got[4]) == ("final_obs" in want[4])
+        if "final_obs" in want[4]:
+            np.testing.assert_array_equal(got[4]["_final_obs"], want[4]["_final_obs"])
+            np.testing.assert_array_equal(got[4]["_final_info"], want[4]["_final_info"])
+            for i in np.flatnonzero(want[4]["_final_obs"]):
+                np.testing.assert_array_equal(got[4]["final_obs"][i], want[4]["final_obs"][i])
 
 
 def test_the_env_steps_as_a_plain_simulation_loop():
