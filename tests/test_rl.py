@@ -15,7 +15,7 @@ from gymnasium.utils.env_checker import check_env  # noqa: E402
 from gymnasium.vector import AutoresetMode  # noqa: E402
 
 from tensim import InputError  # noqa: E402
-from tensim.models import preset  # noqa: E402
+from tensim.models import PRESETS, preset  # noqa: E402
 from tensim.rl import (  # noqa: E402
     ENV_ID,
     EnvConfig,
@@ -281,8 +281,23 @@ def test_bad_configurations_are_refused(change, message):
         TensegrityEnv(dataclasses.replace(SHORT, **change))
 
 
-def test_a_robot_whose_cables_cannot_move_is_refused(tmp_path):
+@pytest.mark.parametrize("model", sorted(set(PRESETS) - {"tetraspine"}))  # 66 cables: slow
+def test_every_preset_steps_with_its_default_action(model):
+    env = TensegrityEnv(EnvConfig(model=model, episode_s=0.03))
+    obs, _ = env.reset(seed=0)
+    assert env.robot.action == ("vstar" if preset(model).controller() else "rest_length")
+    for _ in range(3):
+        obs, reward, terminated, *_ = env.step(env.action_space.sample())
+    assert env.observation_space.contains(obs) and np.isfinite(reward) and not terminated
+
+
+def test_a_structure_file_is_a_model_and_one_whose_cables_cannot_move_is_refused(tmp_path):
     from tensim.structure import save_structure
+
+    save_structure(preset("prism3").build(), tmp_path / "prism.yaml")
+    env = TensegrityEnv(EnvConfig(model=str(tmp_path / "prism.yaml"), episode_s=0.03))
+    assert env.reset(seed=0)[0].shape == TensegrityEnv(
+        EnvConfig(model="prism3")).observation_space.shape
 
     frozen = dataclasses.replace(preset("prism3").build(), cables=())  # rods alone
     path = tmp_path / "frozen.yaml"
