@@ -2,6 +2,8 @@
 
     python examples/train_ppo.py train --steps 150000 --seed 0 --out runs/ppo_seed0
     python examples/train_ppo.py evaluate runs/ppo_seed0
+    python examples/train_ppo.py report runs/ppo_seed*/results.json --combine all.json \
+        --plot curves.png
     python examples/train_ppo.py report examples/rl/ppo_tetraspine3.json
     python examples/train_ppo.py speed --envs 8 --threads 1
 
@@ -158,27 +160,36 @@ def cpg_distance(seconds: float) -> float:
 
 
 def plot_curve(curve: np.ndarray, path: Path, model: str) -> None:
-    """The learning curve as a PNG (matplotlib's object API, no pyplot)."""
+    """The learning curve as a PNG."""
+    plot_curves([{"model": model, "seed": "", "curve": curve.tolist()}], path)
+
+
+def plot_curves(results: list[dict], path: Path) -> None:
+    """Learning curves (mean return of the last episodes against env steps) as a PNG, with
+    matplotlib's object API (no pyplot)."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(6, 3.5), layout="constrained")
     ax = fig.add_subplot()
-    if curve.size:
-        ax.plot(curve[:, 0], curve[:, 1])
-    ax.set_xlabel("env steps")
-    ax.set_ylabel("mean episode return [m along +y]")
-    ax.set_title(f"PPO on {model}")
+    for r in results:
+        curve = np.asarray(r["curve"], dtype=float).reshape(-1, 3)
+        ax.plot(curve[:, 0], curve[:, 1], label=f"{r['model']} seed {r['seed']}")
+    ax.set_xlabel("env steps (all robots)")
+    ax.set_ylabel("mean return of a 10 s episode [m along +y]")
+    ax.set_title("PPO learning curves")
     ax.grid(alpha=0.3)
+    ax.legend()
     fig.savefig(path, dpi=120)
 
 
 def table(results: list[dict]) -> str:
-    """The evaluation table of ``results``."""
-    lines = ["model        seed  env steps  cpu [s]  policy +y in 30 s [m] (3 starts)  CPG [m]"]
+    """The evaluation table of ``results``: distances along +y in ``eval_s`` seconds."""
+    lines = ["model        seed  env steps  CPU [s]  walk [s]  policy from 3 starts [m]  "
+             "CPG gait [m]"]
     for r in results:
         walked = " ".join(f"{d:+.3f}" for d in r["policy_m"])
         lines.append(f"{r['model']:<12} {r['seed']:>4}  {r['env_steps']:>9}  {r['cpu_s']:>7}  "
-                     f"{walked:<33}  {r['cpg_m']:+.3f}")
+                     f"{r['eval_s']:>8g}  {walked:<24}  {r['cpg_m']:+.3f}")
     return "\n".join(lines)
 
 
@@ -225,12 +236,22 @@ def reevaluate(folder: Path, no_video: bool) -> None:
     print(table([{**saved, **evaluate(folder, args)}]))
 
 
-def report(paths: list[str]) -> None:
+def report(paths: list[str], combine: str | None, plot: str | None) -> None:
+    """Prints the table of results.json files (or combined lists); writes them as one list
+    with their learning curves (``combine``) and draws the curves (``plot``)."""
     results: list[dict] = []
     for path in paths:
         data = json.loads(Path(path).read_text())
-        results += data if isinstance(data, list) else [data]
+        for r in data if isinstance(data, list) else [data]:
+            if "curve" not in r:  # a training folder: its curve.csv lies beside
+                csv = np.loadtxt(Path(path).parent / "curve.csv", delimiter=",", skiprows=1)
+                r["curve"] = np.round(csv, 4).tolist()
+            results.append(r)
     print(table(results))
+    if combine:
+        write_json(Path(combine), results)
+    if plot:
+        plot_curves(results, Path(plot))
 
 
 def main() -> None:
@@ -259,6 +280,8 @@ def main() -> None:
     e.add_argument("--video", action="store_true", help="rewrite its video.mp4 too")
     r = sub.add_parser("report", help="print the table of saved results.json files")
     r.add_argument("paths", nargs="+")
+    r.add_argument("--combine", default=None, help="write the results as one JSON list")
+    r.add_argument("--plot", default=None, help="draw their learning curves into this PNG")
     args = parser.parse_args()
     if args.command == "train":
         train(args)
@@ -267,7 +290,7 @@ def main() -> None:
     elif args.command == "evaluate":
         reevaluate(Path(args.folder), not args.video)
     else:
-        report(args.paths)
+        report(args.paths, args.combine, args.plot)
 
 
 if __name__ == "__main__":
