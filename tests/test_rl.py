@@ -252,6 +252,13 @@ def test_the_previous_action_and_clipping_are_reported():
         strict.step(np.full(12, 1.5))
 
 
+def test_stepping_before_the_first_reset_is_refused():
+    with pytest.raises(gym.error.ResetNeeded):
+        TensegrityEnv(SHORT).step(np.zeros(12))
+    with pytest.raises(gym.error.ResetNeeded):
+        TensegrityVectorEnv(2, SHORT).step(np.zeros((2, 12)))
+
+
 @pytest.mark.parametrize("action", ["vstar", "rest_length"])
 def test_nan_actions_are_refused(action):
     env = TensegrityEnv(dataclasses.replace(SHORT, action=action))

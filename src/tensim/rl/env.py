@@ -43,6 +43,7 @@ class TensegrityEnv(gym.Env):
         self.observation_space = self.robot.observation_space
         self._renders: Renders | None = None
         self._one = np.zeros(1, dtype=np.int32)
+        self._started = False
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -52,6 +53,7 @@ class TensegrityEnv(gym.Env):
         if seed is not None:
             self.worlds.seed(self._one, [seed])
         self.worlds.reset(self._one)
+        self._started = True
         return self.worlds.observe(self._one)[0], {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -59,7 +61,10 @@ class TensegrityEnv(gym.Env):
 
         Raises:
             InputError: a NaN action, or one out of range with ``clip_actions=False``.
+            gymnasium.error.ResetNeeded: before the first reset.
         """
+        if not self._started:
+            raise gym.error.ResetNeeded("call reset() before step()")
         commands, applied, clipped = self.robot.command(np.asarray(action)[None])
         reward, done, terms = self.worlds.step(self._one, commands, applied)
         terminated = bool(done[0])

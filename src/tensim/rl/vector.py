@@ -69,6 +69,7 @@ class TensegrityVectorEnv(VectorEnv):
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._renders: Renders | None = None
         self._obs = np.zeros((num_envs, *self.robot.observation_space.shape))
+        self._started = False
 
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -91,13 +92,21 @@ class TensegrityVectorEnv(VectorEnv):
                 raise InputError(f"seed must be an int or {self.num_envs} seeds, got {seed!r}")
             self.worlds.seed(ids, [seeds[i] for i in ids])
         self.worlds.reset(ids)
+        self._started = True
         self._autoreset[ids] = False
         self._obs[ids] = self.worlds.observe(ids)
         return self._obs.copy(), {}
 
     def step(self, actions: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Applies each robot's action for one control period (see the class for resets)."""
+        """Applies each robot's action for one control period (see the class for resets).
+
+        Raises:
+            InputError: a NaN action, or one out of range with ``clip_actions=False``.
+            gymnasium.error.ResetNeeded: before the first reset.
+        """
+        if not self._started:
+            raise gym.error.ResetNeeded("call reset() before step()")
         commands, applied, clipped = self.robot.command(actions)
         n = self.num_envs
         reward, terminated, truncated = np.zeros(n), np.zeros(n, bool), np.zeros(n, bool)
