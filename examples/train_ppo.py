@@ -119,10 +119,14 @@ def evaluate(folder: Path, args: argparse.Namespace) -> dict[str, object]:
     frames: list[np.ndarray | None] = []
     every = max(1, round(1.0 / (15 * config.control_dt)))  # about 15 frames per second
     renders = None if args.no_video else _renders(env)
+    marks = round(10.0 / config.control_dt)  # the distance every 10 s
+    walked = []
     for k in range(config.max_steps):  # the last step ends the episodes (next-step reset)
         if k % every == 0 and renders is not None:
             frames.append(renders.image(env.worlds.data(0)))  # the first start only
         obs = env.step(policy(obs))[0]
+        if (k + 1) % marks == 0:
+            walked.append(float(np.mean(env.worlds.f["subtree_com"][:, 0, 1] - start[:, 1])))
     end = env.worlds.f["subtree_com"][:, 0, :2].copy()
     distances = (end - start)[:, 1]
     if frames:
@@ -131,6 +135,7 @@ def evaluate(folder: Path, args: argparse.Namespace) -> dict[str, object]:
         write_video(frames, folder / "video.mp4", round(1.0 / (every * config.control_dt)))
     return {"eval_s": args.eval_s, "eval_seeds": list(EVAL_SEEDS),
             "policy_m": [round(float(d), 4) for d in distances],
+            "policy_mean_m_every_10s": [round(w, 4) for w in walked],
             "cpg_m": round(cpg_distance(args.eval_s), 4)}
 
 
@@ -190,6 +195,9 @@ def table(results: list[dict]) -> str:
         walked = " ".join(f"{d:+.3f}" for d in r["policy_m"])
         lines.append(f"{r['model']:<12} {r['seed']:>4}  {r['env_steps']:>9}  {r['cpu_s']:>7}  "
                      f"{r['eval_s']:>8g}  {walked:<24}  {r['cpg_m']:+.3f}")
+        if "policy_mean_m_every_10s" in r:
+            lines.append("    policy's mean every 10 s [m]: " + " ".join(
+                f"{d:+.3f}" for d in r["policy_mean_m_every_10s"]))
     return "\n".join(lines)
 
 
@@ -228,12 +236,15 @@ def speed(args: argparse.Namespace) -> None:
 
 
 def reevaluate(folder: Path, no_video: bool) -> None:
-    """Evaluates a saved training folder again (its settings from its results.json)."""
+    """Evaluates a saved training folder again (its settings from its results.json, which
+    gets the new evaluation)."""
     saved = json.loads((folder / "results.json").read_text())
     args = argparse.Namespace(model=saved["model"], control_dt=saved["control_dt"],
                               episode_s=saved["episode_s"], eval_s=saved["eval_s"], threads=1,
                               no_video=no_video)
-    print(table([{**saved, **evaluate(folder, args)}]))
+    results = {**saved, **evaluate(folder, args)}
+    write_json(folder / "results.json", results)
+    print(table([results]))
 
 
 def report(paths: list[str], combine: str | None, plot: str | None) -> None:
