@@ -325,3 +325,26 @@ def test_goal_and_hold_tasks_reward_what_they_say():
     hold.reset(seed=0)
     rewards = [hold.step(np.ones(12))[1] for _ in range(10)]
     assert max(rewards) <= 0 and min(rewards) < 0  # moving away from the start shape costs
+
+
+def test_observed_velocities_are_mujocos_in_the_robot_frame():
+    import mujoco
+
+    env = TensegrityEnv(dataclasses.replace(SHORT, observation=("velocity",)))
+    env.reset(seed=0)
+    for _ in range(5):
+        obs = env.step(np.ones(12))[0]  # moving: every velocity non-zero
+    m, d = env.robot.model, env.worlds.data(0)
+    mujoco.mj_forward(m, d)
+    mujoco.mj_subtreeVel(m, d)
+    bodies = env.robot.compiled.index.body
+    ahead = d.xipos[bodies[0], :2] - d.subtree_com[0, :2]
+    c, s = ahead / np.hypot(*ahead)
+    frame = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # world -> robot frame
+    expected = [frame @ d.subtree_linvel[0]]  # the whole robot's centre of mass
+    velocity = np.zeros((len(bodies), 6))
+    for row, b in enumerate(bodies):
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, b, velocity[row], 0)
+    expected += [frame @ v for v in velocity[:, 3:]] + [frame @ w for w in velocity[:, :3]]
+    assert np.abs(obs[:3]).max() > 1e-4
+    np.testing.assert_allclose(obs, np.concatenate(expected), atol=1e-12)
