@@ -136,7 +136,7 @@ def evaluate(folder: Path, args: argparse.Namespace) -> dict[str, object]:
     return {"eval_s": args.eval_s, "eval_seeds": list(EVAL_SEEDS),
             "policy_m": [round(float(d), 4) for d in distances],
             "policy_mean_m_every_10s": [round(w, 4) for w in walked],
-            "cpg_m": round(cpg_distance(args.eval_s), 4)}
+            "cpg_m": round(cpg_distance(args.eval_s), 4) if args.model == "tetraspine3" else None}
 
 
 def _renders(env: TensegrityVectorEnv) -> Renders | None:
@@ -189,16 +189,21 @@ def plot_curves(results: list[dict], path: Path) -> None:
 
 def table(results: list[dict]) -> str:
     """The evaluation table of ``results``: distances along +y in ``eval_s`` seconds."""
-    lines = ["model        seed  env steps  CPU [s]  walk [s]  policy from 3 starts [m]  "
-             "CPG gait [m]"]
+    lines = ["model        seed  episode [s]  env steps  CPU [s]  walk [s]  "
+             "policy from 3 starts [m]  CPG gait [m]"]
     for r in results:
         walked = " ".join(f"{d:+.3f}" for d in r["policy_m"])
-        lines.append(f"{r['model']:<12} {r['seed']:>4}  {r['env_steps']:>9}  {r['cpu_s']:>7}  "
-                     f"{r['eval_s']:>8g}  {walked:<24}  {r['cpg_m']:+.3f}")
+        lines.append(f"{r['model']:<12} {r['seed']:>4}  {r['episode_s']:>11g}  "
+                     f"{r['env_steps']:>9}  {r['cpu_s']:>7}  "
+                     f"{r['eval_s']:>8g}  {walked:<24}  {_signed(r['cpg_m'])}")
         if "policy_mean_m_every_10s" in r:
             lines.append("    policy's mean every 10 s [m]: " + " ".join(
                 f"{d:+.3f}" for d in r["policy_mean_m_every_10s"]))
     return "\n".join(lines)
+
+
+def _signed(value: float | None) -> str:
+    return "-" if value is None else f"{value:+.3f}"
 
 
 def speed(args: argparse.Namespace) -> None:
