@@ -166,7 +166,8 @@ def cpg_distance(seconds: float) -> float:
 
 def plot_curve(curve: np.ndarray, path: Path, model: str) -> None:
     """The learning curve as a PNG."""
-    plot_curves([{"model": model, "seed": "", "curve": curve.tolist()}], path)
+    plot_curves([{"model": model, "seed": "", "env_steps": int(curve[-1, 0]) if curve.size else 0,
+                  "curve": curve.tolist()}], path)
 
 
 def plot_curves(results: list[dict], path: Path) -> None:
@@ -178,9 +179,10 @@ def plot_curves(results: list[dict], path: Path) -> None:
     ax = fig.add_subplot()
     for r in results:
         curve = np.asarray(r["curve"], dtype=float).reshape(-1, 3)
-        ax.plot(curve[:, 0], curve[:, 1], label=f"{r['model']} seed {r['seed']}")
+        ax.plot(curve[:, 0], curve[:, 1],
+                label=f"{r['model']} seed {r['seed']}, {r.get('env_steps', '?')} steps")
     ax.set_xlabel("env steps (all robots)")
-    ax.set_ylabel("mean return of a 10 s episode [m along +y]")
+    ax.set_ylabel("mean episode return [m along +y]")
     ax.set_title("PPO learning curves")
     ax.grid(alpha=0.3)
     ax.legend()
