@@ -1,0 +1,280 @@
+"""Many copies of one robot on MuJoCo's batch engine: episodes start, step and are observed
+here; the Gymnasium classes add only their API (autoreset, info layout)."""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import mujoco
+import numpy as np
+from mujoco import batch as mjbatch
+
+from tensim.rl._robot import Robot
+from tensim.sim import PhysicsScale, StabilityLimits, Trial
+from tensim.sim._batch import setup_trial
+
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+_SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
+_FIELDS = ("ten_length", "xipos", "xquat", "subtree_com", "cvel", "qvel", "actuator_force",
+           "act", "ctrl")
+
+
+class Worlds:
+    """``n`` robots of one :class:`Robot`, each with its own random generator and episode.
+
+    Derived fields are made current after every control period (a persistent batch stepped to
+    the velocity stage), so observations describe the state the next action starts from.
+    """
+
+    def __init__(self, robot: Robot, n: int, threads: int = 1):
+        self.robot, self.n = robot, n
+        c = robot.config
+        self.batch = mjbatch.Batch(robot.model, n, nthread=threads, persistent=True)
+        self.f = {k: self.batch.bind(k) for k in _FIELDS}
+        self.rngs = [np.random.default_rng() for _ in range(n)]
+        self.models = [robot.model] * n
+        self._randomize_physics = any(getattr(c.randomization, k) != (1.0, 1.0)
+                                      for k in _SCALED)
+        self._scratch = mujoco.MjData(robot.model)
+        idx = robot.compiled.index
+        self._body = idx.body
+        self._root = robot.model.body_rootid[idx.body]
+        mass = robot.model.body_mass[idx.body]
+        self._mass = mass / mass.sum()
+        free = robot.model.jnt_type == mujoco.mjtJoint.mjJNT_FREE
+        self._free_qpos = robot.model.jnt_qposadr[free]
+        self._free_dof = robot.model.jnt_dofadr[free]
+        self._body_qpos = np.array([robot.model.jnt_qposadr[robot.model.body_jntadr[b]]
+                                    for b in idx.body if robot.model.body_jntadr[b] >= 0
+                                    and free[robot.model.body_jntadr[b]]], dtype=int)
+        k = robot.n
+        hold = np.zeros(k) if robot.action == "vstar" else robot.rest0
+        self.hold = hold
+        self.pending = np.zeros((n, c.randomization.action_delay, k)) + hold
+        self.previous = np.zeros((n, k))
+        self.steps = np.zeros(n, dtype=int)
+        self.start_xipos = np.zeros((n, len(idx.body), 3))
+        self.target = np.zeros((n, 2))  # a unit direction or a goal position, world frame
+        self.limits = StabilityLimits()
+
+    # -- episodes --------------------------------------------------------------------------
+
+    def seed(self, ids: np.ndarray, seeds: list[int | None]) -> None:
+        """New generators for robots ``ids`` (None: fresh entropy)."""
+        for i, s in zip(ids, seeds, strict=True):
+            self.rngs[int(i)] = np.random.default_rng(s)
+
+    def reset(self, ids: np.ndarray) -> None:
+        """Starts a new episode for robots ``ids``: physics, start pose, task."""
+        ids = np.asarray(ids, dtype=np.int32)
+        if self._randomize_physics:
+            for i in ids:
+                self.models[i] = self._scaled_model(self.rngs[i])
+            self.batch.set_models(self.models)
+        self.batch.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)  # clears the warnings too
+        c = self.robot.config
+        for i in ids:
+            yaw = self.rngs[i].uniform(-np.pi, np.pi) if c.randomization.yaw else 0.0
+            self.batch.state[i] = self._start_state(self.rngs[i], yaw)
+            turn = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
+            if c.task == "direction":
+                self.target[i] = turn @ (np.asarray(c.direction) / np.hypot(*c.direction))
+            else:
+                self.target[i] = turn @ np.asarray(c.goal_m)
+        self.batch.forward(ids)
+        if c.task != "direction":
+            self.target[ids] += self.f["subtree_com"][ids, 0, :2]
+        self.start_xipos[ids] = self.f["xipos"][ids][:, self._body]
+        self.pending[ids] = self.hold
+        self.previous[ids] = 0.0
+        self.steps[ids] = 0
+
+    def _scaled_model(self, rng: np.random.Generator) -> mujoco.MjModel:
+        r = self.robot.config.randomization
+        scale = PhysicsScale(**{k: float(rng.uniform(*getattr(r, k))) for k in _SCALED})
+        model = copy.copy(self.robot.model)
+        setup_trial(self.robot.compiled, model, Trial(physics=scale),
+                    float(model.opt.timestep))
+        return model
+
+    def _start_state(self, rng: np.random.Generator, yaw: float) -> np.ndarray:
+        """The settled build state turned by ``yaw`` about the vertical through its centre of
+        mass, each rigid body displaced by the pose noise."""
+        m, d = self.robot.model, self._scratch
+        mujoco.mj_setState(m, d, self.robot.initial_state, _STATE)
+        if yaw != 0.0:
+            self._turn(yaw)
+        sigma = self.robot.config.randomization.pose_noise_m
+        if sigma > 0:
+            noise = rng.normal(0.0, sigma, (self._body_qpos.size, 3))
+            noise[:, 2] = np.abs(noise[:, 2])  # upward only: no start inside the ground
+            d.qpos[self._body_qpos[:, None] + np.arange(3)] += noise
+        state = np.empty(mujoco.mj_stateSize(m, _STATE))
+        mujoco.mj_getState(m, d, state, _STATE)
+        return state
+
+    def _turn(self, yaw: float) -> None:
+        """Turns the scratch state by ``yaw`` about the vertical through its centre of mass."""
+        m, d = self.robot.model, self._scratch
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        centre = d.subtree_com[0].copy()
+        c, s = np.cos(yaw), np.sin(yaw)
+        turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        q_yaw = np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
+        for adr, dof in zip(self._free_qpos, self._free_dof, strict=True):
+            d.qpos[adr:adr + 3] = centre + turn @ (d.qpos[adr:adr + 3] - centre)
+            quat = np.empty(4)
+            mujoco.mju_mulQuat(quat, q_yaw, d.qpos[adr + 3:adr + 7])
+            d.qpos[adr + 3:adr + 7] = quat
+            d.qvel[dof:dof + 3] = turn @ d.qvel[dof:dof + 3]  # angular velocity is local
+
+    # -- stepping --------------------------------------------------------------------------
+
+    def step(self, ids: np.ndarray, commands: np.ndarray, applied: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """One control period of robots ``ids``.
+
+        Args:
+            ids: (k,) the robots that step.
+            commands: (k, n_cables) their ``ctrl`` commands [m/s] or [m].
+            applied: (k, n_cables) the same actions in the action space's units.
+
+        Returns:
+            (k,) rewards, (k,) terminated, and the reward terms and error flags per robot.
+        """
+        c, n = self.robot.config, self.robot.n
+        if c.randomization.action_delay:
+            queue = self.pending[ids]
+            now = queue[:, 0].copy()
+            self.pending[ids] = np.concatenate([queue[:, 1:], commands[:, None]], axis=1)
+            commands = now
+        self.f["ctrl"][ids, :n] = commands
+        before = self.f["subtree_com"][ids, 0, :2].copy()
+        failed = np.zeros(ids.size, dtype=bool)
+        try:
+            self.batch.step(ids, nstep=c.control_steps, stage=mujoco.mjtStage.mjSTAGE_VEL)
+        except mjbatch.SimulationError as err:
+            failed = np.isin(ids, err.ids)
+        self.steps[ids] += 1
+        self.previous[ids] = applied
+        f = self.f
+        speed = np.abs(f["qvel"][ids]).max(axis=1)
+        force = -f["actuator_force"][ids, :n].min(axis=1)
+        bad = self.batch.warning[ids, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
+        unstable = failed | ~(speed < self.limits.max_speed) | \
+            ~(force < self.limits.max_tension) | bad
+        after = f["subtree_com"][ids, 0, :2]
+        progress, reached = self._progress(ids, before, after)
+        control = -c.control_cost * np.mean(applied ** 2, axis=1) * c.control_dt
+        terms = {"progress": np.where(unstable, 0.0, progress),
+                 "control": np.where(unstable, 0.0, control)}
+        terms["unstable"] = unstable
+        return terms["progress"] + terms["control"], unstable | reached, terms
+
+    def _progress(self, ids: np.ndarray, before: np.ndarray, after: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        c = self.robot.config
+        if c.task == "direction":
+            return np.einsum("ij,ij->i", after - before, self.target[ids]), np.zeros(
+                ids.size, dtype=bool)
+        if c.task == "goal":
+            far_before = np.linalg.norm(self.target[ids] - before, axis=1)
+            far = np.linalg.norm(self.target[ids] - after, axis=1)
+            return far_before - far, far < c.goal_radius_m
+        moved = np.linalg.norm(self.f["xipos"][ids][:, self._body] - self.start_xipos[ids],
+                               axis=2).mean(axis=1)
+        return -moved * c.control_dt, np.zeros(ids.size, dtype=bool)
+
+    # -- observing -------------------------------------------------------------------------
+
+    def observe(self, ids: np.ndarray) -> np.ndarray:
+        """(k, size) observations of robots ``ids``, with their sensor noise."""
+        robot, f = self.robot, self.f
+        com = f["subtree_com"][ids, 0]
+        xipos = f["xipos"][ids][:, self._body]
+        ahead = xipos[:, 0, :2] - com[:, :2]  # the robot frame's x axis: toward body 0
+        yaw = np.arctan2(ahead[:, 1], ahead[:, 0])
+        terms: dict[str, np.ndarray] = {"height": com[:, 2:3]}
+        rel = _to_frame(xipos - com[:, None], yaw)
+        terms["pose"] = np.concatenate([rel, _quat_to_frame(f["xquat"][ids][:, self._body],
+                                                            yaw)], axis=2).reshape(ids.size, -1)
+        terms["velocity"] = self._velocity(ids, xipos, yaw)
+        length = f["ten_length"][ids][:, robot.compiled.index.tendon]
+        rest = robot.compiled.index.cable_act(f["act"][ids])
+        terms["cable_length"], terms["rest_length"] = length, rest
+        terms["tension"] = np.where(length > rest, robot.stiffness * (length - rest), 0.0)
+        if "contact" in robot.layout:
+            terms["contact"] = self._contact(ids)
+        if robot.config.task == "direction":
+            terms["task"] = _to_frame(self.target[ids, None], yaw)[:, 0, :2]
+        elif robot.config.task == "goal":
+            terms["task"] = _to_frame((self.target[ids] - com[:, :2])[:, None], yaw)[:, 0, :2]
+        else:
+            terms["task"] = np.zeros((ids.size, 2))
+        terms["previous_action"] = self.previous[ids]
+        terms["position"] = com[:, :2]
+        obs = np.concatenate([terms[t].reshape(ids.size, -1) for t in robot.layout], axis=1)
+        return self._noisy(ids, obs)
+
+    def _velocity(self, ids: np.ndarray, xipos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+        cvel = self.f["cvel"][ids][:, self._body]  # (rotation, translation) at the root's com
+        root_com = self.f["subtree_com"][ids][:, self._root]
+        linear = cvel[..., 3:] + np.cross(cvel[..., :3], xipos - root_com)
+        com_velocity = np.einsum("b,kbj->kj", self._mass, linear)
+        parts = [_to_frame(com_velocity[:, None], yaw), _to_frame(linear, yaw),
+                 _to_frame(cvel[..., :3], yaw)]
+        return np.concatenate([p.reshape(ids.size, -1) for p in parts], axis=1)
+
+    def _contact(self, ids: np.ndarray) -> np.ndarray:
+        """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground)."""
+        m = self.robot.model
+        out = np.zeros((ids.size, self._body.size))
+        for row, i in enumerate(ids):
+            d = self.batch.get_data(int(i))
+            bodies = m.geom_bodyid[d.contact.geom[:d.ncon]] if d.ncon else np.zeros((0, 2), int)
+            touching = bodies[(bodies == 0).any(axis=1)].ravel()
+            out[row] = np.isin(self._body, touching)
+        return out
+
+    def _noisy(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
+        r, layout = self.robot.config.randomization, self.robot.layout
+        sigma = np.zeros(obs.shape[1])
+        for term, std in (("height", r.length_noise_m), ("pose", r.length_noise_m),
+                          ("cable_length", r.length_noise_m), ("rest_length", r.length_noise_m),
+                          ("tension", r.tension_noise_n), ("velocity", r.velocity_noise),
+                          ("position", r.length_noise_m)):
+            if term in layout:
+                sigma[slice(*layout[term])] = std
+        if "pose" in layout:  # the quaternions stay clean: 7 values per body, the last 4
+            start, stop = layout["pose"]
+            sigma[start:stop] *= np.tile([1, 1, 1, 0, 0, 0, 0], (stop - start) // 7)
+        if not sigma.any():
+            return obs
+        return obs + np.stack([self.rngs[i].normal(0.0, 1.0, obs.shape[1]) for i in ids]) * sigma
+
+    def state(self, i: int) -> np.ndarray:
+        """Robot ``i``'s ``mjSTATE_INTEGRATION`` state."""
+        return np.array(self.batch.state[i])
+
+    def data(self, i: int) -> Any:
+        """Robot ``i``'s whole MjData (for rendering)."""
+        return self.batch.get_data(i)
+
+
+def _to_frame(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """(k, m, 3) world vectors in the robot frames turned by (k,) ``yaw`` about z."""
+    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+    out = v.copy()
+    out[..., 0] = c * v[..., 0] + s * v[..., 1]
+    out[..., 1] = -s * v[..., 0] + c * v[..., 1]
+    return out
+
+
+def _quat_to_frame(q: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """(k, m, 4) orientations relative to the robot frames, w >= 0."""
+    aw, az = np.cos(yaw / 2)[:, None], -np.sin(yaw / 2)[:, None]
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    out = np.stack([aw * w - az * z, aw * x - az * y, aw * y + az * x, aw * z + az * w], axis=-1)
+    return np.where(out[..., :1] < 0, -out, out)
