@@ -313,6 +313,26 @@ def test_a_structure_file_is_a_model_and_one_whose_cables_cannot_move_is_refused
         TensegrityEnv(EnvConfig(model=str(path)))
 
 
+def test_a_structure_file_is_driven_by_the_laws_that_hold_its_build_pose(tmp_path):
+    from tensim.control import default_impedance
+    from tensim.sim import CableDrive
+    from tensim.structure import save_structure
+
+    # prism3 as a preset has no controller (rest-length actions); as a file it gets
+    # default_impedance: T0 = build pretension, L* = build length, K = k, B = 0.2 s x K
+    structure = preset("prism3").build()
+    save_structure(structure, tmp_path / "prism.yaml")
+    env = TensegrityEnv(EnvConfig(model=str(tmp_path / "prism.yaml"), episode_s=0.03))
+    assert env.robot.action == "vstar"
+    drive = CableDrive(env.robot.compiled, env.robot.model)
+    laws = default_impedance(structure).gains
+    names = env.robot.compiled.index.cables
+    for field, got in (("offset_tension", drive.offset_tension), ("stiffness_gain", drive.gain_k),
+                       ("damping_gain", drive.gain_b), ("target_length", drive.target_length)):
+        want = [getattr(laws[name], field) for name in names]
+        np.testing.assert_allclose(got, want, rtol=1e-12, err_msg=field)
+
+
 def test_goal_and_hold_tasks_reward_what_they_say():
     goal = TensegrityEnv(dataclasses.replace(SHORT, task="goal", goal_m=(0.0, 0.5)))
     obs, _ = goal.reset(seed=0)

@@ -9,6 +9,7 @@ import gymnasium as gym
 import numpy as np
 
 from tensim._input import InputError
+from tensim.control import default_impedance
 from tensim.model import CompiledModel, compile_structure
 from tensim.models import PRESETS, preset
 from tensim.rl.config import EnvConfig
@@ -34,10 +35,16 @@ def load_robot(model: str) -> Structure:
 def default_controller(model: str, structure: Structure) -> Controller | None:
     """The impedance controller that sets the robot's law gains for ``vstar`` actions.
 
-    A preset's own controller; None for a robot without one (its actions are rest lengths).
+    A preset's own controller (None for a preset without one: its actions are rest lengths);
+    for a structure file, the laws that hold its build pose (``default_impedance``), or None
+    where it has no motorised cable it can give a law (e.g. only wrapped cables).
     """
-    del structure  # a default controller for any structure goes here when the library has one
-    return preset(model).controller() if model in PRESETS else None
+    if model in PRESETS:
+        return preset(model).controller()
+    try:
+        return default_impedance(structure)
+    except ValueError:
+        return None
 
 
 class _Configure:
