@@ -5,6 +5,7 @@ the straight one) and the tunnelling check."""
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import re
 import time
@@ -405,6 +406,19 @@ def test_beads_that_would_outweigh_the_robot_are_refused_with_the_figures():
     with pytest.raises(InputError, match=r"need 91\.\d+ kg of inertia .* robot's 1 kg"):
         compile_structure(*_hanging(0.001))
     compile_structure(*_hanging(0.02))
+
+
+def test_beads_that_outweigh_the_robot_less_than_tenfold_are_built_with_a_warning(caplog):
+    # the bound goes as 1 / spacing^2: 92 kg at 1 mm is about 92 / 16 = 5.7 kg at 4 mm (between
+    # the 1 kg robot and ten times it: a warning), 0.23 kg at 2 cm (no warning)
+    with caplog.at_level(logging.WARNING, logger="tensim.model._beads"):
+        compile_structure(*_hanging(0.004))
+    (record,) = [r for r in caplog.records if "kg of inertia" in r.getMessage()]
+    assert re.search(r"need 5\.\d+ kg of inertia .* robot's 1 kg", record.getMessage())
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="tensim.model._beads"):
+        compile_structure(*_hanging(0.02))
+    assert not [r for r in caplog.records if "kg of inertia" in r.getMessage()]
 
 
 @pytest.mark.parametrize("spacing", [1e-7, 1e-300, 5e-324])

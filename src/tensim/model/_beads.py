@@ -13,6 +13,7 @@ springs ``<cable>_span<k>``.
 from __future__ import annotations
 
 import itertools
+import logging
 import math
 
 import mujoco
@@ -38,9 +39,12 @@ SPRING_SHARE = 1.0  # a span spring pulls with this many bead weights at the bui
 SOLREF_STEPS = 2.0
 SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 SPAN_RANGE = (0.25, 1.5)  # spans stay within these multiples of their build length (limits)
-# Beads whose inertia passes the moving robot's mass would drag every load they carry (a
-# spacing so fine that the bound above asks tonnes): refused, with the figures.
-MAX_INERTIA_SHARE = 1.0
+# Beads whose inertia passes the moving robot's mass slow every load they carry: a warning
+# with the figures; past ten times that mass (a spacing so fine that the bound above asks
+# tonnes) they would drag it, and are refused.
+WARN_INERTIA_SHARE = 1.0
+MAX_INERTIA_SHARE = 10.0
+_log = logging.getLogger(__name__)
 
 
 def _count(cable: Cable, points: tuple[np.ndarray, ...]) -> float:
@@ -56,7 +60,8 @@ def _count(cable: Cable, points: tuple[np.ndarray, ...]) -> float:
 def check_beads(structure: Structure, timestep: float, moving_mass: float) -> None:
     """Refuses contact cables whose beads would be too many (:data:`tensim.limits.MAX_BEADS`
     in all) or, with the inertia each needs to be stable at ``timestep`` [s], would outweigh
-    the robot's moving bodies (``moving_mass`` [kg]) and drag the loads they carry.
+    the robot's moving bodies (``moving_mass`` [kg]) ten times and drag the loads they carry;
+    warns where they outweigh them at all.
 
     Raises:
         InputError: naming the cable, the figures and what to change.
@@ -73,14 +78,18 @@ def check_beads(structure: Structure, timestep: float, moving_mass: float) -> No
                                               timestep))
                for c, n in zip(cables, counts, strict=True)}
     total = sum(inertia.values())
-    if moving_mass > 0 and total > MAX_INERTIA_SHARE * moving_mass:
-        worst = max(inertia, key=inertia.__getitem__)
-        raise InputError(
-            f"contact cables: their beads need {total:.4g} kg of inertia to be stable at a "
-            f"timestep of {timestep:g} s ({worst!r}: {inertia[worst]:.4g} kg), more than the "
-            f"robot's {moving_mass:.4g} kg of moving bodies: they would drag every load they "
-            "carry. Take a larger bead spacing (contact: spacing), a smaller timestep (--dt), "
-            "or a lower motor max_tension (see docs/cables.md, Limits)")
+    if moving_mass <= 0 or total <= WARN_INERTIA_SHARE * moving_mass:
+        return
+    worst = max(inertia, key=inertia.__getitem__)
+    figures = (f"contact cables: their beads need {total:.4g} kg of inertia to be stable at a "
+               f"timestep of {timestep:g} s ({worst!r}: {inertia[worst]:.4g} kg), more than "
+               f"{'ten times ' if total > MAX_INERTIA_SHARE * moving_mass else ''}the robot's "
+               f"{moving_mass:.4g} kg of moving bodies")
+    advice = ("Take a larger bead spacing (contact: spacing), a smaller timestep (--dt), or a "
+              "lower motor max_tension (see docs/cables.md, Limits)")
+    if total > MAX_INERTIA_SHARE * moving_mass:
+        raise InputError(f"{figures}: they would drag every load they carry. {advice}")
+    _log.warning("%s: they slow the loads they carry. %s", figures, advice)
 
 
 def bead_counts(cable: Cable, points: tuple[np.ndarray, ...]) -> tuple[int, ...]:
