@@ -23,7 +23,14 @@ from mujoco import batch as mjbatch
 
 from tensim.model import CompiledModel, WorldOptions, compile_structure
 from tensim.models import preset
-from tensim.sim import MODE_IMPEDANCE, MODE_REST, Simulation, SimulationError, StabilityLimits
+from tensim.sim import (
+    MODE_IMPEDANCE,
+    MODE_REST,
+    Simulation,
+    SimulationError,
+    StabilityLimits,
+    load_cell_tension,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -74,10 +81,10 @@ class _Robot:
         self.max_steps = round(config.episode_s / config.control_dt)
         self.direction = np.asarray(config.direction, dtype=float) / np.hypot(*config.direction)
         if config.action == "vstar":
-            speed = c.max_speed.astype(np.float64)
+            speed = c.law().max_speed.astype(np.float64)
             self.action_space = gym.spaces.Box(-speed, speed, dtype=np.float64)
         else:
-            self.action_space = gym.spaces.Box(c.min_rest_length.astype(np.float64),
+            self.action_space = gym.spaces.Box(c.law().min_rest.astype(np.float64),
                                                1.5 * c.rest_length, dtype=np.float64)
         size = 3 * self.n + 7 * self.n_bodies
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (size,), dtype=np.float64)
@@ -95,7 +102,7 @@ class _Robot:
         """(..., size) observations from (..., ntendon) lengths and (..., nbody, k) poses."""
         idx = self.compiled.index
         x = length[..., idx.tendon]
-        tension = np.where(x > rest, stiffness * (x - rest), 0.0)
+        tension = load_cell_tension(x, rest, stiffness)
         poses = np.concatenate([xpos[..., idx.body, :], xquat[..., idx.body, :]], axis=-1)
         return np.concatenate([x, tension, rest, poses.reshape(*poses.shape[:-2], -1)],
                               axis=-1)
@@ -177,13 +184,12 @@ class TensegrityVectorEnv(VectorEnv):
         self.observation_space = gym.vector.utils.batch_space(robot.observation_space,
                                                               num_envs)
         self.batch = mjbatch.Batch(robot.model, num_envs, nthread=threads)
-        n = robot.n
         self._fields = {k: self.batch.bind(k) for k in
                         ("ten_length", "ten_velocity", "xpos", "xquat", "subtree_com", "qvel",
                          "actuator_force")}
         self._act = self.batch.bind("act")
         self._ctrl = self.batch.bind("ctrl")
-        self._stiffness = robot.model.actuator_biasprm[:n, 0]
+        self._stiffness = robot.compiled.law(robot.model).stiffness
         self._steps = np.zeros(num_envs, dtype=int)
         self._limits = StabilityLimits()
 

@@ -22,6 +22,7 @@ import numpy as np
 from mujoco import batch as mjbatch
 
 from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
+from tensim.model import _law_layout as layout
 from tensim.sim import _law
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import CableDrive, InputPlan
@@ -448,15 +449,15 @@ def _scale(compiled: CompiledModel, model: mujoco.MjModel, physics: PhysicsScale
         return
     n = compiled.n_cables
     model.geom_friction[model.geom_bodyid != 0, 0] *= physics.friction
-    model.actuator_biasprm[:n, _law.B_STIFFNESS] *= physics.stiffness
-    model.actuator_biasprm[:n, _law.B_DAMPING] *= physics.damping
-    model.actuator_dynprm[:n, _law.P_MAX_SPEED] *= physics.motor_speed
+    model.actuator_biasprm[:n, layout.B_STIFFNESS] *= physics.stiffness
+    model.actuator_biasprm[:n, layout.B_DAMPING] *= physics.damping
+    model.actuator_dynprm[:n, layout.P_MAX_SPEED] *= physics.motor_speed
     # DC motors (kinematic motors hold zeros in these slots)
     dc = model.actuator_biasprm[:n]
-    dc[:, _law.B_NO_LOAD_SPEED] *= physics.motor_speed
-    dc[:, _law.B_STALL_FORCE] *= physics.motor_stall
-    dc[:, _law.B_MASS] *= physics.motor_inertia
-    dc[:, [_law.B_VISCOUS, _law.B_COULOMB]] *= physics.motor_friction
+    dc[:, layout.B_NO_LOAD_SPEED] *= physics.motor_speed
+    dc[:, layout.B_STALL_FORCE] *= physics.motor_stall
+    dc[:, layout.B_MASS] *= physics.motor_inertia
+    dc[:, [layout.B_VISCOUS, layout.B_COULOMB]] *= physics.motor_friction
     if physics.mass != 1.0:
         model.body_mass[1:] *= physics.mass
         model.body_inertia[1:] *= physics.mass

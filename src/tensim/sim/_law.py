@@ -22,24 +22,42 @@ import mujoco
 import numpy as np
 
 from tensim._native import load_library
-from tensim.model import CABLE_MARKER
+from tensim.model._law_layout import (
+    A_PEAK,
+    A_REST,
+    A_SPEED,
+    B_BACK_DRIVABLE,
+    B_COULOMB,
+    B_DAMPING,
+    B_MASS,
+    B_NO_LOAD_SPEED,
+    B_POSITION_TIME,
+    B_STALL_FORCE,
+    B_STIFFNESS,
+    B_VISCOUS,
+    CABLE_MARKER,
+    DC_ACTDIM,
+    MODE_IMPEDANCE,
+    MODE_REST,
+    P_GAIN_B,
+    P_GAIN_K,
+    P_MARKER,
+    P_MAX_SPEED,
+    P_MAX_TENSION,
+    P_MIN_LENGTH,
+    P_MIN_REST,
+    P_MODE,
+    P_OFFSET,
+    P_TARGET_LENGTH,
+    is_cable,
+    layout_id,
+)
 from tensim.sim import _laws
 
 log = logging.getLogger(__name__)
 
-MODE_REST = 0  # the motor follows a commanded rest length
-MODE_IMPEDANCE = 1  # the motor realises the impedance law's tension setpoint
-
-# columns of actuator_dynprm and actuator_biasprm
-P_MODE, P_MAX_SPEED, P_MAX_TENSION, P_MIN_REST, P_MIN_LENGTH = 1, 2, 3, 4, 5
-P_OFFSET, P_GAIN_K, P_GAIN_B, P_TARGET_LENGTH = 6, 7, 8, 9
-B_STIFFNESS, B_DAMPING = 0, 1
-# DC motors only (actdim 3), in cable coordinates (see tensim.structure.DCMotor.line)
-# (biasprm[2] stays 0: MuJoCo's compiler reads a positive one as a position actuator's
-# damping ratio)
-B_STALL_FORCE, B_NO_LOAD_SPEED, B_MASS, B_VISCOUS, B_COULOMB = 3, 4, 5, 6, 7
-B_POSITION_TIME, B_BACK_DRIVABLE = 8, 9
-DC_ACTDIM = 3  # rest length, peak tension, the spool's line speed
+__all__ = ["MODE_IMPEDANCE", "MODE_REST", "LawRates", "cable_actuators", "cable_law",
+           "compiled_available", "install", "installed_backend"]
 
 
 class LawRates(NamedTuple):
@@ -70,9 +88,14 @@ def _load_library() -> ctypes.CDLL | None:
                     "slower Python law (reinstall tensim to rebuild)", header, mujoco.mj_version())
         return None
     lib.tensim_marker.restype = ctypes.c_double
-    if lib.tensim_marker() != CABLE_MARKER:
-        raise ImportError("tensim's compiled cable law does not match its model layout; "
-                          "reinstall tensim")
+    built = getattr(lib, "tensim_layout_id", None)
+    if built is not None:
+        built.restype = ctypes.c_uint
+    if built is None or built() != layout_id() or lib.tensim_marker() != CABLE_MARKER:
+        log.warning("compiled cable law was built for another parameter layout than "
+                    "tensim.model._law_layout's; using the slower Python law (reinstall "
+                    "tensim to rebuild)")
+        return None
     lib.tensim_set_previous.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
     return lib
 
@@ -110,7 +133,8 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     p, b = m.actuator_dynprm[ids], m.actuator_biasprm[ids]
     adr, tendon = m.actuator_actadr[ids], m.actuator_trnid[ids, 0]
     x, v = d.ten_length[tendon], d.ten_velocity[tendon]
-    k, damping, rest, peak = b[:, B_STIFFNESS], b[:, B_DAMPING], d.act[adr], d.act[adr + 1]
+    k, damping = b[:, B_STIFFNESS], b[:, B_DAMPING]
+    rest, peak = d.act[adr + A_REST], d.act[adr + A_PEAK]
     command = d.ctrl[m.actuator_ctrladr[ids]]
     dt = m.opt.timestep
     measured, _ = _laws.cable_tension(x, v, rest, k, damping)
@@ -124,7 +148,7 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     speed_rate = np.zeros(len(ids))
     dc = m.actuator_actnum[ids] == DC_ACTDIM
     if dc.any():
-        new[dc], speed_rate[dc] = _dc_step(p[dc], b[dc], d.act[adr[dc] + 2], rest[dc],
+        new[dc], speed_rate[dc] = _dc_step(p[dc], b[dc], d.act[adr[dc] + A_SPEED], rest[dc],
                                            target[dc], x[dc], v[dc], dt)
     rest_rate = (new - rest) / dt
     spring, applied = _laws.cable_tension(x, v, rest + rest_rate * dt, k, damping)
@@ -154,26 +178,25 @@ def _dc_step(p: np.ndarray, b: np.ndarray, speed: np.ndarray, rest: np.ndarray,
 
 def cable_actuators(m: mujoco.MjModel) -> np.ndarray:
     """Ids of the actuators that are tensim cables."""
-    return np.flatnonzero((m.actuator_dynprm[:, 0] == CABLE_MARKER)
-                          & np.isin(m.actuator_actnum, (2, DC_ACTDIM))).astype(np.int32)
+    return np.flatnonzero(is_cable(m)).astype(np.int32)
 
 
 def _python_dyn(m: Any, d: Any, i: int) -> float:
-    if m.actuator_dynprm[i, 0] != CABLE_MARKER:
+    if m.actuator_dynprm[i, P_MARKER] != CABLE_MARKER:
         return 0.0
     ids = np.array([i])
     rates = cable_law(m, d, ids)
     adr = m.actuator_actadr[i]
-    d.act_dot[adr], d.act_dot[adr + 1] = rates.rest_rate[0], rates.peak_rate[0]
+    d.act_dot[adr + A_REST], d.act_dot[adr + A_PEAK] = rates.rest_rate[0], rates.peak_rate[0]
     if m.actuator_actnum[i] == DC_ACTDIM:
-        d.act_dot[adr + 2] = rates.speed_rate[0]
+        d.act_dot[adr + A_SPEED] = rates.speed_rate[0]
     return float(rates.peak_rate[0])
 
 
 def _python_bias(m: Any, d: Any, i: int) -> float:
-    if m.actuator_dynprm[i, 0] != CABLE_MARKER:
+    if m.actuator_dynprm[i, P_MARKER] != CABLE_MARKER:
         return 0.0
-    adr, tendon = m.actuator_actadr[i], m.actuator_trnid[i, 0]
+    adr, tendon = m.actuator_actadr[i] + A_REST, m.actuator_trnid[i, 0]
     rest = d.act[adr] + d.act_dot[adr] * m.opt.timestep
     b = m.actuator_biasprm[i]
     _, applied = _laws.cable_tension(d.ten_length[tendon:tendon + 1],
