@@ -20,12 +20,13 @@ import zlib
 import mujoco
 import numpy as np
 
-# actuator_dynprm[0] of a tensim cable: the compiled law acts on these actuators only
-CABLE_MARKER = 7317.0
+# actuator_dynprm[0] of a tensim cable: it also selects the law's body, per model
+CABLE_MARKER = 7317.0  # the compiled law (the default)
+REFERENCE_MARKER = 7318.0  # the Python reference law (a Simulation with backend="python")
 
 # -- the slots, in order: (name, meaning [unit]) ---------------------------------------------
 DYNPRM = (
-    ("marker", "CABLE_MARKER: this actuator is a tensim cable"),
+    ("marker", "CABLE_MARKER or REFERENCE_MARKER: a tensim cable, and its law's body"),
     ("mode", "MODE_REST or MODE_IMPEDANCE"),
     ("max_speed", "motor speed limit [m/s]"),
     ("max_tension", "the motor reels in no further at this static tension [N]"),
@@ -104,7 +105,7 @@ def biasprm(stiffness: float, damping: float, dc: dict[str, float] | None = None
 
 def is_cable(model: mujoco.MjModel) -> np.ndarray:
     """(nu,) whether each actuator of ``model`` is a tensim cable."""
-    return (model.actuator_dynprm[:, P_MARKER] == CABLE_MARKER) \
+    return np.isin(model.actuator_dynprm[:, P_MARKER], (CABLE_MARKER, REFERENCE_MARKER)) \
         & np.isin(model.actuator_actnum, (ACTDIM, DC_ACTDIM))
 
 
@@ -134,6 +135,7 @@ class LawParameters:
 
 def _definitions() -> list[str]:
     lines = [f"#define TENSIM_CABLE_MARKER {CABLE_MARKER!r}",
+             f"#define TENSIM_REFERENCE_MARKER {REFERENCE_MARKER!r}",
              f"#define TENSIM_MODE_REST {float(MODE_REST)!r}",
              f"#define TENSIM_MODE_IMPEDANCE {float(MODE_IMPEDANCE)!r}",
              f"#define TENSIM_ACTDIM {ACTDIM}", f"#define TENSIM_DC_ACTDIM {DC_ACTDIM}"]

@@ -11,7 +11,10 @@
  * The dynamics callback moves the rest length one motor step (its rate into act_dot) and keeps
  * the running peak; the bias callback returns -f, the tension from the rest length after that
  * step (exactly as MuJoCo's Euler step will integrate it: l + l_dot * dt).
- * Actuators without the marker go to the callback installed before tensim's, if any.
+ * The marker in dynprm selects the law's body per model: TENSIM_CABLE_MARKER runs the law
+ * below, TENSIM_REFERENCE_MARKER hands the actuator to the Python reference law (registered
+ * by tensim.sim._law), so one process can step models of either kind at once. Actuators
+ * with neither marker go to the callback installed before tensim's, if any.
  * Every operation mirrors _laws.py in the same order, so the two agree to rounding.
  */
 #define PY_SSIZE_T_CLEAN
@@ -29,6 +32,8 @@
 
 static mjfAct previous_dyn = NULL;
 static mjfAct previous_bias = NULL;
+static mjfAct reference_dyn = NULL;
+static mjfAct reference_bias = NULL;
 
 int tensim_header_version(void) { return mjVERSION_HEADER; }
 
@@ -38,15 +43,23 @@ void tensim_set_previous(mjfAct dyn, mjfAct bias) {
   previous_bias = bias;
 }
 
+/* Sets the Python reference law's callbacks, for actuators marked TENSIM_REFERENCE_MARKER. */
+void tensim_set_reference(mjfAct dyn, mjfAct bias) {
+  reference_dyn = dyn;
+  reference_bias = bias;
+}
+
 double tensim_marker(void) { return TENSIM_CABLE_MARKER; }
 
 /* The checksum of the parameter layout this library was built with (see _cable_layout.h). */
 unsigned int tensim_layout_id(void) { return TENSIM_LAYOUT_ID; }
 
-static int is_cable(const mjModel* m, int i) {
+/* The marker of a tensim cable actuator (0 for any other actuator). */
+static double cable_marker(const mjModel* m, int i) {
   int actnum = m->actuator_actnum[i];
-  return m->actuator_dynprm[i * mjNDYN + TENSIM_P_MARKER] == TENSIM_CABLE_MARKER &&
-         (actnum == TENSIM_ACTDIM || actnum == TENSIM_DC_ACTDIM);
+  double marker = m->actuator_dynprm[i * mjNDYN + TENSIM_P_MARKER];
+  if (actnum != TENSIM_ACTDIM && actnum != TENSIM_DC_ACTDIM) return 0.0;
+  return marker == TENSIM_CABLE_MARKER || marker == TENSIM_REFERENCE_MARKER ? marker : 0.0;
 }
 
 /* DC motor (actdim 3): one step of the spool's line speed act[adr + 2] under its torque-speed
@@ -95,7 +108,9 @@ static double next_rest(const mjModel* m, const mjData* d, int i) {
 }
 
 mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
-  if (!is_cable(m, i)) return previous_dyn ? previous_dyn(m, d, i) : 0.0;
+  double marker = cable_marker(m, i);
+  if (marker == 0.0) return previous_dyn ? previous_dyn(m, d, i) : 0.0;
+  if (marker == TENSIM_REFERENCE_MARKER) return reference_dyn ? reference_dyn(m, d, i) : NAN;
   const mjtNum* p = m->actuator_dynprm + i * mjNDYN;
   const mjtNum* b = m->actuator_biasprm + i * mjNBIAS;
   int tendon = m->actuator_trnid[2 * i];
@@ -140,7 +155,9 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
 }
 
 mjtNum tensim_act_bias(const mjModel* m, const mjData* d, int i) {
-  if (!is_cable(m, i)) return previous_bias ? previous_bias(m, d, i) : 0.0;
+  double marker = cable_marker(m, i);
+  if (marker == 0.0) return previous_bias ? previous_bias(m, d, i) : 0.0;
+  if (marker == TENSIM_REFERENCE_MARKER) return reference_bias ? reference_bias(m, d, i) : NAN;
   const mjtNum* b = m->actuator_biasprm + i * mjNBIAS;
   int tendon = m->actuator_trnid[2 * i];
   /* cable (eq. 1-2): tension-only Hooke spring with linear damping, pulling the anchors in */

@@ -3,12 +3,13 @@
 #define TENSIM_CABLE_LAYOUT_H
 
 #define TENSIM_CABLE_MARKER 7317.0
+#define TENSIM_REFERENCE_MARKER 7318.0
 #define TENSIM_MODE_REST 0.0
 #define TENSIM_MODE_IMPEDANCE 1.0
 #define TENSIM_ACTDIM 2
 #define TENSIM_DC_ACTDIM 3
 
-#define TENSIM_P_MARKER 0 /* CABLE_MARKER: this actuator is a tensim cable */
+#define TENSIM_P_MARKER 0 /* CABLE_MARKER or REFERENCE_MARKER: a tensim cable, and its law's body */
 #define TENSIM_P_MODE 1 /* MODE_REST or MODE_IMPEDANCE */
 #define TENSIM_P_MAX_SPEED 2 /* motor speed limit [m/s] */
 #define TENSIM_P_MAX_TENSION 3 /* the motor reels in no further at this static tension [N] */
@@ -34,6 +35,6 @@
 #define TENSIM_A_PEAK 1 /* running maximum of the load-cell tension [N] */
 #define TENSIM_A_SPEED 2 /* DC motors only: the spool's line speed dl/dt [m/s] */
 
-#define TENSIM_LAYOUT_ID 1559211436u
+#define TENSIM_LAYOUT_ID 118594802u
 
 #endif

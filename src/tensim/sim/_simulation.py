@@ -6,6 +6,7 @@ import copy
 import dataclasses
 import math
 import time as _time
+import weakref
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
@@ -15,7 +16,7 @@ import numpy as np
 from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import CableDrive, InputPlan, changes
-from tensim.sim._law import install, installed_backend
+from tensim.sim._law import install, release, use_reference_law
 from tensim.sim._loads import NodeLoad
 from tensim.sim._samples import COM, SampleBuffers, sample_channels
 from tensim.sim._timeseries import TimeSeries
@@ -88,20 +89,22 @@ class Simulation:
         controller: sets up the cable drive before the first step; None keeps every rest
             length where it is.
         record_dt: recording period [s]; a whole number of physics steps.
-        backend: the cable law, ``"auto"``, ``"compiled"`` or ``"python"`` (the reference;
-            process-wide, see :func:`tensim.sim.install_law`).
+        backend: the cable law, ``"auto"``, ``"compiled"`` or ``"python"`` (the reference,
+            slow). The choice is this simulation's alone: other live simulations keep theirs.
         limits: the stability bounds.
     """
 
     def __init__(self, compiled: CompiledModel, *, controller: Controller | None = None,
                  loads: Sequence[NodeLoad] = (), record_dt: float = 0.01, backend: str = "auto",
                  limits: StabilityLimits | None = None):
-        self._previous_law = installed_backend()
         self.backend = install(backend)
         compiled = compiled.with_load_nodes(tuple(ld.node for ld in loads))
         self.compiled = compiled
         self.model = copy.copy(compiled.model)  # the controller writes its gains here
         self.data = mujoco.MjData(self.model)
+        if self.backend == "python":  # this model only: its marker selects the law's body
+            use_reference_law(self.model, self.data)
+            weakref.finalize(self, release, self.data)
         mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key(BUILD_KEY).id)
         self.index = compiled.index
         self.dt = float(self.model.opt.timestep)
@@ -120,10 +123,10 @@ class Simulation:
     # -- lifecycle ---------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Puts back the law that was installed before, if this simulation changed it."""
-        if self._previous_law is not None and self._previous_law != self.backend:
-            install(self._previous_law)
-            self._previous_law = None
+        """Releases the reference law's hold on this simulation's data (``backend="python"``);
+        the compiled law needs nothing released."""
+        if self.backend == "python":
+            release(self.data)
 
     def __enter__(self) -> Simulation:
         return self
