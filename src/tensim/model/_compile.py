@@ -30,7 +30,7 @@ from tensim.model._law_layout import (
 )
 from tensim.structure import Cable, Rod, Structure, mass_properties
 from tensim.structure._mass import MassProperties
-from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain
+from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain, restitution_dampratio
 
 log = logging.getLogger(__name__)
 
@@ -219,14 +219,6 @@ class CompiledModel:
         return compile_structure(self.structure, self.world, load_nodes=wanted)
 
 
-def _restitution_dampratio(restitution: float) -> float:
-    """Damping ratio of MuJoCo's contact spring that gives this coefficient of restitution."""
-    if restitution <= 0:
-        return 1.0
-    log_e = math.log(restitution)
-    return -log_e / math.sqrt(math.pi**2 + log_e**2)
-
-
 def _regularize(name: str, props: MassProperties, world: WorldOptions) -> tuple[np.ndarray, bool]:
     """Inertia tensor with tiny principal moments raised to ``min_inertia_ratio`` of the largest."""
     moments, axes = np.linalg.eigh(props.inertia)
@@ -309,7 +301,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
                           friction=world.geom_friction(rod.friction), condim=world.condim,
                           priority=_ROBOT_PRIORITY, contype=robot_contype, conaffinity=1,
                           solref=[world.contact_timeconst,
-                                  _restitution_dampratio(rod.restitution)],
+                                  restitution_dampratio(rod.restitution)],
                           rgba=[0.25, 0.25, 0.3, 1])
         for node in group.nodes:
             if node in masses:
