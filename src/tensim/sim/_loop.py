@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import Protocol
+from typing import Protocol, overload
 
 import mujoco
 import numpy as np
@@ -103,8 +103,19 @@ def sample_count(duration: float, record_steps: int, dt: float) -> int:
     return int(np.floor(duration / (record_steps * dt) + 1e-9))
 
 
-def next_step(time: np.ndarray, dt: float) -> np.ndarray:
-    """The index of the physics step that data at ``time`` [s] takes next."""
+@overload
+def next_step(time: float, dt: float) -> int: ...
+
+
+@overload
+def next_step(time: np.ndarray, dt: float) -> np.ndarray: ...
+
+
+def next_step(time: float | np.ndarray, dt: float) -> int | np.ndarray:
+    """The index of the physics step that data at ``time`` [s] takes next (an int for one
+    time: Python's round, like ``np.rint``, rounds halves to even)."""
+    if isinstance(time, float):
+        return round(time / dt)  # called every record of a single run: no array overhead
     return np.rint(np.asarray(time) / dt).astype(np.int64)
 
 
@@ -130,10 +141,9 @@ def stable(qvel: np.ndarray, cable_force: np.ndarray, bad_acc: np.ndarray,
         bad_acc: (n,) MuJoCo's bad-acceleration warnings (a count, or a flag).
         limits: the bounds.
     """
-    speed = np.abs(qvel).max(axis=-1, initial=0.0)
+    speed = np.abs(qvel).max(axis=-1, initial=0.0)  # NaN stays NaN, and fails below
     pull = -cable_force.min(axis=-1, initial=0.0)
-    with np.errstate(invalid="ignore"):
-        return (speed < limits.max_speed) & (pull < limits.max_tension) & (bad_acc == 0)
+    return (speed < limits.max_speed) & (pull < limits.max_tension) & (bad_acc == 0)
 
 
 def contact_problem(check: ContactCheck, model: mujoco.MjModel, scratch: mujoco.MjData,

@@ -134,7 +134,7 @@ class Simulation:
         return (self._next_step() - 1) * self.dt
 
     def _next_step(self) -> int:
-        return int(next_step(self.data.time, self.dt))
+        return next_step(self.data.time, self.dt)
 
     def get_state(self) -> np.ndarray:
         """The complete simulation state (``mjSTATE_INTEGRATION``): restore with set_state."""
