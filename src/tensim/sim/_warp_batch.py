@@ -27,6 +27,7 @@ from tensim.sim._loop import (
     bad_acceleration,
     contact_problem,
     record_loop,
+    sample_time,
     stable,
     tunnel_message,
 )
@@ -194,8 +195,9 @@ class _WarpRun:
         live = np.array([e is None for e in self.error])
         fields = {name: getattr(self.d, name).numpy()[live] for name in
                   ("ten_length", "ten_velocity", "act", "ctrl", "xpos", "xquat", "subtree_com")}
-        self.samples.put(np.flatnonzero(live), self.count[live],
-                         (self.steps[live] - 1) * self.dt, fields, self.compiled.index)
+        time = sample_time(self.steps[live] * self.dt, self.dt)  # the worlds' clocks
+        self.samples.put(np.flatnonzero(live), self.count[live], time, fields,
+                         self.compiled.index)
         self.count[live] += 1
 
     def check(self) -> None:
