@@ -83,8 +83,8 @@ def test_tendon_springs_reproduce_the_cable_law_while_taut(name, atol):
 def test_springs_hold_the_rest_lengths():
     compiled = compile_structure(_routed())
     m = mujoco.MjModel.from_xml_string(to_mjcf(compiled))
-    np.testing.assert_allclose(m.tendon_stiffness, compiled.stiffness)
-    np.testing.assert_allclose(m.tendon_damping, compiled.damping)
+    np.testing.assert_allclose(m.tendon_stiffness, compiled.law().stiffness)
+    np.testing.assert_allclose(m.tendon_damping, compiled.law().damping)
     np.testing.assert_allclose(m.tendon_lengthspring[:, 1], compiled.rest_length, rtol=1e-5)
     np.testing.assert_array_equal(m.tendon_lengthspring[:, 0], 0.0)
     bare = mujoco.MjModel.from_xml_string(to_mjcf(compiled, springs=False))

@@ -37,7 +37,7 @@ def test_preset_builds_compiles_and_runs(name):
     # cables only pull, and stay below the motor's force limit by a wide margin
     tension = ts.matrix("tension")
     assert np.all(tension >= 0.0)
-    assert np.all(result.peak_tension < compiled.max_tension)
+    assert np.all(result.peak_tension < compiled.law().max_tension)
     # nothing flew away or sank through the ground: the COM stays within a robot's size
     com = np.stack([ts["pos_x/com"], ts["pos_y/com"], ts["pos_z/com"]], axis=1)
     assert np.all(com[:, 2] > 0.0)

@@ -110,3 +110,18 @@ def test_loading_warp_keeps_its_start_up_banner_quiet():
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          check=True).stdout.split()
     assert out == ["True", str(logging.WARNING)]
+
+
+def test_a_diverging_world_is_reported_failed_and_the_others_run_on():
+    # 10^4 times the cable stiffness: the explicit step diverges within a few steps, on MuJoCo
+    # Warp (which does not check accelerations itself) as on the CPU engine
+    p = preset("tetraspine3")
+    compiled = compile_structure(p.build())
+    trials = [Trial(p.controller()), Trial(p.controller(), physics=PhysicsScale(stiffness=1e4))]
+    warp = run_batch(compiled, trials, 0.05, backend="warp", device="cpu")
+    cpu = run_batch(compiled, trials, 0.05)
+    for results in (warp, cpu):
+        assert results[0].ok and not results[1].ok
+        assert "unstable" in results[1].error and "non-finite acceleration" in results[1].error
+    assert "reset" not in warp[1].error  # MuJoCo Warp keeps the state it reached
+    assert np.isfinite(warp[0].result.trajectory.matrix("tension")).all()

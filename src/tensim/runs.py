@@ -34,6 +34,7 @@ from tensim import __version__
 from tensim._files import check_writable, pid_alive, write_json, write_text
 from tensim._input import InputError
 from tensim.sim import SimulationResult, TimeSeries
+from tensim.viz.report import figure_names, write_report
 
 if TYPE_CHECKING:
     from tensim.control import ControllerConfig
@@ -132,8 +133,6 @@ def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = N
     ``drawer``, which the report waits for); ``series`` is the run's trajectory if it has one
     (else the report reads trajectory.parquet, if any).
     """
-    from tensim.viz.report import figure_names, write_report
-
     out.mkdir(parents=True, exist_ok=True)
     summary = {**summary, "tensim_version": __version__}
     RUN_LOG.write(out / "tensim.log")

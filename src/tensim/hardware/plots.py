@@ -6,15 +6,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 
 from tensim.hardware.compare import Comparison
 from tensim.hardware.loadcell import CalibrationFit
-from tensim.viz.plots import save_figure
+from tensim.viz.plots import new_figure, save_figure
 
 HARDWARE, SIMULATION, SETPOINT = "tab:red", "black", "tab:blue"
 
@@ -31,8 +27,8 @@ def plot_overlay(comparison: Comparison, path: Path, *, title: str = "", columns
     """
     cables = comparison.cables
     rows = math.ceil(len(cables) / columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 2.4 * rows), sharex=True,
-                             squeeze=False)
+    fig = new_figure((4.2 * columns, 2.4 * rows))
+    axes = fig.subplots(rows, columns, sharex=True, squeeze=False)
     t = comparison.time
     for k, (ax, name) in enumerate(zip(axes.flat, cables, strict=False)):
         if comparison.setpoint is not None and np.isfinite(comparison.setpoint[:, k]).any():
@@ -57,7 +53,8 @@ def plot_overlay(comparison: Comparison, path: Path, *, title: str = "", columns
 
 def plot_system(comparison: Comparison, path: Path, *, title: str = "") -> Path:
     """The largest cable tension at each sample, logged (red) and simulated (black)."""
-    fig, ax = plt.subplots(figsize=(8, 3))
+    fig = new_figure((8, 3))
+    ax = fig.subplots()
     with np.errstate(all="ignore"):
         hw = np.nanmax(comparison.hardware, axis=1)
         sim = np.nanmax(comparison.simulated, axis=1)
@@ -75,8 +72,8 @@ def plot_system(comparison: Comparison, path: Path, *, title: str = "") -> Path:
 
 def plot_calibration(fit: CalibrationFit, path: Path) -> Path:
     """Applied force against ADC counts with the fitted line, and the residuals (paper Fig. 2)."""
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6, 5.5), sharex=True,
-                                      gridspec_kw={"height_ratios": (3, 1.3)})
+    fig = new_figure((6, 5.5))
+    top, bottom = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": (3, 1.3)})
     cell = fit.loadcell
     span = np.linspace(fit.adc.min(), fit.adc.max(), 2)
     top.plot(fit.adc, fit.force, "o", color=HARDWARE, ms=4, label="calibration pairs")

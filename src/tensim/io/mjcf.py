@@ -41,8 +41,9 @@ def mjcf_spec(compiled: CompiledModel, *, springs: bool = True) -> mujoco.MjSpec
     spec.comment = _COMMENT.format(name=compiled.structure.name,
                                    springs=_SPRINGS if springs else _NO_SPRINGS)
     if springs:
-        for name, k, b, rest in zip(compiled.index.cables, compiled.stiffness,
-                                    compiled.damping, compiled.rest_length, strict=True):
+        law = compiled.law()
+        for name, k, b, rest in zip(compiled.index.cables, law.stiffness, law.damping,
+                                    compiled.rest_length, strict=True):
             tendon = spec.tendon(name)
             tendon.stiffness = [float(k), 0.0, 0.0]
             tendon.damping = [float(b), 0.0, 0.0]

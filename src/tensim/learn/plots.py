@@ -6,14 +6,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 
 from tensim.learn.problem import OK, Evaluation
-from tensim.viz.plots import save_figure
+from tensim.viz.plots import new_figure, save_figure
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -41,7 +37,8 @@ def plot_learning_curve(evaluations: Sequence[Evaluation], path: Path, *, title:
     index = np.array([e.index for e in evaluations])
     ok = np.array([e.status == OK for e in evaluations], dtype=bool)
     scores = np.array([e.score for e in evaluations])
-    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    fig = new_figure((7.5, 4.2))
+    ax = fig.subplots()
     ax.plot(index[ok], scores[ok], ".", color="tab:blue", ms=4, alpha=0.6, label="evaluation")
     ax.step(index, best_so_far(evaluations), where="post", color="black", lw=1.5,
             label="best so far")
@@ -66,7 +63,8 @@ def plot_best_so_far(runs: dict[str, Sequence[Evaluation]], path: Path, *, title
         unit: unit of the score, for the axis label.
         styles: label -> matplotlib line options (e.g. one colour per optimizer).
     """
-    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    fig = new_figure((7.5, 4.2))
+    ax = fig.subplots()
     for label, evaluations in runs.items():
         index = np.array([e.index for e in evaluations])
         ax.step(index + 1, best_so_far(evaluations), where="post", label=label,

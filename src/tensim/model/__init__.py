@@ -2,7 +2,6 @@
 
 from tensim.model._compile import (
     BUILD_KEY,
-    CABLE_MARKER,
     WORLD_FRAME_SITE,
     CompiledModel,
     ModelError,
@@ -12,12 +11,14 @@ from tensim.model._compile import (
     compile_structure,
     without_cable_law,
 )
+from tensim.model._law_layout import CABLE_MARKER, LawParameters
 
 __all__ = [
     "BUILD_KEY",
     "CABLE_MARKER",
     "WORLD_FRAME_SITE",
     "CompiledModel",
+    "LawParameters",
     "ModelError",
     "ModelIndex",
     "WorldOptions",

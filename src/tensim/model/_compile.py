@@ -19,15 +19,23 @@ import mujoco
 import numpy as np
 
 from tensim.model import _beads
+from tensim.model._law_layout import (
+    ACTDIM,
+    DC_ACTDIM,
+    GAIN,
+    MODE_REST,
+    LawParameters,
+    biasprm,
+    dynprm,
+)
 from tensim.structure import Cable, Rod, Structure, mass_properties
 from tensim.structure._mass import MassProperties
-from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain
+from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain, restitution_dampratio
 
 log = logging.getLogger(__name__)
 
 # Robot geoms outrank the ground, so robot-ground contacts use the rod's own friction.
 _ROBOT_PRIORITY = 1
-CABLE_MARKER = 7317.0  # dynprm[0] of a cable actuator: the compiled law acts on these only
 BUILD_KEY = "build"  # the keyframe of the build pose: rest lengths in act, commands in ctrl
 WORLD_FRAME_SITE = "world_frame"  # reference frame of the node-load inputs
 _CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
@@ -171,9 +179,7 @@ class CompiledModel:
         world: the world options used.
         model: the MuJoCo model.
         index: id lookups.
-        stiffness, damping: (n_cables,) cable k [N/m] and b [N s/m].
-        rest_length: (n_cables,) initial rest lengths [m].
-        max_speed, max_tension, min_rest_length, min_length: (n_cables,) motor limits.
+        rest_length: (n_cables,) the build pose's rest lengths [m] (the keyframe's).
         inertia_adjusted: names of bodies whose inertia was regularized.
         spec: the ``MjSpec`` the model was compiled from (for export, e.g. ``spec.to_xml()``).
     """
@@ -182,13 +188,7 @@ class CompiledModel:
     world: WorldOptions
     model: mujoco.MjModel
     index: ModelIndex
-    stiffness: np.ndarray
-    damping: np.ndarray
     rest_length: np.ndarray
-    max_speed: np.ndarray
-    max_tension: np.ndarray
-    min_rest_length: np.ndarray
-    min_length: np.ndarray
     inertia_adjusted: tuple[str, ...] = ()
     spec: mujoco.MjSpec | None = None
 
@@ -201,20 +201,22 @@ class CompiledModel:
         """Number of cables."""
         return len(self.index.cables)
 
+    def law(self, model: mujoco.MjModel | None = None) -> LawParameters:
+        """The cables' law parameters (stiffness, damping, motor limits, impedance gains) as
+        live views of ``model``'s arrays: of this model by default, or of a copy of it that a
+        simulation steps (``sim.model``, with its controller's gains and any physics scale).
+
+        The parameters are stored only there, where the law reads them, so these views never
+        go stale.
+        """
+        return LawParameters(self.model if model is None else model, self.n_cables)
+
     def with_load_nodes(self, nodes: tuple[str, ...]) -> CompiledModel:
         """This model with force inputs at ``nodes`` (itself if it already has them)."""
         wanted = tuple(dict.fromkeys((*self.index.load_nodes, *nodes)))
         if wanted == self.index.load_nodes:
             return self
         return compile_structure(self.structure, self.world, load_nodes=wanted)
-
-
-def _restitution_dampratio(restitution: float) -> float:
-    """Damping ratio of MuJoCo's contact spring that gives this coefficient of restitution."""
-    if restitution <= 0:
-        return 1.0
-    log_e = math.log(restitution)
-    return -log_e / math.sqrt(math.pi**2 + log_e**2)
 
 
 def _regularize(name: str, props: MassProperties, world: WorldOptions) -> tuple[np.ndarray, bool]:
@@ -301,7 +303,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
                           friction=world.geom_friction(rod.friction), condim=world.condim,
                           priority=_ROBOT_PRIORITY, contype=robot_contype, conaffinity=1,
                           solref=[world.contact_timeconst,
-                                  _restitution_dampratio(rod.restitution)],
+                                  restitution_dampratio(rod.restitution)],
                           rgba=[0.25, 0.25, 0.3, 1])
         for node in group.nodes:
             if node in masses:
@@ -460,33 +462,30 @@ def _side_site(spec: mujoco.MjSpec, structure: Structure, bodies: dict[str, mujo
 def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -> None:
     """The cable's actuator: user dynamics (motor, peak), zero gain, user bias (tension).
 
-    Parameters as in ``tensim.sim._laws`` (the compiled callback reads them from here):
-    dynprm = [marker, mode, max_speed, max_tension, min_rest_length, min_length, T0, K, B, L*],
-    biasprm = [stiffness, damping]; act = [rest length, peak tension]; ctrl = the command.
-    A DC motor adds its line speed to act (actdim 3) and its parameters in cable coordinates
-    to biasprm[3:10]: [stall force, no-load line speed, mass, viscous, Coulomb, position time,
-    back-drivable].
+    Its parameters go into the slots that ``tensim.model._law_layout`` names (every body of the
+    law reads them from there): rest mode, the motor's limits, L* = the build rest length;
+    act = [rest length, peak tension]; ctrl = the command. A DC motor adds its line speed to
+    act (actdim 3) and its parameters, in cable coordinates, to biasprm.
     """
     actuator = spec.add_actuator(name=cable.name, target=cable.name,
                                  trntype=mujoco.mjtTrn.mjTRN_TENDON)
     actuator.dyntype = mujoco.mjtDyn.mjDYN_USER
-    actuator.actdim = 2
     actuator.gaintype = mujoco.mjtGain.mjGAIN_FIXED
-    actuator.gainprm[0] = 0.0
+    actuator.gainprm[0] = GAIN
     actuator.biastype = mujoco.mjtBias.mjBIAS_USER
-    motor = cable.motor
-    actuator.dynprm[:] = [CABLE_MARKER, 0.0, motor.max_speed, motor.max_tension,
-                          motor.min_rest_length, motor.min_length, 0.0, 0.0, 0.0, rest_length]
-    actuator.biasprm[0] = cable.stiffness
-    actuator.biasprm[1] = cable.damping
-    dc = motor.dc
+    motor, dc = cable.motor, cable.motor.dc
+    actuator.dynprm[:] = dynprm(MODE_REST, motor.max_speed, motor.max_tension,
+                                motor.min_rest_length, motor.min_length, 0.0, 0.0, 0.0,
+                                rest_length)
+    actuator.actdim = ACTDIM if dc is None else DC_ACTDIM
+    slots = None
     if dc is not None:
-        actuator.actdim = 3
         line = dc.line()
-        # biasprm[2] stays 0: MuJoCo's compiler reads a positive one as a damping ratio
-        actuator.biasprm[3:10] = [line["stall_force"], line["no_load_line_speed"],
-                                 line["mass"], line["viscous"], line["coulomb"],
-                                 dc.position_time, 1.0 if dc.back_drivable else 0.0]
+        slots = {"stall_force": line["stall_force"], "no_load_speed": line["no_load_line_speed"],
+                 "mass": line["mass"], "viscous": line["viscous"], "coulomb": line["coulomb"],
+                 "position_time": dc.position_time,
+                 "back_drivable": 1.0 if dc.back_drivable else 0.0}
+    actuator.biasprm[:] = biasprm(cable.stiffness, cable.damping, slots)
 
 
 def _add_bead_springs(spec: mujoco.MjSpec, structure: Structure, world: WorldOptions,
@@ -554,12 +553,6 @@ def _assemble(structure: Structure, world: WorldOptions, model: mujoco.MjModel,
         world=world,
         model=model,
         index=index,
-        stiffness=column(lambda c: c.stiffness),
-        damping=column(lambda c: c.damping),
         rest_length=column(structure.rest_length),
-        max_speed=column(lambda c: c.motor.max_speed),
-        max_tension=column(lambda c: c.motor.max_tension),
-        min_rest_length=column(lambda c: c.motor.min_rest_length),
-        min_length=column(lambda c: c.motor.min_length),
         inertia_adjusted=adjusted,
     )

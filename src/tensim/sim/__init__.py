@@ -4,7 +4,13 @@ from tensim.sim._batch import PhysicsScale, Trial, TrialResult, run_batch
 from tensim.sim._drive import MODE_IMPEDANCE, MODE_REST, CableDrive, InputPlan
 from tensim.sim._law import cable_law, compiled_available, installed_backend
 from tensim.sim._law import install as install_law
-from tensim.sim._laws import cable_tension, impedance_rest_target, impedance_setpoint, motor_step
+from tensim.sim._laws import (
+    cable_tension,
+    impedance_rest_target,
+    impedance_setpoint,
+    load_cell_tension,
+    motor_step,
+)
 from tensim.sim._loads import NodeLoad, ramp_hold_release
 from tensim.sim._simulation import (
     COM,
@@ -43,6 +49,7 @@ __all__ = [
     "impedance_setpoint",
     "install_law",
     "installed_backend",
+    "load_cell_tension",
     "motor_step",
     "ramp_hold_release",
     "run_batch",

@@ -11,7 +11,6 @@ at any thread count.
 from __future__ import annotations
 
 import copy
-import dataclasses
 import itertools
 import math
 import time as _time
@@ -22,113 +21,40 @@ import numpy as np
 from mujoco import batch as mjbatch
 
 from tensim.limits import MAX_STEPS, check_count
-from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
+from tensim.model import BUILD_KEY, CompiledModel
 from tensim.sim import _law
 from tensim.sim._contact_check import ContactCheck
-from tensim.sim._drive import CableDrive, InputPlan
-from tensim.sim._loads import NodeLoad
-from tensim.sim._samples import SampleBuffers, sample_channels
-from tensim.sim._simulation import (
-    _CHECK_EVERY,
-    TUNNEL_ADVICE,
-    Controller,
-    SimulationResult,
+from tensim.sim._drive import InputPlan
+from tensim.sim._loop import (
     StabilityLimits,
-    _whole_steps,
-    diagnose,
+    contact_problem,
+    next_step,
+    record_loop,
+    sample_count,
+    sample_time,
+    stable,
+    tunnel_message,
+    whole_steps,
 )
+from tensim.sim._samples import SampleBuffers
+from tensim.sim._simulation import diagnose
+from tensim.sim._trials import (
+    PhysicsScale,
+    Trial,
+    TrialResult,
+    setup_trial,
+    trial_models,
+    trial_results,
+)
+from tensim.sim._warp_batch import run_batch_warp
+
+__all__ = ["PhysicsScale", "Trial", "TrialResult", "run_batch", "setup_trial"]
 
 MAX_SAMPLES = 50_000_000  # trials x samples x channels a batch may hold in memory
-_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _BLOCK_STEPS = 2_000  # physics steps of inputs computed at once
 _MAX_STEP_CALLS = 3  # runs of constant inputs in a record stepped one Batch.step call each
 _RECORD = ("ten_length", "ten_velocity", "xpos", "xquat", "subtree_com", "act", "ctrl", "qvel",
            "actuator_force")
-
-
-@dataclasses.dataclass(frozen=True)
-class PhysicsScale:
-    """Multipliers on a trial's physical parameters (1 leaves one as built).
-
-    Attributes:
-        friction: sliding friction of every robot geom.
-        stiffness: every cable's stiffness k.
-        damping: every cable's damping b.
-        mass: every rigid body's mass and inertia (rods and point masses alike).
-        motor_speed: every motor's maximum speed (a DC motor's no-load speed).
-        motor_stall: every DC motor's stall torque.
-        motor_inertia: every DC motor's rotor inertia.
-        motor_friction: every DC motor's viscous and Coulomb friction.
-    """
-
-    friction: float = 1.0
-    stiffness: float = 1.0
-    damping: float = 1.0
-    mass: float = 1.0
-    motor_speed: float = 1.0
-    motor_stall: float = 1.0
-    motor_inertia: float = 1.0
-    motor_friction: float = 1.0
-
-    def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ValueError(f"physics scale {f.name} must be a finite number > 0, "
-                                 f"got {value!r}")
-
-
-@dataclasses.dataclass(frozen=True)
-class Trial:
-    """One run of a batch.
-
-    Attributes:
-        controller: sets up the cable drive (None: rest lengths held).
-        loads: external node forces.
-        initial_state: ``Simulation.get_state()`` of the same model to start from (None: the
-            build pose, with the motor update at t = 0 taken first, as a new Simulation does).
-        physics: per-trial physical parameters (multipliers).
-        compiled: the trial's own model, e.g. a structure with other parameters recompiled
-            (None: the batch's); it must have the batch model's layout (same sizes).
-    """
-
-    controller: Controller | None = None
-    loads: tuple[NodeLoad, ...] = ()
-    initial_state: np.ndarray | None = None
-    physics: PhysicsScale = PhysicsScale()
-    compiled: CompiledModel | None = None
-
-
-@dataclasses.dataclass(frozen=True)
-class TrialResult:
-    """A trial's outcome: its run, or why it failed.
-
-    Attributes:
-        result: the finished run (None if it failed).
-        error: what went wrong (None if it finished).
-    """
-
-    result: SimulationResult | None
-    error: str | None = None
-
-    @property
-    def ok(self) -> bool:
-        """Whether the trial ran to the end."""
-        return self.result is not None
-
-
-@dataclasses.dataclass
-class _TrialSetup:
-    """What a controller configures for one trial (the attributes a Simulation offers it)."""
-
-    compiled: CompiledModel
-    drive: CableDrive
-    dt: float
-
-    @property
-    def index(self) -> ModelIndex:
-        """The model's names and ids."""
-        return self.compiled.index
 
 
 def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float, *,
@@ -181,23 +107,21 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
     dt = float(compiled.model.opt.timestep)
     check_count(f"{len(trials)} trials of {duration:g} s at a physics step of {dt:g} s: "
                 "physics steps", len(trials) * duration / dt, MAX_STEPS, force=force)
-    record_steps = _whole_steps(record_dt, dt, "record_dt")
-    n_samples = math.floor(duration / (record_steps * dt) + 1e-9)
+    record_steps = whole_steps(record_dt, dt, "record_dt")
+    n_samples = sample_count(duration, record_steps, dt)
     size = len(trials) * (n_samples + 1) * (6 * compiled.n_cables + 7 * len(compiled.index.bodies))
     if size > MAX_SAMPLES:
         raise ValueError(f"a batch of {len(trials)} trials x {n_samples + 1} samples would hold "
                          f"{size:.3g} recorded values (limit {MAX_SAMPLES:.0e}); run fewer "
                          "trials per batch or record less often (record_dt)")
     if backend == "warp":
-        from tensim.sim._warp_batch import run_batch_warp
-
         return run_batch_warp(compiled, trials, duration, record_steps=record_steps,
                               n_samples=n_samples, limits=limits or StabilityLimits(),
                               progress=progress, device=device)
     _law.install("compiled")
     runner = _BatchRun(compiled, trials, threads, record_steps, limits or StabilityLimits())
     started = _time.perf_counter()
-    runner.run(n_samples, duration, progress)
+    runner.run(n_samples, duration, progress)  # see _loop.record_loop
     wall = _time.perf_counter() - started
     return runner.results(duration, wall)
 
@@ -211,7 +135,7 @@ class _BatchRun:
         self.record_steps, self.dt = record_steps, float(compiled.model.opt.timestep)
         n, m = len(trials), compiled.model
         self.error: list[str | None] = [None] * n
-        self.compileds = _trial_models(compiled, trials)
+        self.compileds = trial_models(compiled, trials)
         # each trial steps its own copy of its model: its controller's gains, its physics
         self.models = [copy.copy(c.model) for c in self.compileds]
         self.plans: list[InputPlan | None] = [self._setup(i, t) for i, t in enumerate(trials)]
@@ -261,8 +185,8 @@ class _BatchRun:
                 self.batch.forward(restored)
             except mjbatch.SimulationError as exc:
                 self._fail(exc.ids)
-        live = self._live()
-        self._take(live, {name: field[live] for name, field in self._bound.items()})
+        self._ids = self._live()
+        self._fields = {name: field[self._ids] for name, field in self._bound.items()}
 
     def _plan(self, i: int) -> InputPlan:
         plan = self.plans[i]
@@ -272,21 +196,25 @@ class _BatchRun:
     def run(self, n_samples: int, duration: float,
             progress: Callable[[float, float], None] | None) -> None:
         self._start(n_samples)
-        every = max(1, round(1.0 / (self.record_steps * self.dt)))
-        rs = self.record_steps
-        per_block = max(1, _BLOCK_STEPS // rs)
-        for k in range(n_samples):
-            if k % per_block == 0:  # the inputs of the next records, every trial at once
-                block = _Block(self, min(per_block, n_samples - k) * rs)
-            live = self._live()
-            if not live.size:
-                break
-            ids, fields = block.advance(live, rs)
-            self._take(ids, fields)
-            if k % _CHECK_EVERY == 0 or k == n_samples - 1:
-                self._check(ids, fields)
-            if progress is not None and (k + 1) % every == 0:
-                progress((k + 1) * rs * self.dt, duration)
+        self.n_samples, self.per_block = n_samples, max(1, _BLOCK_STEPS // self.record_steps)
+        record_loop(self, n_samples, self.record_steps, self.dt, duration, progress)
+
+    # the back-end of record_loop: the live trials' fields after their latest record
+
+    def advance(self, k: int, nstep: int) -> bool:
+        if k % self.per_block == 0:  # the inputs of the next records, every trial at once
+            self._block = _Block(self, min(self.per_block, self.n_samples - k) * nstep)
+        live = self._live()
+        if not live.size:
+            return False
+        self._ids, self._fields = self._block.advance(live, nstep)
+        return True
+
+    def take(self) -> None:
+        self._take(self._ids, self._fields)
+
+    def check(self) -> None:
+        self._check(self._ids, self._fields)
 
     def _rollout(self, live: np.ndarray, nstep: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Steps trials ``live`` by nstep with their inputs (see :class:`_Block`)."""
@@ -306,17 +234,14 @@ class _BatchRun:
 
     def _take(self, ids: np.ndarray, fields: dict[str, np.ndarray]) -> None:
         assert self.samples is not None
-        time = (np.rint(self.batch.state[ids, 0] / self.dt) - 1) * self.dt
+        time = sample_time(self.batch.state[ids, 0], self.dt)
         self.samples.put(ids, self.count[ids], time, fields, self.compiled.index)
         self.count[ids] += 1
 
     def _check(self, ids: np.ndarray, fields: dict[str, np.ndarray]) -> None:
         n = self.compiled.n_cables
-        speed = np.abs(fields["qvel"]).max(axis=1, initial=0.0)
-        force = -fields["actuator_force"][:, :n].min(axis=1, initial=0.0)
         bad_acc = self.batch.warning[ids, mujoco.mjtWarning.mjWARN_BADQACC, 1]
-        fine = (speed < self.limits.max_speed) & (force < self.limits.max_tension) & \
-            (bad_acc == 0)
+        fine = stable(fields["qvel"], fields["actuator_force"][:, :n], bad_acc, self.limits)
         for row in np.flatnonzero(~fine):
             i = int(ids[row])
             d = mujoco.MjData(self.compiled.model)
@@ -340,14 +265,11 @@ class _BatchRun:
         assert self._contact is not None and self._scratch is not None
         assert self.samples is not None
         for i in map(int, ids):
-            model, d = self.models[i], self._scratch
-            mujoco.mj_setState(model, d, self.batch.state[i], _STATE)
-            mujoco.mj_forward(model, d)
-            problem = self._contact.problem(model, d)
+            problem = contact_problem(self._contact, self.models[i], self._scratch,
+                                      self.batch.state[i])
             if problem is not None:
                 time = float(self.samples.time[i, self.count[i] - 1])
-                self.error[i] = (f"trial {i}: contact cable tunnelled at t = {time:.3f} s: "
-                                 f"{problem}. {TUNNEL_ADVICE}")
+                self.error[i] = f"trial {i}: " + tunnel_message(time, problem)
 
     # -- results -----------------------------------------------------------------------------
 
@@ -369,7 +291,7 @@ class _Block:
 
     def __init__(self, run: _BatchRun, nstep: int):
         self.run, self.ids, self.at = run, run._live(), 0
-        steps = np.rint(run.batch.state[self.ids, 0] / run.dt).astype(np.int64)
+        steps = next_step(run.batch.state[self.ids, 0], run.dt)
         self.control = np.stack([run._plan(int(i)).control(int(s), nstep)
                                  for i, s in zip(self.ids, steps, strict=True)])
         self.change = (self.control[:, 1:] != self.control[:, :-1]).any(axis=(0, 2))
@@ -398,87 +320,3 @@ class _Block:
         return live[ran], {name: v[ran] for name, v in fields.items()}
 
 
-def setup_trial(compiled: CompiledModel, model: mujoco.MjModel, trial: Trial,
-                dt: float) -> InputPlan:
-    """Sets up one trial on its own model copy: physics multipliers, then its controller's
-    gains; returns its inputs.
-
-    Raises:
-        ValueError, KeyError, TypeError: the trial cannot run (the message says why).
-    """
-    n = compiled.n_cables
-    drive = CableDrive(compiled, model)
-    _scale(compiled, model, trial.physics)
-    if trial.controller is not None:
-        trial.controller.configure(_TrialSetup(compiled, drive, dt))
-    bad = ~np.isfinite(model.actuator_dynprm[:n]).all(axis=1) | \
-        ~np.isfinite(model.actuator_biasprm[:n]).all(axis=1)
-    if bad.any():
-        raise ValueError(f"cable {compiled.index.cables[int(np.argmax(bad))]!r} has "
-                         "non-finite law parameters")
-    if trial.initial_state is not None:
-        _check_state(model, trial.initial_state)
-    return InputPlan(drive, trial.loads, compiled)
-
-
-def trial_results(samples: SampleBuffers, count: np.ndarray, models: Sequence[mujoco.MjModel],
-                  errors: Sequence[str | None], peak: np.ndarray, index: ModelIndex, dt: float,
-                  duration: float, wall: float) -> list[TrialResult]:
-    """Each trial's recorded run (channels derived with its own model's parameters), or its
-    error; ``peak``: (n_trials, n_cables) the peak tensions [N]."""
-    n = len(index.cables)
-    out = []
-    for i, model in enumerate(models):
-        if errors[i] is not None:
-            out.append(TrialResult(None, errors[i]))
-            continue
-        series = sample_channels(samples.trial(i).head(int(count[i])), index,
-                                 model.actuator_dynprm[:n], model.actuator_biasprm[:n])
-        # wall_s: the trial's share of the batch's wall time
-        out.append(TrialResult(SimulationResult(series, np.array(peak[i], dtype=float),
-                                                wall / len(models), duration, dt,
-                                                index.cables)))
-    return out
-
-
-def _trial_models(compiled: CompiledModel, trials: Sequence[Trial]) -> list[CompiledModel]:
-    """Each trial's compiled model, all with the force inputs that any trial's loads need."""
-    nodes = tuple(dict.fromkeys(ld.node for t in trials for ld in t.loads))
-    done: dict[int, CompiledModel] = {}
-    out = []
-    for trial in trials:
-        own = trial.compiled or compiled
-        if id(own) not in done:
-            done[id(own)] = own.with_load_nodes(nodes)
-        out.append(done[id(own)])
-    return out
-
-
-def _scale(compiled: CompiledModel, model: mujoco.MjModel, physics: PhysicsScale) -> None:
-    """Applies a trial's physics multipliers to its own model copy."""
-    if physics == PhysicsScale():
-        return
-    n = compiled.n_cables
-    model.geom_friction[model.geom_bodyid != 0, 0] *= physics.friction
-    model.actuator_biasprm[:n, _law.B_STIFFNESS] *= physics.stiffness
-    model.actuator_biasprm[:n, _law.B_DAMPING] *= physics.damping
-    model.actuator_dynprm[:n, _law.P_MAX_SPEED] *= physics.motor_speed
-    # DC motors (kinematic motors hold zeros in these slots)
-    dc = model.actuator_biasprm[:n]
-    dc[:, _law.B_NO_LOAD_SPEED] *= physics.motor_speed
-    dc[:, _law.B_STALL_FORCE] *= physics.motor_stall
-    dc[:, _law.B_MASS] *= physics.motor_inertia
-    dc[:, [_law.B_VISCOUS, _law.B_COULOMB]] *= physics.motor_friction
-    if physics.mass != 1.0:
-        model.body_mass[1:] *= physics.mass
-        model.body_inertia[1:] *= physics.mass
-        mujoco.mj_setConst(model, mujoco.MjData(model))  # the constants derived from masses
-
-
-def _check_state(model: mujoco.MjModel, state: np.ndarray) -> None:
-    size = mujoco.mj_stateSize(model, _STATE)
-    if np.shape(state) != (size,):
-        raise ValueError(f"initial_state must have {size} values (mjSTATE_INTEGRATION of this "
-                         f"model), got shape {np.shape(state)}")
-    if not np.all(np.isfinite(state)):
-        raise ValueError("initial_state holds non-finite values")

@@ -16,8 +16,8 @@ import mujoco
 import numpy as np
 
 from tensim.model import CompiledModel
-from tensim.sim import _law
-from tensim.sim._law import MODE_IMPEDANCE, MODE_REST
+from tensim.model._law_layout import MODE_IMPEDANCE, MODE_REST, LawParameters
+from tensim.sim import _laws
 from tensim.sim._loads import NodeLoad
 
 __all__ = ["MODE_IMPEDANCE", "MODE_REST", "CableDrive", "InputPlan"]
@@ -25,16 +25,12 @@ __all__ = ["MODE_IMPEDANCE", "MODE_REST", "CableDrive", "InputPlan"]
 _ROW_SLACK = 1e-9  # a step whose time is within this many rows of a row start is in that row
 
 
-class CableDrive:
+class CableDrive(LawParameters):
     """The cable law's parameters and commands for one simulation.
 
-    Attributes (all (n_cables,) unless stated); the first group are views of the model's
-    actuator parameters, so writing them changes the model:
-        stiffness, damping: cable k [N/m] and b [N s/m].
-        max_speed, max_tension, min_rest, min_length: motor limits [m/s], [N], [m], [m].
-        mode: MODE_REST or MODE_IMPEDANCE per cable.
-        offset_tension, gain_k, gain_b, target_length: impedance T0 [N], K [N/m], B [N s/m],
-            L* [m].
+    Attributes (all (n_cables,) unless stated); the law's parameters are the live views of
+    :class:`~tensim.model.LawParameters` (stiffness, damping, mode, motor limits, impedance
+    gains), so a controller writing ``drive.gain_k[i]`` edits the model.
     Commands, entering through ``ctrl``:
         rest_command: commanded rest length of MODE_REST cables [m].
         target_velocity: (rows, n_cables) V* table [m/s], row r for t in [r, r+1) * table_dt.
@@ -42,20 +38,12 @@ class CableDrive:
     """
 
     def __init__(self, compiled: CompiledModel, model: mujoco.MjModel,
-                 dynprm: np.ndarray | None = None, biasprm: np.ndarray | None = None,
                  data: mujoco.MjData | None = None):
         n = compiled.n_cables
         if not np.array_equal(compiled.index.actuator, np.arange(n)):
             raise ValueError("cable actuators must be the model's first actuators")
-        p = model.actuator_dynprm[:n] if dynprm is None else dynprm
-        b = model.actuator_biasprm[:n] if biasprm is None else biasprm
+        super().__init__(model, n)
         self._compiled, self._model, self._data = compiled, model, data
-        self.stiffness, self.damping = b[:, _law.B_STIFFNESS], b[:, _law.B_DAMPING]
-        self.mode = p[:, _law.P_MODE]
-        self.max_speed, self.max_tension = p[:, _law.P_MAX_SPEED], p[:, _law.P_MAX_TENSION]
-        self.min_rest, self.min_length = p[:, _law.P_MIN_REST], p[:, _law.P_MIN_LENGTH]
-        self.offset_tension, self.gain_k = p[:, _law.P_OFFSET], p[:, _law.P_GAIN_K]
-        self.gain_b, self.target_length = p[:, _law.P_GAIN_B], p[:, _law.P_TARGET_LENGTH]
         self.tendon = compiled.index.tendon
         self.rest_command = compiled.rest_length.copy()
         self.target_velocity = np.zeros((1, n))
@@ -107,14 +95,14 @@ class CableDrive:
     def tension(self) -> np.ndarray:
         """(n,) load-cell reading k max(0, x - l) of the latest step [N]."""
         d = self._need_data()
-        return _law._laws.cable_tension(d.ten_length[self.tendon], d.ten_velocity[self.tendon],
+        return _laws.cable_tension(d.ten_length[self.tendon], d.ten_velocity[self.tendon],
                                         self.rest, self.stiffness, self.damping)[0]
 
     @property
     def applied(self) -> np.ndarray:
         """(n,) force applied in the latest step, with damping [N]."""
         d = self._need_data()
-        return _law._laws.cable_tension(d.ten_length[self.tendon], d.ten_velocity[self.tendon],
+        return _laws.cable_tension(d.ten_length[self.tendon], d.ten_velocity[self.tendon],
                                         self.rest, self.stiffness, self.damping)[1]
 
     @property
@@ -123,7 +111,7 @@ class CableDrive:
         d = self._need_data()
         x, v = d.ten_length[self.tendon], d.ten_velocity[self.tendon]
         n = self.stiffness.size
-        set_ = _law._laws.impedance_setpoint(x, v, self.offset_tension, self.gain_k,
+        set_ = _laws.impedance_setpoint(x, v, self.offset_tension, self.gain_k,
                                              self.gain_b, self.target_length, d.ctrl[:n])
         return np.where(self.mode == MODE_IMPEDANCE, set_, np.nan)
 

@@ -8,13 +8,16 @@ built on :mod:`tensim.sim._laws`, and ``_cable.c`` the same operations compiled,
 ``mjcb_act_dyn``/``mjcb_act_bias``.
 Being stateless, the compiled law runs on any number of threads (``mujoco.rollout``,
 ``mujoco.batch``). The callbacks are process-wide: :func:`install` sets them once, under a lock,
-and hands actuators that are not tensim cables to a compiled callback installed before it.
+and hands actuators that are not tensim cables to a compiled callback installed before it. The
+body of the law is chosen per model, by the marker in its actuators (``_law_layout``):
+:func:`use_reference_law` marks a simulation's own model for the Python reference.
 """
 
 from __future__ import annotations
 
 import ctypes
 import logging
+import math
 import threading
 from typing import Any, NamedTuple
 
@@ -22,24 +25,43 @@ import mujoco
 import numpy as np
 
 from tensim._native import load_library
-from tensim.model import CABLE_MARKER
+from tensim.model._law_layout import (
+    A_PEAK,
+    A_REST,
+    A_SPEED,
+    B_BACK_DRIVABLE,
+    B_COULOMB,
+    B_DAMPING,
+    B_MASS,
+    B_NO_LOAD_SPEED,
+    B_POSITION_TIME,
+    B_STALL_FORCE,
+    B_STIFFNESS,
+    B_VISCOUS,
+    CABLE_MARKER,
+    DC_ACTDIM,
+    MODE_IMPEDANCE,
+    MODE_REST,
+    P_GAIN_B,
+    P_GAIN_K,
+    P_MARKER,
+    P_MAX_SPEED,
+    P_MAX_TENSION,
+    P_MIN_LENGTH,
+    P_MIN_REST,
+    P_MODE,
+    P_OFFSET,
+    P_TARGET_LENGTH,
+    REFERENCE_MARKER,
+    is_cable,
+    layout_id,
+)
 from tensim.sim import _laws
 
 log = logging.getLogger(__name__)
 
-MODE_REST = 0  # the motor follows a commanded rest length
-MODE_IMPEDANCE = 1  # the motor realises the impedance law's tension setpoint
-
-# columns of actuator_dynprm and actuator_biasprm
-P_MODE, P_MAX_SPEED, P_MAX_TENSION, P_MIN_REST, P_MIN_LENGTH = 1, 2, 3, 4, 5
-P_OFFSET, P_GAIN_K, P_GAIN_B, P_TARGET_LENGTH = 6, 7, 8, 9
-B_STIFFNESS, B_DAMPING = 0, 1
-# DC motors only (actdim 3), in cable coordinates (see tensim.structure.DCMotor.line)
-# (biasprm[2] stays 0: MuJoCo's compiler reads a positive one as a position actuator's
-# damping ratio)
-B_STALL_FORCE, B_NO_LOAD_SPEED, B_MASS, B_VISCOUS, B_COULOMB = 3, 4, 5, 6, 7
-B_POSITION_TIME, B_BACK_DRIVABLE = 8, 9
-DC_ACTDIM = 3  # rest length, peak tension, the spool's line speed
+__all__ = ["MODE_IMPEDANCE", "MODE_REST", "LawRates", "cable_actuators", "cable_law",
+           "compiled_available", "install", "installed_backend"]
 
 
 class LawRates(NamedTuple):
@@ -58,6 +80,7 @@ class LawRates(NamedTuple):
     force: np.ndarray
 
 _ACT = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)
+_MARKERS = (CABLE_MARKER, REFERENCE_MARKER)
 
 
 def _load_library() -> ctypes.CDLL | None:
@@ -70,10 +93,16 @@ def _load_library() -> ctypes.CDLL | None:
                     "slower Python law (reinstall tensim to rebuild)", header, mujoco.mj_version())
         return None
     lib.tensim_marker.restype = ctypes.c_double
-    if lib.tensim_marker() != CABLE_MARKER:
-        raise ImportError("tensim's compiled cable law does not match its model layout; "
-                          "reinstall tensim")
+    built = getattr(lib, "tensim_layout_id", None)
+    if built is not None:
+        built.restype = ctypes.c_uint
+    if built is None or built() != layout_id() or lib.tensim_marker() != CABLE_MARKER:
+        log.warning("compiled cable law was built for another parameter layout than "
+                    "tensim.model._law_layout's; using the slower Python law (reinstall "
+                    "tensim to rebuild)")
+        return None
     lib.tensim_set_previous.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+    lib.tensim_set_reference.argtypes = [_ACT, _ACT]
     return lib
 
 
@@ -90,7 +119,8 @@ def compiled_available() -> bool:
 
 
 def installed_backend() -> str | None:
-    """``"compiled"``, ``"python"`` or None: the law MuJoCo's callbacks run now."""
+    """``"compiled"``, ``"python"`` or None: the callbacks MuJoCo runs now (the compiled
+    dispatcher, which also serves models on the reference law, or the Python law alone)."""
     return _installed
 
 
@@ -110,7 +140,8 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     p, b = m.actuator_dynprm[ids], m.actuator_biasprm[ids]
     adr, tendon = m.actuator_actadr[ids], m.actuator_trnid[ids, 0]
     x, v = d.ten_length[tendon], d.ten_velocity[tendon]
-    k, damping, rest, peak = b[:, B_STIFFNESS], b[:, B_DAMPING], d.act[adr], d.act[adr + 1]
+    k, damping = b[:, B_STIFFNESS], b[:, B_DAMPING]
+    rest, peak = d.act[adr + A_REST], d.act[adr + A_PEAK]
     command = d.ctrl[m.actuator_ctrladr[ids]]
     dt = m.opt.timestep
     measured, _ = _laws.cable_tension(x, v, rest, k, damping)
@@ -124,7 +155,7 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     speed_rate = np.zeros(len(ids))
     dc = m.actuator_actnum[ids] == DC_ACTDIM
     if dc.any():
-        new[dc], speed_rate[dc] = _dc_step(p[dc], b[dc], d.act[adr[dc] + 2], rest[dc],
+        new[dc], speed_rate[dc] = _dc_step(p[dc], b[dc], d.act[adr[dc] + A_SPEED], rest[dc],
                                            target[dc], x[dc], v[dc], dt)
     rest_rate = (new - rest) / dt
     spring, applied = _laws.cable_tension(x, v, rest + rest_rate * dt, k, damping)
@@ -154,26 +185,25 @@ def _dc_step(p: np.ndarray, b: np.ndarray, speed: np.ndarray, rest: np.ndarray,
 
 def cable_actuators(m: mujoco.MjModel) -> np.ndarray:
     """Ids of the actuators that are tensim cables."""
-    return np.flatnonzero((m.actuator_dynprm[:, 0] == CABLE_MARKER)
-                          & np.isin(m.actuator_actnum, (2, DC_ACTDIM))).astype(np.int32)
+    return np.flatnonzero(is_cable(m)).astype(np.int32)
 
 
 def _python_dyn(m: Any, d: Any, i: int) -> float:
-    if m.actuator_dynprm[i, 0] != CABLE_MARKER:
+    if m.actuator_dynprm[i, P_MARKER] not in _MARKERS:
         return 0.0
     ids = np.array([i])
     rates = cable_law(m, d, ids)
     adr = m.actuator_actadr[i]
-    d.act_dot[adr], d.act_dot[adr + 1] = rates.rest_rate[0], rates.peak_rate[0]
+    d.act_dot[adr + A_REST], d.act_dot[adr + A_PEAK] = rates.rest_rate[0], rates.peak_rate[0]
     if m.actuator_actnum[i] == DC_ACTDIM:
-        d.act_dot[adr + 2] = rates.speed_rate[0]
+        d.act_dot[adr + A_SPEED] = rates.speed_rate[0]
     return float(rates.peak_rate[0])
 
 
 def _python_bias(m: Any, d: Any, i: int) -> float:
-    if m.actuator_dynprm[i, 0] != CABLE_MARKER:
+    if m.actuator_dynprm[i, P_MARKER] not in _MARKERS:
         return 0.0
-    adr, tendon = m.actuator_actadr[i], m.actuator_trnid[i, 0]
+    adr, tendon = m.actuator_actadr[i] + A_REST, m.actuator_trnid[i, 0]
     rest = d.act[adr] + d.act_dot[adr] * m.opt.timestep
     b = m.actuator_biasprm[i]
     _, applied = _laws.cable_tension(d.ten_length[tendon:tendon + 1],
@@ -182,16 +212,65 @@ def _python_bias(m: Any, d: Any, i: int) -> float:
     return -float(applied[0])
 
 
+# -- the law's body, per model ---------------------------------------------------------------
+
+# the MjData of each simulation on the reference law, by address: the compiled dispatcher
+# hands their cables to Python with bare pointers
+_reference: dict[int, tuple[mujoco.MjModel, mujoco.MjData]] = {}
+
+
+def use_reference_law(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """Makes ``model`` (a simulation's own copy) step its cables on the Python reference law,
+    with ``data``; every other model keeps its own law. Undo with :func:`release`."""
+    ids = cable_actuators(model)
+    model.actuator_dynprm[ids, P_MARKER] = REFERENCE_MARKER
+    with _lock:
+        _reference[data._address] = (model, data)
+
+
+def release(data: mujoco.MjData) -> None:
+    """Forgets a simulation registered by :func:`use_reference_law` (its model keeps the
+    reference marker: stepping it again needs a new registration)."""
+    with _lock:
+        _reference.pop(data._address, None)
+
+
+def _reference_for(data: int | None) -> tuple[mujoco.MjModel, mujoco.MjData] | None:
+    pair = _reference.get(data or 0)
+    if pair is None:
+        log.error("an MjData without a simulation stepped a model on the Python reference law: "
+                  "its cable forces are NaN (step it through its Simulation)")
+    return pair
+
+
+def _reference_dyn(m: int | None, d: int | None, i: int) -> float:
+    pair = _reference_for(d)
+    return math.nan if pair is None else _python_dyn(*pair, i)
+
+
+def _reference_bias(m: int | None, d: int | None, i: int) -> float:
+    pair = _reference_for(d)
+    return math.nan if pair is None else _python_bias(*pair, i)
+
+
+_REF_DYN, _REF_BIAS = _ACT(_reference_dyn), _ACT(_reference_bias)  # kept alive here
+
+
 # -- installation ----------------------------------------------------------------------------
 
 def install(backend: str = "auto") -> str:
-    """Makes MuJoCo's user-actuator callbacks run the cable law; returns the backend in use.
+    """Makes MuJoCo's user-actuator callbacks run the cable law; returns the law ``backend``
+    resolves to.
 
-    ``"auto"`` installs the compiled law (or the Python one, with a warning, when the
-    extension is missing). ``"python"`` installs the reference
-    law (slow; one thread only). The choice is process-wide. A compiled callback of the user's
-    that was installed first keeps serving the user's own actuators; a Python one cannot be
-    called from the compiled law, so it is replaced, with a warning.
+    The callbacks are process-wide, but the law's body is chosen per model, by the marker
+    in its actuators (see :func:`use_reference_law`): the compiled law, when built, is
+    installed once and runs the models marked for it, and hands the cables of models marked
+    for the Python reference law to Python. So installing never switches another live
+    simulation's law. Without the compiled law the Python one serves every model.
+    ``"auto"`` resolves to ``"compiled"`` when it is built, else to ``"python"`` (with a
+    warning). A compiled callback of the user's that was installed first keeps serving the
+    user's own actuators; a Python one cannot be called from the compiled law, so it is
+    replaced, with a warning.
 
     Raises:
         RuntimeError: ``"compiled"`` asked for but not built.
@@ -201,25 +280,24 @@ def install(backend: str = "auto") -> str:
     if backend not in ("auto", "compiled", "python"):
         raise ValueError(f"backend must be 'auto', 'compiled' or 'python', got {backend!r}")
     with _lock:
-        if backend == "auto":
-            backend = "compiled" if _LIB is not None else "python"
-            if backend == "python":
-                log.warning("compiled cable law not built (no C compiler at install time?): "
-                            "using the much slower Python law")
+        if backend == "auto" and _LIB is None:
+            log.warning("compiled cable law not built (no C compiler at install time?): "
+                        "using the much slower Python law")
         if backend == "compiled" and _LIB is None:
             raise RuntimeError("the compiled cable law is not available; reinstall tensim with "
                                "a C compiler, or use backend='python'")
-        if backend == _installed and _still_installed():
-            return backend
-        _chain_previous()
-        if backend == "compiled":
-            mujoco.set_mjcb_act_dyn(_C_DYN)
-            mujoco.set_mjcb_act_bias(_C_BIAS)
-        else:
-            mujoco.set_mjcb_act_dyn(_python_dyn)
-            mujoco.set_mjcb_act_bias(_python_bias)
-        _installed = backend
-        return backend
+        callbacks = "compiled" if _LIB is not None else "python"
+        if not (callbacks == _installed and _still_installed()):
+            _chain_previous()
+            if _LIB is not None:
+                _LIB.tensim_set_reference(_REF_DYN, _REF_BIAS)
+                mujoco.set_mjcb_act_dyn(_C_DYN)
+                mujoco.set_mjcb_act_bias(_C_BIAS)
+            else:
+                mujoco.set_mjcb_act_dyn(_python_dyn)
+                mujoco.set_mjcb_act_bias(_python_bias)
+            _installed = callbacks
+        return callbacks if backend == "auto" else backend
 
 
 def _ours(callback: object) -> bool:

@@ -9,6 +9,19 @@ from __future__ import annotations
 import numpy as np
 
 
+def load_cell_tension(length: np.ndarray, rest_length: np.ndarray, stiffness: np.ndarray
+                      ) -> np.ndarray:
+    """The load cell's reading k max(0, x - l) [N] (the spring part of :func:`cable_tension`).
+
+    Args:
+        length: (n,) anchor-to-anchor length x [m].
+        rest_length: (n,) rest length l [m].
+        stiffness: (n,) k [N/m].
+    """
+    stretch = length - rest_length
+    return np.where(stretch > 0.0, stiffness * stretch, 0.0)
+
+
 def cable_tension(length: np.ndarray, velocity: np.ndarray, rest_length: np.ndarray,
                   stiffness: np.ndarray, damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Paper eq. (1)-(2): a tension-only Hooke spring with linear damping.
@@ -25,9 +38,8 @@ def cable_tension(length: np.ndarray, velocity: np.ndarray, rest_length: np.ndar
     Returns:
         (spring, applied): the load-cell reading k max(0, x - l) and the applied force f [N].
     """
-    stretch = length - rest_length
-    taut = stretch > 0.0
-    spring = np.where(taut, stiffness * stretch, 0.0)
+    spring = load_cell_tension(length, rest_length, stiffness)
+    taut = length - rest_length > 0.0
     applied = np.where(taut, np.maximum(spring + damping * velocity, 0.0), 0.0)
     return spring, applied
 

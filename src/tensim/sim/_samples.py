@@ -13,7 +13,8 @@ import dataclasses
 import numpy as np
 
 from tensim.model import CompiledModel, ModelIndex
-from tensim.sim import _law, _laws
+from tensim.model import _law_layout as layout
+from tensim.sim import _laws
 from tensim.sim._timeseries import TimeSeries
 
 COM = "com"  # the item name of the whole robot's centre of mass in recorded pose channels
@@ -94,13 +95,14 @@ def sample_channels(samples: SampleBuffers, index: ModelIndex, dynprm: np.ndarra
         index: the model's names.
         dynprm, biasprm: (n_cables, 10) the cable actuators' law parameters.
     """
-    k, damping = biasprm[:, _law.B_STIFFNESS], biasprm[:, _law.B_DAMPING]
+    p, b = dynprm, biasprm
     x, v = samples.length, samples.velocity
-    tension, applied = _laws.cable_tension(x, v, samples.rest, k, damping)
-    setpoint = _laws.impedance_setpoint(x, v, dynprm[:, _law.P_OFFSET], dynprm[:, _law.P_GAIN_K],
-                                        dynprm[:, _law.P_GAIN_B], dynprm[:, _law.P_TARGET_LENGTH],
+    tension, applied = _laws.cable_tension(x, v, samples.rest, b[:, layout.B_STIFFNESS],
+                                           b[:, layout.B_DAMPING])
+    setpoint = _laws.impedance_setpoint(x, v, p[:, layout.P_OFFSET], p[:, layout.P_GAIN_K],
+                                        p[:, layout.P_GAIN_B], p[:, layout.P_TARGET_LENGTH],
                                         samples.command)
-    setpoint = np.where(dynprm[:, _law.P_MODE] == _law.MODE_IMPEDANCE, setpoint, np.nan)
+    setpoint = np.where(p[:, layout.P_MODE] == layout.MODE_IMPEDANCE, setpoint, np.nan)
     cables = {"tension": tension, "setpoint": setpoint, "applied": applied, "length": x,
               "velocity": v, "rest_length": samples.rest}
     channels: dict[str, np.ndarray] = {}

@@ -1,4 +1,4 @@
-"""The simulation loop: fixed-step MuJoCo with cables, recording and stability checks."""
+"""One robot simulated: fixed-step MuJoCo with cables, on the loop of :mod:`tensim.sim._loop`."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import copy
 import dataclasses
 import math
 import time as _time
+import weakref
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
@@ -15,14 +16,21 @@ import numpy as np
 from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import CableDrive, InputPlan, changes
-from tensim.sim._law import install, installed_backend
+from tensim.sim._law import install, release, use_reference_law
 from tensim.sim._loads import NodeLoad
+from tensim.sim._loop import (
+    StabilityLimits,
+    contact_problem,
+    next_step,
+    record_loop,
+    sample_count,
+    stable,
+    tunnel_message,
+    whole_steps,
+)
 from tensim.sim._samples import COM, SampleBuffers, sample_channels
 from tensim.sim._timeseries import TimeSeries
 
-_CHECK_EVERY = 5  # records between stability checks in run()
-TUNNEL_ADVICE = ("Try a smaller timestep (--dt) or a smaller bead spacing (the cable's "
-                 "contact: spacing).")
 _BLOCK_STEPS = 20_000  # physics steps of inputs computed at once
 
 
@@ -57,19 +65,6 @@ class Controller(Protocol):
         """Writes this controller's commands into ``sim.drive``."""
 
 
-@dataclasses.dataclass(frozen=True)
-class StabilityLimits:
-    """Bounds past which a run is declared unstable.
-
-    Attributes:
-        max_speed: largest allowed generalized velocity of any body [m/s or rad/s].
-        max_tension: largest allowed cable force [N].
-    """
-
-    max_speed: float = 200.0
-    max_tension: float = 1e5
-
-
 class Simulation:
     """One robot simulated at a fixed step, with its cables, motors and controller.
 
@@ -88,24 +83,26 @@ class Simulation:
         controller: sets up the cable drive before the first step; None keeps every rest
             length where it is.
         record_dt: recording period [s]; a whole number of physics steps.
-        backend: the cable law, ``"auto"``, ``"compiled"`` or ``"python"`` (the reference;
-            process-wide, see :func:`tensim.sim.install_law`).
+        backend: the cable law, ``"auto"``, ``"compiled"`` or ``"python"`` (the reference,
+            slow). The choice is this simulation's alone: other live simulations keep theirs.
         limits: the stability bounds.
     """
 
     def __init__(self, compiled: CompiledModel, *, controller: Controller | None = None,
                  loads: Sequence[NodeLoad] = (), record_dt: float = 0.01, backend: str = "auto",
                  limits: StabilityLimits | None = None):
-        self._previous_law = installed_backend()
         self.backend = install(backend)
         compiled = compiled.with_load_nodes(tuple(ld.node for ld in loads))
         self.compiled = compiled
         self.model = copy.copy(compiled.model)  # the controller writes its gains here
         self.data = mujoco.MjData(self.model)
+        if self.backend == "python":  # this model only: its marker selects the law's body
+            use_reference_law(self.model, self.data)
+            weakref.finalize(self, release, self.data)
         mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key(BUILD_KEY).id)
         self.index = compiled.index
         self.dt = float(self.model.opt.timestep)
-        self.record_steps = _whole_steps(record_dt, self.dt, "record_dt")
+        self.record_steps = whole_steps(record_dt, self.dt, "record_dt")
         self.limits = limits or StabilityLimits()
         self.drive = CableDrive(compiled, self.model, data=self.data)
         self._loads = tuple(loads)
@@ -120,10 +117,10 @@ class Simulation:
     # -- lifecycle ---------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Puts back the law that was installed before, if this simulation changed it."""
-        if self._previous_law is not None and self._previous_law != self.backend:
-            install(self._previous_law)
-            self._previous_law = None
+        """Releases the reference law's hold on this simulation's data (``backend="python"``);
+        the compiled law needs nothing released."""
+        if self.backend == "python":
+            release(self.data)
 
     def __enter__(self) -> Simulation:
         return self
@@ -137,7 +134,7 @@ class Simulation:
         return (self._next_step() - 1) * self.dt
 
     def _next_step(self) -> int:
-        return round(self.data.time / self.dt)
+        return next_step(self.data.time, self.dt)
 
     def get_state(self) -> np.ndarray:
         """The complete simulation state (``mjSTATE_INTEGRATION``): restore with set_state."""
@@ -194,42 +191,26 @@ class Simulation:
         Returns:
             The recorded samples, the current state included as the first one.
         """
-        n_samples = math.floor(duration / (self.record_steps * self.dt) + 1e-9)
-        recorder = _Recorder(self, n_samples + 1)
-        recorder.take(self)
-        every = max(1, round(1.0 / (self.record_steps * self.dt)))
-        plan, per_block = self.inputs(), max(1, _BLOCK_STEPS // self.record_steps)
-        for k in range(n_samples):
-            if k % per_block == 0:
-                count = min(per_block, n_samples - k) * self.record_steps
-                segments = _Segments(plan.control(self._next_step(), count))
-                done = 0
-            segments.run(self, done, done + self.record_steps)
-            done += self.record_steps
-            if k % _CHECK_EVERY == 0 or k == n_samples - 1:
-                self.check()
-            recorder.take(self)
-            if on_record is not None:
-                on_record(self)
-            if progress is not None and (k + 1) % every == 0:
-                progress((k + 1) * self.record_steps * self.dt, duration)
-        return recorder.series()
+        n_samples = sample_count(duration, self.record_steps, self.dt)
+        run = _SingleRun(self, n_samples)
+        record_loop(run, n_samples, self.record_steps, self.dt, duration, progress,
+                    None if on_record is None else lambda: on_record(self))
+        return run.recorder.series()
 
     # -- checks ------------------------------------------------------------------------------
 
     def check(self) -> None:
         """Raises :class:`SimulationError` naming the body or cable if the state ran away."""
-        speed = np.abs(self._qvel).max(initial=0.0)
-        force = -self.data.actuator_force[:self.compiled.n_cables].min(initial=0.0)
         bad_acc = self._bad_acc.number
-        if speed < self.limits.max_speed and force < self.limits.max_tension and not bad_acc:
+        if stable(self._qvel, self.data.actuator_force[:self.compiled.n_cables],
+                  np.array(bad_acc), self.limits):
             # MuJoCo's reset clears the activations: keep the peak tensions for the message
             self._peak_seen = (self.time, self.drive.peak.copy())
-            problem = self._contact.problem(self.model, self.data) if self._contact else None
+            problem = contact_problem(self._contact, self.model, self.data) \
+                if self._contact else None
             if problem is None:
-                return  # also False for NaN, which lands below
-            raise SimulationError(f"contact cable tunnelled at t = {self.time:.3f} s: {problem}. "
-                                  + TUNNEL_ADVICE)
+                return
+            raise SimulationError(tunnel_message(self.time, problem))
         raise SimulationError(diagnose(self.model, self.data, self.index, self.limits,
                                        self.time, bool(bad_acc),
                                        getattr(self, "_peak_seen", None)))
@@ -237,12 +218,13 @@ class Simulation:
 
 def diagnose(m: mujoco.MjModel, d: mujoco.MjData, index: ModelIndex, limits: StabilityLimits,
              time: float, bad_acc: bool,
-             peak_seen: tuple[float, np.ndarray] | None = None) -> str:
+             peak_seen: tuple[float, np.ndarray] | None = None, reset: bool = True) -> str:
     """The message for an unstable state: the fastest body, the most loaded cable, what to try.
 
     After MuJoCo's bad-acceleration reset the state is the reset one: the body is then the one
     of the degree of freedom MuJoCo found (its warning keeps it), and ``peak_seen`` (time [s],
-    (n_cables,) peak tensions [N] at the last check before) gives the cable tensions.
+    (n_cables,) peak tensions [N] at the last check before) gives the cable tensions. An
+    engine that does not reset (MuJoCo Warp: ``reset=False``) keeps the state it reached.
     """
     qvel = np.nan_to_num(np.abs(d.qvel), nan=np.inf)
     body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.dof_bodyid[np.argmax(qvel)])) \
@@ -251,7 +233,8 @@ def diagnose(m: mujoco.MjModel, d: mujoco.MjData, index: ModelIndex, limits: Sta
     load, when = "the most loaded cable is", f"at t = {time:.3f} s"
     warning = d.warning[mujoco.mjtWarning.mjWARN_BADQACC]
     if bad_acc:
-        what = "MuJoCo found a non-finite acceleration and reset the state"
+        what = "MuJoCo found a non-finite acceleration" + (" and reset the state" if reset
+                                                           else "")
         if warning.number and 0 <= warning.lastinfo < m.nv:
             dof_body = int(m.dof_bodyid[warning.lastinfo])
             what = (f"MuJoCo found a non-finite acceleration of body "
@@ -298,6 +281,32 @@ class _Segments:
             start = end
 
 
+class _SingleRun:
+    """The back-end of one :meth:`Simulation.run` for :func:`record_loop`: blocks of inputs
+    stepped in runs of equal rows, samples into a :class:`_Recorder`."""
+
+    def __init__(self, sim: Simulation, n_samples: int):
+        self.sim, self.n_samples = sim, n_samples
+        self.recorder = _Recorder(sim, n_samples + 1)
+        self.plan, self.per_block = sim.inputs(), max(1, _BLOCK_STEPS // sim.record_steps)
+        self.segments, self.done = _Segments(np.zeros((0, 0))), 0
+
+    def advance(self, k: int, nstep: int) -> bool:
+        if k % self.per_block == 0:  # the inputs of the next records
+            count = min(self.per_block, self.n_samples - k) * nstep
+            self.segments = _Segments(self.plan.control(self.sim._next_step(), count))
+            self.done = 0
+        self.segments.run(self.sim, self.done, self.done + nstep)
+        self.done += nstep
+        return True
+
+    def take(self) -> None:
+        self.recorder.take(self.sim)
+
+    def check(self) -> None:
+        self.sim.check()
+
+
 class _Recorder:
     """Preallocated sample buffers for one :meth:`Simulation.run`; channels are derived from
     the recorded state at the end (:func:`sample_channels`)."""
@@ -336,15 +345,6 @@ class _Recorder:
         return sample_channels(self.buffers.head(self.k), self._sim.index,
                                self._sim.model.actuator_dynprm[:n],
                                self._sim.model.actuator_biasprm[:n])
-
-
-def _whole_steps(period: float, dt: float, what: str) -> int:
-    """The number of physics steps in ``period``; it must be a whole number."""
-    steps = round(period / dt)
-    if steps < 1 or abs(steps * dt - period) > 1e-9 * max(1.0, period):
-        raise ValueError(f"{what} = {period} s must be a whole number of physics steps "
-                         f"(dt = {dt} s)")
-    return steps
 
 
 @dataclasses.dataclass(frozen=True)

@@ -20,10 +20,20 @@ import mujoco
 import numpy as np
 
 from tensim.model import BUILD_KEY, CompiledModel
-from tensim.sim._batch import PhysicsScale, Trial, TrialResult, setup_trial, trial_results
+from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import InputPlan
+from tensim.sim._loop import (
+    StabilityLimits,
+    bad_acceleration,
+    contact_problem,
+    record_loop,
+    sample_time,
+    stable,
+    tunnel_message,
+)
 from tensim.sim._samples import SampleBuffers
-from tensim.sim._simulation import StabilityLimits, diagnose
+from tensim.sim._simulation import diagnose
+from tensim.sim._trials import PhysicsScale, Trial, TrialResult, setup_trial, trial_results
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _PER_WORLD = ("actuator_dynprm", "actuator_biasprm", "geom_friction")
@@ -109,6 +119,9 @@ class _WarpRun:
         self.samples = SampleBuffers.empty(compiled, 0, (n,))
         self.count = np.zeros(n, dtype=int)
         self.steps = np.zeros(n, dtype=np.int64)
+        self._contact = ContactCheck(compiled) \
+            if any(c.contact for c in compiled.structure.cables) else None
+        self._scratch = mujoco.MjData(compiled.model) if self._contact is not None else None
 
     def _setup(self, i: int, trial: Trial) -> InputPlan | None:
         try:
@@ -169,30 +182,32 @@ class _WarpRun:
             import mujoco_warp as mjw
 
             mjw.forward(self.m, self.d)
-        self._take()
-        every = max(1, round(1.0 / (self.record_steps * self.dt)))
-        for k in range(n_samples):
-            self._advance(self._control(self.steps, self.record_steps))
-            self._take()
-            self._check()
-            if progress is not None and (k + 1) % every == 0:
-                progress((k + 1) * self.record_steps * self.dt, duration)
+        record_loop(self, n_samples, self.record_steps, self.dt, duration, progress)
 
-    def _take(self) -> None:
+    # the back-end of record_loop: every world steps (worlds cannot be left out); failed
+    # trials are no longer sampled or checked
+
+    def advance(self, k: int, nstep: int) -> bool:
+        self._advance(self._control(self.steps, nstep))
+        return any(e is None for e in self.error)
+
+    def take(self) -> None:
         live = np.array([e is None for e in self.error])
         fields = {name: getattr(self.d, name).numpy()[live] for name in
                   ("ten_length", "ten_velocity", "act", "ctrl", "xpos", "xquat", "subtree_com")}
-        self.samples.put(np.flatnonzero(live), self.count[live],
-                         (self.steps[live] - 1) * self.dt, fields, self.compiled.index)
+        time = sample_time(self.steps[live] * self.dt, self.dt)  # the worlds' clocks
+        self.samples.put(np.flatnonzero(live), self.count[live], time, fields,
+                         self.compiled.index)
         self.count[live] += 1
 
-    def _check(self) -> None:
+    def check(self) -> None:
+        """The stability check of the CPU engines; MuJoCo Warp does not check accelerations
+        itself, so the check applies MuJoCo's rule to ``qacc``."""
         n = self.compiled.n_cables
         qvel, force = self.d.qvel.numpy(), self.d.actuator_force.numpy()
-        speed = np.nan_to_num(np.abs(qvel), nan=np.inf).max(axis=1)
-        pull = np.nan_to_num(-force[:, :n], nan=np.inf).max(axis=1, initial=0.0)
-        for i in np.flatnonzero(~((speed < self.limits.max_speed)
-                                  & (pull < self.limits.max_tension))):
+        bad_acc = bad_acceleration(self.d.qacc.numpy())
+        fine = stable(qvel, force[:, :n], bad_acc, self.limits)
+        for i in np.flatnonzero(~fine):
             if self.error[i] is not None:
                 continue
             d = mujoco.MjData(self.compiled.model)
@@ -200,7 +215,25 @@ class _WarpRun:
             time = float(self.samples.time[i, self.count[i] - 1])
             self.error[i] = f"trial {i}: " + diagnose(self.compiled.model, d,
                                                       self.compiled.index, self.limits, time,
-                                                      False)
+                                                      bool(bad_acc[i]), reset=False)
+        if self._contact is not None:
+            self._check_contact(np.flatnonzero(fine))
+
+    def _check_contact(self, worlds: np.ndarray) -> None:
+        """Fails the worlds whose contact cables went through an obstacle: each world's
+        positions and activations on a CPU copy of its model, checked as the CPU engines do."""
+        assert self._contact is not None and self._scratch is not None
+        qpos, act = self.d.qpos.numpy(), self.d.act.numpy()
+        for i in map(int, worlds):
+            if self.error[i] is not None:
+                continue
+            model, d = self.models[i], self._scratch
+            d.qpos[:], d.act[:] = qpos[i], act[i]
+            mujoco.mj_fwdPosition(model, d)
+            problem = contact_problem(self._contact, model, d)
+            if problem is not None:
+                time = float(self.samples.time[i, self.count[i] - 1])
+                self.error[i] = f"trial {i}: " + tunnel_message(time, problem)
 
     def results(self, duration: float, wall: float) -> list[TrialResult]:
         return trial_results(self.samples, self.count, self.models, self.error,

@@ -23,10 +23,24 @@ import mujoco
 import warp as wp
 from mujoco_warp._src.types import vec10  # the type of MuJoCo Warp's actuator parameters
 
-from tensim.model import CABLE_MARKER
+from tensim.model import _law_layout as layout
 
-_MARKER = wp.constant(float(CABLE_MARKER))
-_IMPEDANCE = wp.constant(1.0)
+# the layout's slots as Warp constants (the one specification: tensim.model._law_layout)
+_MARKER = wp.constant(float(layout.CABLE_MARKER))
+_IMPEDANCE = wp.constant(float(layout.MODE_IMPEDANCE))
+_ACTDIM, _DC_ACTDIM = wp.constant(layout.ACTDIM), wp.constant(layout.DC_ACTDIM)
+_P_MARKER, _P_MODE = wp.constant(layout.P_MARKER), wp.constant(layout.P_MODE)
+_P_MAX_SPEED, _P_MAX_TENSION = wp.constant(layout.P_MAX_SPEED), wp.constant(layout.P_MAX_TENSION)
+_P_MIN_REST, _P_MIN_LENGTH = wp.constant(layout.P_MIN_REST), wp.constant(layout.P_MIN_LENGTH)
+_P_OFFSET, _P_GAIN_K = wp.constant(layout.P_OFFSET), wp.constant(layout.P_GAIN_K)
+_P_GAIN_B, _P_TARGET = wp.constant(layout.P_GAIN_B), wp.constant(layout.P_TARGET_LENGTH)
+_B_K, _B_DAMPING = wp.constant(layout.B_STIFFNESS), wp.constant(layout.B_DAMPING)
+_B_STALL, _B_V0 = wp.constant(layout.B_STALL_FORCE), wp.constant(layout.B_NO_LOAD_SPEED)
+_B_MASS, _B_VISCOUS = wp.constant(layout.B_MASS), wp.constant(layout.B_VISCOUS)
+_B_COULOMB, _B_TP = wp.constant(layout.B_COULOMB), wp.constant(layout.B_POSITION_TIME)
+_B_BACK_DRIVABLE = wp.constant(layout.B_BACK_DRIVABLE)
+_A_REST, _A_PEAK = wp.constant(layout.A_REST), wp.constant(layout.A_PEAK)
+_A_SPEED = wp.constant(layout.A_SPEED)
 
 
 @wp.func
@@ -37,22 +51,22 @@ def _dc_step(p: vec10, b: vec10, speed: float, rest: float, target: float, x: fl
     measured = 0.0
     applied = 0.0
     if stretch > 0.0:
-        measured = b[0] * stretch
-        applied = wp.max(measured + b[1] * v, 0.0)
+        measured = b[_B_K] * stretch
+        applied = wp.max(measured + b[_B_DAMPING] * v, 0.0)
     # position loop: full voltage at an error of v0 t_p; no reeling in past the limits
-    drive = wp.min(wp.max((target - rest) / (b[4] * b[8]), -1.0), 1.0)
-    if drive < 0.0 and (measured >= p[3] or x <= p[5]):
+    drive = wp.min(wp.max((target - rest) / (b[_B_V0] * b[_B_TP]), -1.0), 1.0)
+    if drive < 0.0 and (measured >= p[_P_MAX_TENSION] or x <= p[_P_MIN_LENGTH]):
         drive = 0.0
     # backward Euler in the speed, Coulomb friction set-valued (the spool may stick)
-    inertia = b[5] + dt * (b[3] / b[4] + b[6])
-    free = (b[5] * speed + dt * (applied + b[3] * drive)) / inertia
-    slip = dt * b[7] / inertia
+    inertia = b[_B_MASS] + dt * (b[_B_STALL] / b[_B_V0] + b[_B_VISCOUS])
+    free = (b[_B_MASS] * speed + dt * (applied + b[_B_STALL] * drive)) / inertia
+    slip = dt * b[_B_COULOMB] / inertia
     new_speed = 0.0
     if free > slip:
         new_speed = free - slip
     elif free < -slip:
         new_speed = free + slip
-    if b[9] == 0.0:  # a worm gear: the spool turns only where the motor drives it
+    if b[_B_BACK_DRIVABLE] == 0.0:  # a worm gear: the spool turns only where the motor drives it
         if drive > 0.0:
             new_speed = wp.max(new_speed, 0.0)
         elif drive < 0.0:
@@ -60,8 +74,8 @@ def _dc_step(p: vec10, b: vec10, speed: float, rest: float, target: float, x: fl
         else:
             new_speed = 0.0
     new = rest + new_speed * dt
-    if new < p[4]:  # the floor on the rest length stops the spool
-        new = p[4]
+    if new < p[_P_MIN_REST]:  # the floor on the rest length stops the spool
+        new = p[_P_MIN_REST]
         new_speed = 0.0
     return wp.vec2(new, new_speed)
 
@@ -86,7 +100,7 @@ def cable_law(
     world, i = wp.tid()
     p = actuator_dynprm[world % actuator_dynprm.shape[0], i]
     actnum = actuator_actnum[i]
-    if p[0] != _MARKER or (actnum != 2 and actnum != 3):
+    if p[_P_MARKER] != _MARKER or (actnum != _ACTDIM and actnum != _DC_ACTDIM):
         return
     b = actuator_biasprm[world % actuator_biasprm.shape[0], i]
     dt = opt_timestep[world % opt_timestep.shape[0]]
@@ -94,44 +108,46 @@ def cable_law(
     adr = actuator_actadr[i]
     x = ten_length[world, tendon]
     v = ten_velocity[world, tendon]
-    k = b[0]
-    rest = act[world, adr]
+    k = b[_B_K]
+    rest = act[world, adr + _A_REST]
     command = ctrl[world, actuator_ctrladr[i]]
     target = command
-    if p[1] == _IMPEDANCE:
+    if p[_P_MODE] == _IMPEDANCE:
         # impedance law (eq. 3): the rest length that turns the measured tension into T_set
         stretch = x - rest
         measured = 0.0
         if stretch > 0.0:
             measured = k * stretch
-        setpoint = wp.max(0.0, p[6] + p[7] * (x - p[9]) + p[8] * (v - command))
+        setpoint = wp.max(0.0, p[_P_OFFSET] + p[_P_GAIN_K] * (x - p[_P_TARGET])
+                          + p[_P_GAIN_B] * (v - command))
         target = rest - (setpoint - measured) / k
     new = rest
-    if actnum == 3:
-        dc = _dc_step(p, b, act[world, adr + 2], rest, target, x, v, dt)
-        act_dot[world, adr + 2] = (dc[1] - act[world, adr + 2]) / dt
+    if actnum == _DC_ACTDIM:
+        speed = act[world, adr + _A_SPEED]
+        dc = _dc_step(p, b, speed, rest, target, x, v, dt)
+        act_dot[world, adr + _A_SPEED] = (dc[1] - speed) / dt
         new = dc[0]
     else:
         # motor: at most max_speed, never reeling in past max_tension or below the floors
-        reach = p[2] * dt
+        reach = p[_P_MAX_SPEED] * dt
         step = wp.min(wp.max(target - rest, -reach), reach)
         new = rest + step
         if step < 0.0:
-            new = wp.max(new, wp.min(rest, x - p[3] / k))
-            if x <= p[5]:
+            new = wp.max(new, wp.min(rest, x - p[_P_MAX_TENSION] / k))
+            if x <= p[_P_MIN_LENGTH]:
                 new = rest
-        new = wp.max(new, p[4])
+        new = wp.max(new, p[_P_MIN_REST])
     rate = (new - rest) / dt
-    act_dot[world, adr] = rate
+    act_dot[world, adr + _A_REST] = rate
     # cable (eq. 1-2) from the rest length after this step, as Euler integration stores it
     stretch = x - (rest + rate * dt)
     spring = 0.0
     applied = 0.0
     if stretch > 0.0:
         spring = k * stretch
-        applied = wp.max(spring + b[1] * v, 0.0)
-    peak = act[world, adr + 1]
-    act_dot[world, adr + 1] = (wp.max(peak, spring) - peak) / dt
+        applied = wp.max(spring + b[_B_DAMPING] * v, 0.0)
+    peak = act[world, adr + _A_PEAK]
+    act_dot[world, adr + _A_PEAK] = (wp.max(peak, spring) - peak) / dt
     actuator_force[world, i] = -applied
 
 
@@ -159,10 +175,7 @@ def warp_host_model(model: mujoco.MjModel) -> mujoco.MjModel:
 
 
 def _law_actuators(model: mujoco.MjModel) -> Any:
-    import numpy as np
-
-    return np.flatnonzero((model.actuator_dynprm[:, 0] == CABLE_MARKER)
-                          & np.isin(model.actuator_actnum, (2, 3)))
+    return layout.is_cable(model).nonzero()[0]
 
 
 def install_warp_law(m: Any) -> None:

@@ -6,7 +6,7 @@ array file), each with its own friction and restitution. :func:`parse_terrain` r
 ``--terrain NAME[:key=value,...]`` strings; ``WorldOptions(terrain=...)`` puts a robot on one.
 """
 
-from tensim.terrain._build import add_terrain, contact_parameters
+from tensim.terrain._build import add_terrain, contact_parameters, restitution_dampratio
 from tensim.terrain._errors import TerrainError
 from tensim.terrain._geometry import Box, Geometry, Grid
 from tensim.terrain._kinds import (
@@ -47,4 +47,5 @@ __all__ = [
     "format_terrain",
     "parse_terrain",
     "place_on_terrain",
+    "restitution_dampratio",
 ]

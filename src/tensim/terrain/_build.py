@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import mujoco
@@ -17,18 +18,25 @@ _FEATURE_RGBA = [0.6, 0.55, 0.5, 1]
 _FIELD_BASE = 0.2  # m, depth of the height field's solid base below its lowest point
 
 
+def restitution_dampratio(restitution: float) -> float:
+    """Damping ratio of MuJoCo's contact spring that gives this coefficient of restitution
+    (the one mapping: the robot's rods and the terrains use it)."""
+    if restitution <= 0:
+        return 1.0
+    log_e = math.log(restitution)
+    return -log_e / math.sqrt(math.pi**2 + log_e**2)
+
+
 def contact_parameters(terrain: Terrain, contact_timeconst: float) -> dict[str, Any]:
     """The geom attributes that set a terrain's robot-contact parameters.
 
     Without a terrain friction the robot's geoms outrank the terrain, so each rod's own
     friction and restitution hold; with one, the terrain outranks the robot.
     """
-    from tensim.model._compile import _restitution_dampratio  # the one mapping, shared
-
     if terrain.friction is None:
         return {"solref": [contact_timeconst, 1.0]}
     return {"priority": TERRAIN_PRIORITY, "friction": [terrain.friction, 0.005, 0.0001],
-            "solref": [contact_timeconst, _restitution_dampratio(terrain.restitution or 0.0)]}
+            "solref": [contact_timeconst, restitution_dampratio(terrain.restitution or 0.0)]}
 
 
 def add_terrain(spec: mujoco.MjSpec, terrain: Terrain, contact_timeconst: float) -> Geometry:

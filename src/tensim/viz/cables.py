@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 
 from tensim.model import CompiledModel
+from tensim.sim import load_cell_tension
 from tensim.viz._scene import add_connector
 
 SLACK_RGBA = (0.55, 0.55, 0.55, 1.0)
@@ -52,9 +53,10 @@ class TensionColors:
         data = mujoco.MjData(compiled.model)
         mujoco.mj_fwdPosition(compiled.model, data)
         length = data.ten_length[compiled.index.tendon]
-        start = compiled.stiffness * np.maximum(0.0, length - compiled.rest_length)
+        law = compiled.law()
+        start = load_cell_tension(length, compiled.rest_length, law.stiffness)
         top = nice_ceiling(2 * float(start.max(initial=0.0))) if start.size else 50.0
-        limits = compiled.max_tension[np.isfinite(compiled.max_tension)]
+        limits = law.max_tension[np.isfinite(law.max_tension)]
         return cls(min(top or 50.0, float(limits.max())) if limits.size else top or 50.0)
 
     @classmethod

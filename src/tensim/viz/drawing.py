@@ -32,6 +32,8 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
+from tensim.viz._span import Span as Span  # re-exported: the plans name their spans
+
 log = logging.getLogger(__name__)
 
 # A simulation shorter than this many steps cannot hide the child's start (about a second of
@@ -42,17 +44,6 @@ MIN_STEPS = 20_000
 # function(data, path, **options).
 KINDS = {"tensions": "plot_cable_tensions", "lengths": "plot_lengths",
          "velocity_input": "plot_velocity_input", "path": "plot_path"}
-
-
-@dataclasses.dataclass(frozen=True)
-class Span:
-    """A shaded time span of a tension plot: ``start`` to ``stop`` [s], named in the legend."""
-
-    start: float
-    stop: float
-    label: str
-    alpha: float = 0.12
-    color: str = "tab:orange"
 
 
 class FigureError(RuntimeError):

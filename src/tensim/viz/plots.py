@@ -7,18 +7,15 @@ import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from tensim._files import atomic_path
 from tensim.control.velocity_table import VelocityTable
 from tensim.sim import TimeSeries
-from tensim.viz.drawing import Span
+from tensim.viz._span import Span
 
 # A panel is about 500 pixels wide at the saved resolution: a line with more samples than
 # this draws the same picture from the minimum and maximum of each group of samples.
@@ -82,8 +79,8 @@ def panel_grid(kind: str, cables: Sequence[str], columns: int = 3, title: str = 
     rows = max(1, math.ceil(len(cables) / columns))
     header = 0.85 if "\n" in title else 0.65 if title else 0.35  # title and panel titles [in]
     width, fig_height = 4.2 * columns, height * rows + header
-    fig, axes = plt.subplots(rows, columns, figsize=(width, fig_height), sharex=True,
-                             squeeze=False)
+    fig = new_figure((width, fig_height))
+    axes = fig.subplots(rows, columns, sharex=True, squeeze=False)
     fig.subplots_adjust(left=0.62 / width, right=1 - 0.15 / width, bottom=0.5 / fig_height,
                         top=1 - header / fig_height,
                         wspace=0.75 / 4.2, hspace=0.55 / height)
@@ -106,8 +103,6 @@ def _panels(grid: PanelGrid | None, kind: str, cables: Sequence[str], columns: i
     """Fills ``grid`` (or a new grid, where it was laid out for other cables or options) with
     ``draw(ax, cable)`` per cable, and the legend."""
     if grid is None or not grid.fits(kind, cables, columns, title):
-        if grid is not None:
-            plt.close(grid.figure)
         grid = panel_grid(kind, cables, columns, title)
     axes = grid.figure.axes
     for ax, name in zip(axes, cables, strict=False):
@@ -191,7 +186,8 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None
     """Top view (x, y) of the bodies' paths [m] (``items``; None: every recorded body and the
     centre of mass); start marked with a circle."""
     items = series.items("pos_x") if items is None else items
-    fig, ax = plt.subplots(figsize=(5, 5))
+    fig = new_figure((5, 5))
+    ax = fig.subplots()
     if title:
         ax.set_title(title, fontsize=10)
     for name in items:
@@ -228,10 +224,17 @@ def plot_velocity_input(table: VelocityTable, path: Path, *,
     return save_figure(_panels(grid, "velocity_input", chosen, columns, title, draw), path)
 
 
+def new_figure(size: tuple[float, float]) -> Figure:
+    """A figure of ``size`` (width, height) [in] on its own Agg canvas: no pyplot, and no
+    plotting backend chosen for the process."""
+    fig = Figure(figsize=size)
+    FigureCanvasAgg(fig)
+    return fig
+
+
 def save_figure(fig: Figure, path: Path, dpi: int = 120) -> Path:
-    """Writes ``fig`` as a PNG atomically and closes it."""
+    """Writes ``fig`` as a PNG atomically."""
     with atomic_path(path) as tmp:
         # zlib level 3: 5 % larger files than matplotlib's 6, written in 60 % of the time
         fig.savefig(tmp, dpi=dpi, format="png", pil_kwargs={"compress_level": 3})
-    plt.close(fig)
     return path

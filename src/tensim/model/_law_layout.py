@@ -1,0 +1,160 @@
+"""The cable law's parameter layout: the one specification every body of the law reads.
+
+A tensim cable is one MuJoCo actuator whose law parameters live in the ``MjModel``
+(``actuator_dynprm``, ``actuator_biasprm``; ``actuator_gainprm`` is zero: the law writes the
+whole force as bias) and whose state lives in ``act``. This module names each slot once. The
+compiler writes the parameters through these names, the Python reference law and the MuJoCo
+Warp kernel read them through these names, and the compiled law reads them from
+``_cable_layout.h``, which :func:`c_header` generates from this module (``python
+tools/law_header.py`` rewrites it; a test checks the committed header equals its output).
+
+:class:`LawParameters` gives every per-cable parameter as a live view of a model's arrays, so
+readers derive the values from the model the physics steps (nothing goes stale when a
+controller or a physics scale edits that model).
+"""
+
+from __future__ import annotations
+
+import zlib
+
+import mujoco
+import numpy as np
+
+# actuator_dynprm[0] of a tensim cable: it also selects the law's body, per model
+CABLE_MARKER = 7317.0  # the compiled law (the default)
+REFERENCE_MARKER = 7318.0  # the Python reference law (a Simulation with backend="python")
+
+# -- the slots, in order: (name, meaning [unit]) ---------------------------------------------
+DYNPRM = (
+    ("marker", "CABLE_MARKER or REFERENCE_MARKER: a tensim cable, and its law's body"),
+    ("mode", "MODE_REST or MODE_IMPEDANCE"),
+    ("max_speed", "motor speed limit [m/s]"),
+    ("max_tension", "the motor reels in no further at this static tension [N]"),
+    ("min_rest", "floor on the rest length [m]"),
+    ("min_length", "no reeling in while the cable is this short [m]"),
+    ("offset_tension", "impedance law T0 [N]"),
+    ("gain_k", "impedance law K [N/m]"),
+    ("gain_b", "impedance law B [N s/m]"),
+    ("target_length", "impedance law L* [m]"),
+)
+BIASPRM = (
+    ("stiffness", "cable k [N/m]"),
+    ("damping", "cable b [N s/m]"),
+    ("reserved", "stays 0: MuJoCo's compiler reads a positive one as a damping ratio"),
+    # DC motors only (actdim 3), in cable coordinates (tensim.structure.DCMotor.line)
+    ("stall_force", "DC motor stall force F_s [N]"),
+    ("no_load_speed", "DC motor no-load line speed v0 [m/s]"),
+    ("mass", "DC motor reflected mass M [kg]"),
+    ("viscous", "DC motor viscous friction c [N s/m]"),
+    ("coulomb", "DC motor Coulomb friction F_c [N]"),
+    ("position_time", "DC motor position loop time constant t_p [s]"),
+    ("back_drivable", "1.0 where the cable may drive the spool, 0.0 for a worm gear"),
+)
+ACT = (
+    ("rest", "the motor's rest length l [m]"),
+    ("peak", "running maximum of the load-cell tension [N]"),
+    ("speed", "DC motors only: the spool's line speed dl/dt [m/s]"),
+)
+GAIN = 0.0  # actuator_gainprm[0]: the law returns the whole force as bias
+
+MODE_REST = 0  # the motor follows a commanded rest length (ctrl: the rest length [m])
+MODE_IMPEDANCE = 1  # the motor realises the impedance law's setpoint (ctrl: V* [m/s])
+ACTDIM = 2  # a kinematic motor's activations: rest length, peak tension
+DC_ACTDIM = 3  # a DC motor's: rest length, peak tension, line speed
+
+
+def _slot(table: tuple[tuple[str, str], ...], name: str) -> int:
+    return [n for n, _ in table].index(name)
+
+
+P_MARKER, P_MODE = _slot(DYNPRM, "marker"), _slot(DYNPRM, "mode")
+P_MAX_SPEED, P_MAX_TENSION = _slot(DYNPRM, "max_speed"), _slot(DYNPRM, "max_tension")
+P_MIN_REST, P_MIN_LENGTH = _slot(DYNPRM, "min_rest"), _slot(DYNPRM, "min_length")
+P_OFFSET, P_GAIN_K = _slot(DYNPRM, "offset_tension"), _slot(DYNPRM, "gain_k")
+P_GAIN_B, P_TARGET_LENGTH = _slot(DYNPRM, "gain_b"), _slot(DYNPRM, "target_length")
+B_STIFFNESS, B_DAMPING = _slot(BIASPRM, "stiffness"), _slot(BIASPRM, "damping")
+B_STALL_FORCE, B_NO_LOAD_SPEED = _slot(BIASPRM, "stall_force"), _slot(BIASPRM, "no_load_speed")
+B_MASS, B_VISCOUS, B_COULOMB = (_slot(BIASPRM, n) for n in ("mass", "viscous", "coulomb"))
+B_POSITION_TIME = _slot(BIASPRM, "position_time")
+B_BACK_DRIVABLE = _slot(BIASPRM, "back_drivable")
+A_REST, A_PEAK, A_SPEED = (_slot(ACT, n) for n in ("rest", "peak", "speed"))
+
+
+def dynprm(mode: int, max_speed: float, max_tension: float, min_rest: float, min_length: float,
+           offset_tension: float, gain_k: float, gain_b: float, target_length: float
+           ) -> list[float]:
+    """A cable actuator's ``dynprm`` row, the marker first."""
+    row = [0.0] * len(DYNPRM)
+    for slot, value in ((P_MARKER, CABLE_MARKER), (P_MODE, mode), (P_MAX_SPEED, max_speed),
+                        (P_MAX_TENSION, max_tension), (P_MIN_REST, min_rest),
+                        (P_MIN_LENGTH, min_length), (P_OFFSET, offset_tension),
+                        (P_GAIN_K, gain_k), (P_GAIN_B, gain_b),
+                        (P_TARGET_LENGTH, target_length)):
+        row[slot] = float(value)
+    return row
+
+
+def biasprm(stiffness: float, damping: float, dc: dict[str, float] | None = None) -> list[float]:
+    """A cable actuator's ``biasprm`` row; ``dc`` holds a DC motor's slots by name."""
+    row = [0.0] * len(BIASPRM)
+    row[B_STIFFNESS], row[B_DAMPING] = float(stiffness), float(damping)
+    for name, value in (dc or {}).items():
+        row[_slot(BIASPRM, name)] = float(value)
+    return row
+
+
+def is_cable(model: mujoco.MjModel) -> np.ndarray:
+    """(nu,) whether each actuator of ``model`` is a tensim cable."""
+    return np.isin(model.actuator_dynprm[:, P_MARKER], (CABLE_MARKER, REFERENCE_MARKER)) \
+        & np.isin(model.actuator_actnum, (ACTDIM, DC_ACTDIM))
+
+
+class LawParameters:
+    """The law parameters of a model's first ``n`` actuators (its cables), as live views.
+
+    Each attribute is a (n,) view of ``actuator_dynprm``/``actuator_biasprm``: reading it
+    gives what the physics uses now, writing it edits the model.
+
+    Attributes:
+        stiffness, damping: cable k [N/m] and b [N s/m].
+        mode: MODE_REST or MODE_IMPEDANCE per cable.
+        max_speed, max_tension, min_rest, min_length: motor limits [m/s], [N], [m], [m].
+        offset_tension, gain_k, gain_b, target_length: impedance T0 [N], K [N/m], B [N s/m],
+            L* [m].
+    """
+
+    def __init__(self, model: mujoco.MjModel, n: int):
+        p, b = model.actuator_dynprm[:n], model.actuator_biasprm[:n]
+        self.stiffness, self.damping = b[:, B_STIFFNESS], b[:, B_DAMPING]
+        self.mode = p[:, P_MODE]
+        self.max_speed, self.max_tension = p[:, P_MAX_SPEED], p[:, P_MAX_TENSION]
+        self.min_rest, self.min_length = p[:, P_MIN_REST], p[:, P_MIN_LENGTH]
+        self.offset_tension, self.gain_k = p[:, P_OFFSET], p[:, P_GAIN_K]
+        self.gain_b, self.target_length = p[:, P_GAIN_B], p[:, P_TARGET_LENGTH]
+
+
+def _definitions() -> list[str]:
+    lines = [f"#define TENSIM_CABLE_MARKER {CABLE_MARKER!r}",
+             f"#define TENSIM_REFERENCE_MARKER {REFERENCE_MARKER!r}",
+             f"#define TENSIM_MODE_REST {float(MODE_REST)!r}",
+             f"#define TENSIM_MODE_IMPEDANCE {float(MODE_IMPEDANCE)!r}",
+             f"#define TENSIM_ACTDIM {ACTDIM}", f"#define TENSIM_DC_ACTDIM {DC_ACTDIM}"]
+    for prefix, table in (("P", DYNPRM), ("B", BIASPRM), ("A", ACT)):
+        lines.append("")
+        lines += [f"#define TENSIM_{prefix}_{name.upper()} {k} /* {doc} */"
+                  for k, (name, doc) in enumerate(table)]
+    return lines
+
+
+def layout_id() -> int:
+    """A checksum of the layout: the compiled law reports the one it was built with, and the
+    loader refuses a library built from another layout."""
+    return zlib.crc32("\n".join(_definitions()).encode())
+
+
+def c_header() -> str:
+    """The text of ``_cable_layout.h``: this layout as C constants for ``_cable.c``."""
+    return "\n".join([
+        "/* Generated from tensim/model/_law_layout.py by tools/law_header.py: do not edit. */",
+        "#ifndef TENSIM_CABLE_LAYOUT_H", "#define TENSIM_CABLE_LAYOUT_H", "",
+        *_definitions(), "", f"#define TENSIM_LAYOUT_ID {layout_id()}u", "", "#endif", ""])

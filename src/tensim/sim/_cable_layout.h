@@ -1,0 +1,40 @@
+/* Generated from tensim/model/_law_layout.py by tools/law_header.py: do not edit. */
+#ifndef TENSIM_CABLE_LAYOUT_H
+#define TENSIM_CABLE_LAYOUT_H
+
+#define TENSIM_CABLE_MARKER 7317.0
+#define TENSIM_REFERENCE_MARKER 7318.0
+#define TENSIM_MODE_REST 0.0
+#define TENSIM_MODE_IMPEDANCE 1.0
+#define TENSIM_ACTDIM 2
+#define TENSIM_DC_ACTDIM 3
+
+#define TENSIM_P_MARKER 0 /* CABLE_MARKER or REFERENCE_MARKER: a tensim cable, and its law's body */
+#define TENSIM_P_MODE 1 /* MODE_REST or MODE_IMPEDANCE */
+#define TENSIM_P_MAX_SPEED 2 /* motor speed limit [m/s] */
+#define TENSIM_P_MAX_TENSION 3 /* the motor reels in no further at this static tension [N] */
+#define TENSIM_P_MIN_REST 4 /* floor on the rest length [m] */
+#define TENSIM_P_MIN_LENGTH 5 /* no reeling in while the cable is this short [m] */
+#define TENSIM_P_OFFSET_TENSION 6 /* impedance law T0 [N] */
+#define TENSIM_P_GAIN_K 7 /* impedance law K [N/m] */
+#define TENSIM_P_GAIN_B 8 /* impedance law B [N s/m] */
+#define TENSIM_P_TARGET_LENGTH 9 /* impedance law L* [m] */
+
+#define TENSIM_B_STIFFNESS 0 /* cable k [N/m] */
+#define TENSIM_B_DAMPING 1 /* cable b [N s/m] */
+#define TENSIM_B_RESERVED 2 /* stays 0: MuJoCo's compiler reads a positive one as a damping ratio */
+#define TENSIM_B_STALL_FORCE 3 /* DC motor stall force F_s [N] */
+#define TENSIM_B_NO_LOAD_SPEED 4 /* DC motor no-load line speed v0 [m/s] */
+#define TENSIM_B_MASS 5 /* DC motor reflected mass M [kg] */
+#define TENSIM_B_VISCOUS 6 /* DC motor viscous friction c [N s/m] */
+#define TENSIM_B_COULOMB 7 /* DC motor Coulomb friction F_c [N] */
+#define TENSIM_B_POSITION_TIME 8 /* DC motor position loop time constant t_p [s] */
+#define TENSIM_B_BACK_DRIVABLE 9 /* 1.0 where the cable may drive the spool, 0.0 for a worm gear */
+
+#define TENSIM_A_REST 0 /* the motor's rest length l [m] */
+#define TENSIM_A_PEAK 1 /* running maximum of the load-cell tension [N] */
+#define TENSIM_A_SPEED 2 /* DC motors only: the spool's line speed dl/dt [m/s] */
+
+#define TENSIM_LAYOUT_ID 118594802u
+
+#endif
