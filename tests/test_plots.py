@@ -67,7 +67,7 @@ def test_many_cables_share_panels_by_name_path_or_tag_and_each_is_drawn_once():
              for limb in ("spine", "fl", "fr", "bl", "br") for k in range(10)] + \
         [f"low_{k}" for k in range(6)]
     panels = cable_panels(names)
-    # p/limb gives 21 groups (within the 24-panel limit), finer than p alone (5)
+    # p/limb gives 21 groups (within the 30-panel limit), finer than p alone (5)
     assert len(panels) == 21 and panels[0] == ("p0/spine (10 cables)", tuple(names[:10]))
     assert panels[-1] == ("(top level) (6 cables)", tuple(names[-6:]))
     assert sorted(c for _, group in panels for c in group) == sorted(names)
@@ -77,7 +77,7 @@ def test_many_cables_share_panels_by_name_path_or_tag_and_each_is_drawn_once():
     tags = {name: (name.rsplit("_", 1)[0], "joint") for name in flat}
     by_tag = cable_panels(flat, tags)
     assert [title for title, _ in by_tag] == [f"{kind} (11 cables)" for kind in kinds]
-    # no names or tags to group by: the cables in order, in at most 24 runs
+    # no names or tags to group by: the cables in order, in at most 30 runs of equal size
     runs = cable_panels(flat)
     assert len(runs) == 22 and runs[0] == ("outer_top_1 ... outer_right_1 (3 cables)",
                                            tuple(flat[:3]))

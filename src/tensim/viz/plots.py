@@ -49,7 +49,7 @@ def thin(x: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS
 
 # More cables than this share panels: one panel per group of cables (see cable_panels), so a
 # robot of hundreds of cables still gets a figure of a few rows that draws in seconds.
-MAX_PANELS = 24
+MAX_PANELS = 30
 GROUP_POINTS = 400  # samples per line in a shared panel (many lines: a coarser thinning)
 
 Panel = tuple[str, tuple[str, ...]]  # a panel's title and the cables it draws
@@ -155,8 +155,8 @@ def _grid(kind: str, panels: tuple[Panel, ...], columns: int, title: str) -> Pan
         ax.set_visible(False)
     for ax in axes[-1]:
         ax.set_xlabel("time [s]", fontsize=8)
-    if title:
-        fig.suptitle(title, fontsize=11)
+    if title:  # 0.2 in from the top of a tall figure (2 % of its height: into the panels)
+        fig.suptitle(title, fontsize=11, y=0.98 if fig_height <= 12 else 1 - 0.2 / fig_height)
     return PanelGrid(kind, panels, columns, title, fig)
 
 
