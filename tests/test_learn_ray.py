@@ -10,6 +10,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import secrets
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -54,22 +56,25 @@ def uninterrupted(tmp_path_factory) -> list[tuple[int, tuple[float, ...], float,
 
 @pytest.fixture
 def running_cluster():
-    """The address of a Ray cluster of one CPU, with token authentication, started (and
-    stopped) by another process."""
+    """The address and token of a Ray cluster of one CPU, with token authentication, started
+    (and stopped) by another process."""
     temp = tempfile.mkdtemp(prefix="ray", dir="/tmp")  # Ray's socket paths must stay short
     script = ("import sys, ray; ray.init(address='local', num_cpus=1, include_dashboard=False,"
               " _temp_dir=sys.argv[1]); print(ray.get_runtime_context().gcs_address, "
               "flush=True); sys.stdin.read(); ray.shutdown()")
+    token = secrets.token_hex(32)  # given to both sides: no token file is written
     head = subprocess.Popen([sys.executable, "-c", script, temp], stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
-                            env={**os.environ, "RAY_AUTH_MODE": "token"})
+                            env={**os.environ, "RAY_AUTH_MODE": "token",
+                                 "RAY_AUTH_TOKEN": token})
     try:
         address = head.stdout.readline().strip()
         assert address, "the cluster did not start"
-        yield address
+        yield address, token
     finally:
         head.stdin.close()  # the head process shuts its cluster down and exits
         head.wait(timeout=120)
+        shutil.rmtree(temp, ignore_errors=True)
 
 
 _JOIN = """
@@ -87,14 +92,15 @@ print(json.dumps({"cpus": cpus, "records": records}))
 
 def test_ray_joins_the_cluster_ray_address_names_without_asking_for_cpus(
         tmp_path, running_cluster, uninterrupted):
-    # a process set up as docs/learning.md says: RAY_ADDRESS, and RAY_AUTH_MODE=token for a
-    # cluster with token authentication (the token: ~/.ray/auth_token, as the cluster's)
+    # a process set up as docs/learning.md says: RAY_ADDRESS, and for a cluster with token
+    # authentication RAY_AUTH_MODE=token and its token
+    address, token = running_cluster
     (tmp_path / "tests_settings.py").write_text(
         "from tensim.learn import LearningSettings, OptimizerSettings\n"
         f"SETTINGS = LearningSettings(OptimizerSettings('ntrt', monte_carlo=8, batch=4), 16, "
         f"seed={SETTINGS.seed})\n")
     src = str(Path(__file__).resolve().parents[1] / "src")
-    env = {**os.environ, "RAY_ADDRESS": running_cluster, "RAY_AUTH_MODE": "token",
+    env = {**os.environ, "RAY_ADDRESS": address, "RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": token,
            "PYTHONPATH": os.pathsep.join([src, str(tmp_path)])}
     done = subprocess.run([sys.executable, "-c", _JOIN, str(tmp_path / "run")], env=env,
                           capture_output=True, text=True, timeout=300, check=True)
