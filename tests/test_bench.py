@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import math
 
-from tensim.bench import Timing, bench_model
+from tensim.bench import Timing, bench_model, core_share, machine_note
+from tensim.bench_batch import bench_batch, format_batch
 from tensim.cli.bench import format_table
 from tensim.terrain import Rough
 
@@ -31,3 +32,29 @@ def test_timings_give_best_and_median_per_kind():
     timing = Timing(cpu=(30.0, 10.0, 20.0), wall=(12.0, 40.0, 11.0))
     assert timing.best() == 10.0 and timing.median() == 20.0
     assert timing.best("wall") == 11.0 and timing.median("wall") == 12.0
+
+
+def test_core_share_is_cpu_over_wall_per_thread():
+    # runs that held a core half, all and all of their wall time: the median is 1
+    assert core_share(cpu=(1.0, 2.0, 3.0), wall=(2.0, 2.0, 3.0)) == 1.0
+    # 2 threads, 3 s of CPU in 2 s of wall: each held a core 75 % of the time
+    assert core_share(cpu=(3.0,), wall=(2.0,), threads=2) == 0.75
+    assert Timing(cpu=(1.0,), wall=(4.0,)).core_share() == 0.25
+
+
+def test_the_machine_note_says_when_wall_times_mean_nothing():
+    busy = machine_note({"tensim": 0.98, "engine": 0.5}, load_at_start=3.2)
+    assert "TOO BUSY" in busy and "50%" in busy and "(engine)" in busy and "3.20" in busy
+    assert "TOO BUSY" not in machine_note({"tensim": 0.97, "engine": 0.95}, 0.1)
+
+
+def test_the_batch_bench_gives_ratios_in_cpu_time_beside_wall_time():
+    report = bench_batch(trials=2, duration=0.05, repeats=1)
+    for threads in (1, 2):
+        batch, engine = report[f"batch_{threads}"], report[f"rollout_{threads}"]
+        assert report["batch_over_rollout_cpu"][threads] == engine["cpu_best_s"] / \
+            batch["cpu_best_s"]
+        # a thread holds at most its core (slack: clocks read at slightly different moments)
+        assert 0 < batch["core_share"] <= 1.2
+    text = format_batch(report)
+    assert "in CPU time" in text and "machine: " in text

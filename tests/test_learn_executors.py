@@ -123,3 +123,35 @@ def test_thread_batches_give_the_inline_evaluations():
         for a, b in zip(inline, batched, strict=True):
             assert (a.index, a.unit, a.score, a.status, a.metrics) == \
                 (b.index, b.unit, b.score, b.status, b.metrics)
+
+
+class _LosingOnce:
+    """An executor that loses its first trial (as a cluster did before this version recorded
+    only the trials a dead worker could be blamed for) and then fails."""
+
+    backend, workers = "losing", 1
+
+    def __init__(self, problem):
+        self.problem = problem
+
+    def run(self, tasks):
+        from tensim.learn import ClusterError
+        from tensim.learn.problem import lost_evaluation
+
+        index, unit = tasks[0]
+        yield lost_evaluation(self.problem, index, unit, "lost: a node died")
+        raise ClusterError("the Ray cluster could not run every trial")
+
+    def close(self):
+        pass
+
+
+def test_resume_runs_again_a_lost_trial_of_the_generation_in_hand(tmp_path):
+    from tensim.learn import ClusterError, resume
+
+    learn(SphereProblem(3), SETTINGS, tmp_path / "inline", executor=InlineExecutor)
+    with pytest.raises(ClusterError):
+        learn(SphereProblem(3), SETTINGS, tmp_path / "run", executor=_LosingOnce)
+    assert [status for *_, status in _records(tmp_path / "run")] == [LOST]
+    resume(tmp_path / "run", executor=InlineExecutor)
+    assert _records(tmp_path / "run") == _records(tmp_path / "inline")

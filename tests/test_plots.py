@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from tensim.sim import TimeSeries
-from tensim.viz.plots import MAX_POINTS, _commanded, thin
+from tensim.viz.plots import (
+    MAX_POINTS,
+    _commanded,
+    cable_panels,
+    plot_cable_tensions,
+    plot_lengths,
+    thin,
+)
 
 
 def test_thinning_keeps_each_groups_extremes_and_the_ends():
@@ -47,3 +54,45 @@ def test_the_tension_colour_scale_follows_the_run():
     # cable the same blue
     compiled = compile_structure(preset("prism3").build())
     assert TensionColors.for_model(compiled).max_tension == 50.0
+
+
+def test_up_to_the_panel_limit_each_cable_has_its_own_panel():
+    twelve = [f"c{k}" for k in range(12)]  # Tetraspine3's figures: a panel per cable, as ever
+    assert cable_panels(twelve) == tuple((c, (c,)) for c in twelve)
+
+
+def test_many_cables_share_panels_by_name_path_or_tag_and_each_is_drawn_once():
+    # an imported robot's names: four parts of five limbs of 10 cables, plus 6 at the top level
+    names = [f"p{p}/{limb}/string_{k}" for p in range(4)
+             for limb in ("spine", "fl", "fr", "bl", "br") for k in range(10)] + \
+        [f"low_{k}" for k in range(6)]
+    panels = cable_panels(names)
+    # p/limb gives 21 groups (within the 30-panel limit), finer than p alone (5)
+    assert len(panels) == 21 and panels[0] == ("p0/spine (10 cables)", tuple(names[:10]))
+    assert panels[-1] == ("(top level) (6 cables)", tuple(names[-6:]))
+    assert sorted(c for _, group in panels for c in group) == sorted(names)
+    # flat names (the 12-segment Tetraspine's 66 cables) group by their first tag
+    kinds = ("outer_top", "outer_left", "outer_right", "inner_top", "inner_left", "inner_right")
+    flat = [f"{kind}_{j}" for j in range(1, 12) for kind in kinds]
+    tags = {name: (name.rsplit("_", 1)[0], "joint") for name in flat}
+    by_tag = cable_panels(flat, tags)
+    assert [title for title, _ in by_tag] == [f"{kind} (11 cables)" for kind in kinds]
+    # no names or tags to group by: the cables in order, in at most 30 runs of equal size
+    runs = cable_panels(flat)
+    assert len(runs) == 22 and runs[0] == ("outer_top_1 ... outer_right_1 (3 cables)",
+                                           tuple(flat[:3]))
+
+
+def test_a_figure_of_hundreds_of_cables_stays_a_few_rows_high(tmp_path):
+    from PIL import Image
+
+    t = np.arange(200) * 0.01
+    names = [f"part{k // 40}/string_{k}" for k in range(400)]
+    series = TimeSeries(t, {**{f"tension/{n}": np.sin(t + k) for k, n in enumerate(names)},
+                            **{f"length/{n}": np.ones_like(t) for n in names},
+                            **{f"rest_length/{n}": np.ones_like(t) for n in names}})
+    for plot in (plot_cable_tensions, plot_lengths):
+        with Image.open(plot(series, tmp_path / "f.png")) as image:
+            # 10 panels of 40 cables on 4 rows of at most 2.4 in at 120 dpi, plus the margins
+            # (one panel per cable: 134 rows, over 38,000 pixels)
+            assert image.height <= 4 * 2.4 * 120 + 150

@@ -152,3 +152,14 @@ def test_progress_bar_shows_rate_and_time_left() -> None:
     # 25 evaluations in 50 s: 0.5 per second, 75 to go: 150 s
     assert "25.0/100.0 evals" in line and "0.5 evals/s" in line and "2 min 30 s left" in line
     assert _duration(7500) == "2 h 05 min" and _duration(12.34) == "12.3 s"
+
+
+def test_no_figures_writes_the_folder_without_any_png(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    assert main(["--quiet", "simulate", "prism3", "--duration", "0.05", "--no-figures",
+                 "--out", str(out)]) == 0
+    assert not list(out.glob("*.png"))  # neither the run's figures nor the report's frame
+    assert (out / "report.html").is_file() and (out / "trajectory.parquet").is_file()
+    assert json.loads((out / "summary.json").read_text())["figures"] == []
+    # an experiment whose figures do not go through a drawer says so
+    assert main(["experiment", "drag", "--no-figures", "--out", str(tmp_path / "d")]) == 2

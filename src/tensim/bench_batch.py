@@ -6,7 +6,9 @@ each timed in wall and process CPU time: through :func:`run_batch` on 1 and 2 th
 (controllers set up, stepping, recording, channels), and as ``mujoco.rollout`` replaying the
 same per-step ``ctrl`` on the same per-trial models on the same thread count (the cable law
 runs inside MuJoCo in both), which is the engine's batched limit for that work. The gaits'
-build time is printed apart.
+build time is printed apart. The ratios are given from the best CPU times (the work each
+does, which other programs on the machine hardly change) beside the best wall times, with a
+line saying whether the machine was too busy for the wall times to mean anything.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
+from tensim.bench import core_share, load_average, machine_note
 from tensim.learn.families import default_base
 from tensim.learn.problem import TrialProblem
 from tensim.model import BUILD_KEY
@@ -71,9 +74,12 @@ def bench_batch(trials: int = 64, duration: float = 10.0, repeats: int = 3,
     """Trials per second of the batch engine and of ``mujoco.rollout`` on 1 and 2 threads.
 
     Returns:
-        per method and thread count: best and median wall and CPU time [s] and trials/s; the
-        ratios batch/rollout and 2-thread/1-thread scaling; peak resident memory [MiB].
+        per method and thread count: best and median wall and CPU time [s], trials/s and the
+        core share (:func:`~tensim.bench.core_share`); the ratios batch/rollout (from wall and
+        from CPU time) and 2-thread/1-thread scaling; peak resident memory [MiB]; the load
+        average before the runs.
     """
+    load = load_average()
     install_law("compiled")
     problem = _problem(duration)
     compiled = problem.compiled()
@@ -103,12 +109,16 @@ def bench_batch(trials: int = 64, duration: float = 10.0, repeats: int = 3,
     for key, runs in times.items():
         walls, cpus = [w for w, _ in runs], [c for _, c in runs]
         figures[key] = {"wall_best_s": min(walls), "wall_median_s": statistics.median(walls),
-                        "cpu_best_s": min(cpus), "trials_per_s": trials / min(walls)}
+                        "cpu_best_s": min(cpus), "trials_per_s": trials / min(walls),
+                        "core_share": core_share(cpus, walls, int(key[-1]))}
     return {
         "case": f"tetraspine3 cpg, {trials} trials of {duration:g} s",
+        "load_average_before": load,
         **figures,
         "batch_over_rollout": {t: figures[f"rollout_{t}"]["wall_best_s"]
                                / figures[f"batch_{t}"]["wall_best_s"] for t in (1, 2)},
+        "batch_over_rollout_cpu": {t: figures[f"rollout_{t}"]["cpu_best_s"]
+                                   / figures[f"batch_{t}"]["cpu_best_s"] for t in (1, 2)},
         "scaling_2_over_1": {m: figures[f"{m}_1"]["wall_best_s"] / figures[f"{m}_2"]["wall_best_s"]
                              for m in ("batch", "rollout")},
         "peak_rss_MiB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
@@ -156,7 +166,9 @@ def format_batch(report: dict[str, Any]) -> str:
         lines.append(f"  {threads} thread(s): batch {b['trials_per_s']:.2f} trials/s "
                      f"(wall best {b['wall_best_s']:.2f} s, median {b['wall_median_s']:.2f} s, "
                      f"CPU {b['cpu_best_s']:.2f} s); mujoco.rollout {r['trials_per_s']:.2f} "
-                     f"trials/s; batch/rollout {report['batch_over_rollout'][threads]:.3f}")
+                     f"trials/s (CPU {r['cpu_best_s']:.2f} s); batch/rollout "
+                     f"{report['batch_over_rollout_cpu'][threads]:.3f} in CPU time, "
+                     f"{report['batch_over_rollout'][threads]:.3f} in wall time")
     s = report["scaling_2_over_1"]
     lines.append(f"  2 threads / 1: batch {s['batch']:.2f}x, rollout {s['rollout']:.2f}x; "
                  f"{report['real_time_factor_2_threads']:.0f}x real time in all; peak memory "
@@ -165,6 +177,9 @@ def format_batch(report: dict[str, Any]) -> str:
     lines.append(f"  building a trial's CPG gait (before the batch, not timed above): "
                  f"{report['gait_build_cpu_s_per_trial'] * 1e3:.0f} ms of CPU; a process "
                  f"that runs just the batch peaks at {report['batch_process_peak_MiB']:.0f} MiB")
+    shares = {f"{m} on {t} thread(s)": report[f"{m}_{t}"]["core_share"]
+              for t in (1, 2) for m in ("batch", "rollout")}
+    lines.append("  " + machine_note(shares, report["load_average_before"]))
     return "\n".join(lines)
 
 

@@ -156,6 +156,14 @@ def print_summary(summary: dict[str, Any], out: Path) -> None:
             print(f"  {name:<16} {value:8.3f}")
 
 
+def add_figures_option(parser: argparse.ArgumentParser, which: str = "") -> None:
+    """Adds ``--no-figures``: a run folder without PNG figures (data, summary and report
+    only), for robots too big or runs too many for their figures to pay."""
+    parser.add_argument("--no-figures", action="store_true",
+                        help=f"{which}write no figures and no rendered frame (the trajectory, "
+                             "summary and report are written as ever)")
+
+
 def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None:
     """Adds the options that describe the simulated world (physics step, ...)."""
     parser.add_argument("--dt", type=positive, default=dt, help="physics step [s]")

@@ -28,12 +28,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from tensim._files import write_json
-    from tensim.bench import run_benchmarks
+    from tensim.bench import machine_note, run_benchmarks
     from tensim.limits import check_run
 
     check_run(args.duration, 1e-3, 0.01, force=args.force)  # the cases' step and recording
     report = run_benchmarks(args.duration, args.repeats)
     print(format_table(report["cases"], args.repeats))
+    print(machine_note(report["core_share"], report["load_average_before"]))
     if args.learning:
         from tensim.learn.bench import bench_learning, format_learning
 

@@ -263,9 +263,9 @@ def run_pull(args: argparse.Namespace) -> int:
 def _robot_duties(args: argparse.Namespace) -> list[CableDuty]:
     """The cables' worst duties over the gait on --robots randomised robots."""
     from tensim.cli._common import Progress
-    from tensim.models import resolve_controller
     from tensim.design.robots import gait_duties, random_scales
     from tensim.model import compile_structure
+    from tensim.models import resolve_controller
 
     structure = load_model(args.model)
     config = resolve_controller(args.model, structure, args.controller)

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 from tensim.cli._common import (
     Progress,
     add_controller_option,
+    add_figures_option,
     add_world_options,
     load_model,
     parse_point,
@@ -28,16 +29,16 @@ def _structure(args: argparse.Namespace) -> Structure | None:
     return load_model(args.robot) if args.robot else None
 
 
-def _drawer(plans: list[FigurePlan], duration: float | None, dt: float | None
-            ) -> FigureDrawer:
+def _drawer(plans: list[FigurePlan], args: argparse.Namespace) -> FigureDrawer:
     """A drawer of ``plans`` that lays the figures out while the run simulates, where that pays
-    (:func:`tensim.viz.drawing.background_pays`; ``duration`` None: the run's own, which for
-    the shipped gaits is long enough)."""
+    (:func:`tensim.viz.drawing.background_pays`; no ``--duration``: the run's own, which for
+    the shipped gaits is long enough); with ``--no-figures``, one that draws nothing."""
     from tensim.model import WorldOptions
     from tensim.viz.drawing import MIN_STEPS, FigureDrawer, background_pays
 
-    steps = MIN_STEPS if duration is None else round(duration / (dt or WorldOptions.timestep))
-    return FigureDrawer(plans, background=background_pays(steps))
+    steps = MIN_STEPS if args.duration is None \
+        else round(args.duration / (args.dt or WorldOptions.timestep))
+    return FigureDrawer(plans, background=background_pays(steps), enabled=not args.no_figures)
 
 
 def _robot_controller(args: argparse.Namespace, structure: Structure | None
@@ -100,7 +101,7 @@ def _disturbance(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     config, label = robot_controller(structure, given, label)
     plans = disturbance_figures() if structure is None else disturbance_figures(
         tuple(c.name for c in robot.cables), robot.name)
-    with _drawer(plans, duration, args.dt) as drawer:
+    with _drawer(plans, args) as drawer:
         result, summary = run_disturbance(dt=args.dt, world=world_from_args(args),
                                           duration=duration, structure=structure,
                                           progress=Progress("disturbance", args.quiet),
@@ -142,7 +143,7 @@ def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[
 
         structure = _structure(args)
         cables = [c.name for c in (structure or preset("tetraspine3").build()).cables]
-        with _drawer(gait_figures(name, cables), args.duration, args.dt) as drawer:
+        with _drawer(gait_figures(name, cables), args) as drawer:
             result, summary, config = run_gait(
                 name, args.controller or default, model=args.robot or "tetraspine3",
                 structure=structure,
@@ -251,6 +252,10 @@ EXPERIMENTS: dict[str, tuple[str, Callable[[argparse.Namespace, Path], dict[str,
 }
 
 
+# the experiments whose figures go through a drawer, which --no-figures turns off
+FIGURELESS = ("disturbance", "sine", "cpg")
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     lines = "\n".join(f"  {name:<12} {text}" for name, (text, _) in EXPERIMENTS.items())
     p = sub.add_parser("experiment", help="run one of the paper's experiments",
@@ -280,6 +285,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="goal: the target point in the world frame [m] (default 1.5,0, "
                         "2.7 m ahead of the robot; write --target=-2,1 for a negative X)")
     p.add_argument("--out", default=None, help="output folder (default runs/NAME)")
+    add_figures_option(p, "disturbance, sine, cpg: ")
     p.set_defaults(run=run)
 
 
@@ -291,13 +297,17 @@ def run(args: argparse.Namespace) -> int:
         if getattr(args, option) is not None and args.name not in names:
             raise ValueError(f"--{option.replace('_', '-')} is for the {names[0]} experiment, "
                              f"not {args.name!r}")
+    if args.no_figures and args.name not in FIGURELESS:
+        raise ValueError(f"--no-figures is for the {', '.join(FIGURELESS)} experiments, not "
+                         f"{args.name!r}")
     from tensim.limits import check_run
     from tensim.runs import prepare_outputs, replace_folder
 
     if args.duration is not None:
         check_run(args.duration, args.dt, force=args.force)
     out = Path(args.out or f"runs/{args.name}")
-    prepare_outputs()  # the GL trial for frame.png runs while the simulation does
+    if not args.no_figures:
+        prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     with replace_folder(out) as stage:
         summary = EXPERIMENTS[args.name][1](args, stage)
     if "duration_s" in summary and args.name != "timestep":

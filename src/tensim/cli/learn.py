@@ -186,6 +186,7 @@ class _LearningProgress:
 
 def run_learn(args: argparse.Namespace) -> int:
     from tensim.learn import (
+        ClusterError,
         LearningSettings,
         OptimizerSettings,
         RunStore,
@@ -235,6 +236,10 @@ def run_learn(args: argparse.Namespace) -> int:
               f"{out}/evaluations.jsonl; continue with: tensim learn --resume {out}",
               file=sys.stderr)
         return 130
+    except ClusterError as err:
+        print(f"tensim: {err}; every finished evaluation is in {out}/evaluations.jsonl; "
+              f"continue with: tensim learn --resume {out}", file=sys.stderr)
+        return 1
     return _report(out, result.summary)
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 from tensim.cli._common import (
     Progress,
     add_controller_option,
+    add_figures_option,
     add_world_options,
     gains_summary,
     load_model,
@@ -38,6 +39,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "loads.yaml of an earlier run folder")
     p.add_argument("--record-dt", type=positive, default=0.01, help="recording period [s]")
     p.add_argument("--out", default="runs/simulate", help="output folder")
+    add_figures_option(p)
     p.set_defaults(run=run)
 
 
@@ -60,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
     from tensim.sim import simulate
     from tensim.viz.drawing import FigureDrawer, FigurePlan, background_pays
 
-    prepare_outputs()  # the GL trial for frame.png runs while the simulation does
+    if not args.no_figures:
+        prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     structure = load_model(args.model)
     warn_findings(structure, args.dt, args.model)  # tensim check's findings, as warnings
     config = resolve_controller(args.model, structure, args.controller)
@@ -87,12 +90,15 @@ def run(args: argparse.Namespace) -> int:
     cables = list(compiled.index.cables)
     plans = [FigurePlan("path.png", "path", {"items": list(compiled.index.bodies)})]
     if cables:
+        tags = {c.name: c.tags for c in structure.cables}  # many cables: panels by tag
         plans[:0] = [FigurePlan("tensions.png", "tensions",
-                                {"cables": cables, "title": f"{args.model}: cable tensions"}),
-                     FigurePlan("lengths.png", "lengths", {"cables": cables})]
+                                {"cables": cables, "title": f"{args.model}: cable tensions",
+                                 "tags": tags}),
+                     FigurePlan("lengths.png", "lengths", {"cables": cables, "tags": tags})]
     steps = round(duration / compiled.model.opt.timestep)
     out = Path(args.out)
-    with FigureDrawer(plans, background=background_pays(steps)) as drawer:
+    with FigureDrawer(plans, background=background_pays(steps),
+                      enabled=not args.no_figures) as drawer:
         result = simulate(compiled, duration, controller=controller, loads=loads,
                           record_dt=args.record_dt, progress=Progress(args.model, args.quiet))
         summary = {"model": args.model, "controller": _controller_label(args, config),
@@ -106,7 +112,8 @@ def run(args: argparse.Namespace) -> int:
                 save_loads(loads, stage / "loads.yaml")
             for plan in plans:
                 drawer.draw(plan.file, result.trajectory, stage)
-            write_run(stage, result, {**summary, "figures": [p.file for p in plans]},
+            write_run(stage, result, {**summary, "figures": [p.file for p in plans
+                                                             if drawer.enabled]},
                       structure=structure, controller=config, drawer=drawer)
     print_summary(summary, out)
     return 0

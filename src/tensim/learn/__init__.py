@@ -6,6 +6,7 @@ command line is ``tensim learn``.
 """
 
 from tensim.learn.executors import (
+    ClusterError,
     InlineExecutor,
     ProcessPoolExecutor,
     RayExecutor,
@@ -23,6 +24,7 @@ __all__ = [
     "CMAES",
     "FAMILIES",
     "OPTIMIZERS",
+    "ClusterError",
     "Evaluation",
     "InlineExecutor",
     "LearningSettings",

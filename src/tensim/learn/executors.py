@@ -7,8 +7,10 @@ restores ask order). A trial that raises is already a failed evaluation
 (:func:`~tensim.learn.problem.evaluate_task`); an executor only has to survive workers that
 die. The process pool then restarts and tries the interrupted trials again one at a time, so
 the trial that kills its worker is found and given up on after ``max_attempts`` tries while the
-others finish normally; Ray retries a task whose worker died by itself. Pool workers exit when
-the process that started them dies, however it dies, so none is left behind.
+others finish normally; on Ray the same, and a cluster that keeps failing otherwise (a node
+died, a result was lost) stops the run with :class:`ClusterError` rather than record trials
+that never ran. Pool workers exit when the process that started them dies, however it dies, so
+none is left behind.
 """
 
 from __future__ import annotations
@@ -288,21 +290,60 @@ def _ray_task(problem: Problem, tasks: list[Task]) -> list[Evaluation]:
     return list(ThreadBatchExecutor(problem, 1).run(tasks))
 
 
+class ClusterError(RuntimeError):
+    """The cluster failed to run some trials, again and again, for reasons of its own (nodes
+    or workers that died, results that were lost); those trials are not recorded, so resuming
+    the run evaluates them."""
+
+
+def connect_ray(address: str | None, workers: int) -> bool:
+    """Connects this process to Ray, as ``ray.init`` finds it: the cluster at ``address``,
+    else the one ``RAY_ADDRESS`` names or ``ray start`` started on this machine, else a new
+    local Ray of ``workers`` CPUs. An existing cluster keeps its own CPUs (Ray refuses
+    ``num_cpus`` when it connects).
+
+    Returns:
+        Whether this call connected (False: this process was connected already).
+    """
+    import ray
+
+    if ray.is_initialized():
+        return False
+    if address:
+        ray.init(address=address, log_to_driver=False)
+        return True
+    try:
+        ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+    except ValueError as err:  # Ray found a running cluster: connect to it as it is
+        if "existing cluster" not in str(err):
+            raise
+        ray.init(log_to_driver=False)
+    return True
+
+
 class RayExecutor:
     """Trials as Ray tasks, on a running cluster (``address``) or a local Ray started here.
 
     Each generation is split into one share per CPU of the cluster, and each task evaluates its
     share as a batch (:class:`ThreadBatchExecutor`). The problem goes into Ray's object store
-    once; Ray reuses worker processes, so each compiles the robot once. A task whose worker
-    dies is retried by Ray up to ``max_attempts`` − 1 times, then its trials are recorded as
-    lost.
+    once; Ray reuses worker processes, so each compiles the robot once.
+
+    A trial's own failure (it raises, its simulation diverges) is an evaluation like any other.
+    The cluster's failures are not: Ray retries a task whose worker or node died up to
+    ``max_attempts`` − 1 times; a share whose worker died in every try is split into one task
+    per trial, and a trial whose worker dies in each of its own tries is recorded as ``lost``
+    (it kills its worker, as in the process pool). Any other failure of the cluster (a node
+    died, a result was lost, the task could not run) has the share submitted again, up to
+    ``max_attempts`` times, and then raises :class:`ClusterError`: the trials are not recorded,
+    and resuming the run evaluates them, so it ends as an uninterrupted run would.
 
     Args:
         problem: the problem every task belongs to.
         address: address of a running Ray cluster (``ray://host:10001`` or ``host:6379``);
-            None starts a local Ray with ``workers`` CPUs unless one is already running.
+            None: the cluster ``RAY_ADDRESS`` names or ``ray start`` started here, else a
+            local Ray of ``workers`` CPUs (:func:`connect_ray`).
         workers: CPUs of a local Ray this starts.
-        max_attempts: tries of a task whose worker died.
+        max_attempts: tries of a task before its failure counts.
     """
 
     backend = "ray"
@@ -312,40 +353,60 @@ class RayExecutor:
         import ray
 
         self.problem, self.max_attempts = problem, max_attempts
-        self._started = False
-        if not ray.is_initialized():
-            if address:
-                ray.init(address=address, log_to_driver=False)
-            else:
-                ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
-            self._started = True
+        self._started = connect_ray(address, workers)
         self.workers = int(ray.cluster_resources().get("CPU", workers))
         self._remote = ray.remote(_ray_task).options(max_retries=max_attempts - 1,
                                                      retry_exceptions=False)
         self._problem_ref = ray.put(problem)
 
     def run(self, tasks: Sequence[Task]) -> Iterator[Evaluation]:
-        """Submits every task; yields each evaluation as its task finishes."""
+        """Submits every task; yields each evaluation as its task finishes.
+
+        Raises:
+            ClusterError: the cluster failed a share ``max_attempts`` times.
+        """
         import ray
 
         share = max(1, -(-len(tasks) // self.workers))
-        chunks = [list(tasks[k:k + share]) for k in range(0, len(tasks), share)]
-        pending: dict[Any, list[Task]] = {self._remote.remote(self._problem_ref, chunk): chunk
-                                          for chunk in chunks}
+        pending: dict[Any, tuple[list[Task], int]] = {}
+        failed: list[str] = []
+
+        def submit(chunk: list[Task], tries: int) -> None:
+            pending[self._remote.remote(self._problem_ref, chunk)] = (chunk, tries)
+
+        for k in range(0, len(tasks), share):
+            submit(list(tasks[k:k + share]), 1)
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
-                chunk = pending.pop(ref)
+                chunk, tries = pending.pop(ref)
                 try:
                     yield from ray.get(ref)
+                except ray.exceptions.WorkerCrashedError:
+                    # its worker died in each of Ray's tries: find the trial that kills it
+                    if len(chunk) > 1:
+                        log.info("a task's worker died %d times; its %d trials run one by one",
+                                 self.max_attempts, len(chunk))
+                        for task in chunk:
+                            submit([task], 1)
+                        continue
+                    index, unit = chunk[0]
+                    reason = f"lost: its worker process died in each of {self.max_attempts} tries"
+                    log.warning("evaluation %d %s", index, reason)
+                    yield lost_evaluation(self.problem, index, unit, reason)
                 except ray.exceptions.RayError as err:
-                    reason = f"lost: {type(err).__name__} after {self.max_attempts} tries"
-                    for index, unit in chunk:
-                        log.warning("evaluation %d %s", index, reason)
-                        yield lost_evaluation(self.problem, index, unit, reason)
+                    if tries < self.max_attempts:
+                        log.warning("Ray failed a task of %d trial(s) (%s); submitting it "
+                                    "again", len(chunk), type(err).__name__)
+                        submit(chunk, tries + 1)
+                    else:  # the other shares finish first: their trials are recorded
+                        failed.append(f"{len(chunk)} trial(s) failed {tries} times, last by "
+                                      f"{_describe(err)}")
+        if failed:
+            raise ClusterError("the Ray cluster could not run every trial: " + "; ".join(failed))
 
     def close(self) -> None:
-        """Shuts down a local Ray this executor started."""
+        """Disconnects from Ray (a local Ray this executor started stops)."""
         import ray
 
         if self._started and ray.is_initialized():
@@ -356,6 +417,14 @@ class RayExecutor:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _describe(err: BaseException) -> str:
+    """A Ray error in one line: its type and its cause's first line (a failure inside a task,
+    e.g. an argument whose owner died, comes wrapped in ``RayTaskError``)."""
+    cause = getattr(err, "cause", None) or err
+    lines = [line for line in str(cause).strip().split("\n") if line.strip()]
+    return f"{type(err).__name__}: {lines[0] if lines else 'no message'}"
 
 
 def make_executor(problem: Problem, workers: int, *, ray: bool = False,

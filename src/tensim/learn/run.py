@@ -7,7 +7,8 @@ they are told, so a resume builds a fresh optimizer from the configuration and t
 logged costs batch by batch, asking each batch again and checking it against the log (bit for
 bit). That rebuilds the state exactly, then the run asks the next batch and reuses every
 evaluation of it already in the log, so no finished trial is run twice and the run ends with
-exactly the evaluations an uninterrupted run would have made. A batch cut short by the
+exactly the evaluations an uninterrupted run would have made. A trial of that batch logged as
+``lost`` (its worker died in every try) is run again. A batch cut short by the
 evaluation budget is evaluated but not told; extending the budget later completes and tells it.
 A run holds its folder's lock (:meth:`RunStore.acquire`) while it writes.
 """
@@ -31,7 +32,7 @@ from tensim import __version__
 from tensim._files import write_json
 from tensim.learn.executors import Executor, make_executor
 from tensim.learn.optimizers import Optimizer, OptimizerSettings
-from tensim.learn.problem import OK, Evaluation, Problem, TrialProblem
+from tensim.learn.problem import LOST, OK, Evaluation, Problem, TrialProblem
 from tensim.learn.store import (
     BEST_CONTROLLER,
     CURVE,
@@ -237,7 +238,8 @@ class _Session:
                     f"{first} are told and the optimizer asks {first} to "
                     f"{first + len(points) - 1} next; the log is damaged or edited")
             wanted = points[:self.budget - first]
-            tasks = [(first + k, u) for k, u in enumerate(wanted) if first + k not in self.logged]
+            tasks = [(first + k, u) for k, u in enumerate(wanted)
+                     if first + k not in self.logged or self.logged[first + k].status == LOST]
             self._check_logged(first, wanted)
             for evaluation in executor.run(tasks):
                 self._take(evaluation)

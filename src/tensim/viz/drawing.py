@@ -84,10 +84,14 @@ class FigureDrawer:
     :meth:`draw` hands a figure its data (returning at once when a child draws it),
     :attr:`pending` names the figures still being drawn, :meth:`wait` returns once all are
     written and raises :class:`FigureError` if one failed. A child that dies is replaced by
-    drawing its figures here, with a warning.
+    drawing its figures here, with a warning. With ``enabled`` False it draws nothing (a run
+    without figures: ``--no-figures``), and the report then adds none either.
     """
 
-    def __init__(self, plans: Sequence[FigurePlan], background: bool = False):
+    def __init__(self, plans: Sequence[FigurePlan], background: bool = False,
+                 enabled: bool = True):
+        self.enabled = enabled
+        background = background and enabled
         self.plans = {plan.file: plan for plan in plans}
         if len(self.plans) != len(plans):
             raise ValueError("two figure plans share a file name")
@@ -136,6 +140,8 @@ class FigureDrawer:
         plan = self.plans[file]
         path = Path(folder) / file
         self.handed.add(file)
+        if not self.enabled:
+            return path
         if self._conn is not None:
             try:
                 self._conn.send((file, data, path, late))
@@ -223,7 +229,8 @@ def _lay_out(plan: FigurePlan) -> Any:
     function = getattr(plots, KINDS[plan.kind])
     defaults = function.__kwdefaults__ or {}
     options = {**defaults, **plan.options}
-    grid = plots.panel_grid(plan.kind, options["cables"], options["columns"], options["title"])
+    grid = plots.panel_grid(plan.kind, options["cables"], options["columns"], options["title"],
+                            options.get("tags"))
     grid.figure.canvas.draw()  # makes the ticks and the text now, while the run simulates
     return grid
 

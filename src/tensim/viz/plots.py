@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -43,6 +44,58 @@ def thin(x: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS
     return x[keep], y[keep]
 
 
+# More cables than this share panels: one panel per group of cables (see cable_panels), so a
+# robot of hundreds of cables still gets a figure of a few rows that draws in seconds.
+MAX_PANELS = 30
+GROUP_POINTS = 400  # samples per line in a shared panel (many lines: a coarser thinning)
+
+Panel = tuple[str, tuple[str, ...]]  # a panel's title and the cables it draws
+
+
+def cable_panels(cables: Sequence[str], tags: Mapping[str, Sequence[str]] | None = None,
+                 limit: int = MAX_PANELS) -> tuple[Panel, ...]:
+    """The panels of a per-cable figure: one per cable up to ``limit`` cables, else groups.
+
+    Groups are the finest of these partitions with at most ``limit`` groups (and at least
+    two): by the cables' name paths (``p1/spine/string_0`` in ``p1/spine`` or ``p1``, as the
+    NTRT importer names them) and by their first tag (``outer_left``). Where none fits, the
+    cables in their order in ``limit`` runs of equal size.
+
+    Args:
+        cables: cable names, in panel order.
+        tags: each cable's tags (None: group by names alone).
+        limit: most panels.
+
+    Returns:
+        (title, cables) per panel.
+    """
+    if len(cables) <= limit:
+        return tuple((name, (name,)) for name in cables)
+    tags = tags or {}
+    depths = range(1, max(name.count("/") for name in cables) + 1)
+    partitions = [[_path(name, d) for name in cables] for d in depths]
+    partitions.append([next(iter(tags.get(name, ())), "(untagged)") for name in cables])
+    best: dict[str, list[str]] = {}
+    for keys in partitions:
+        groups: dict[str, list[str]] = {}
+        for key, name in zip(keys, cables, strict=True):
+            groups.setdefault(key, []).append(name)
+        if len(best) < len(groups) <= limit:
+            best = groups
+    if len(best) >= 2:
+        return tuple((f"{key} ({len(group)} cables)", tuple(group))
+                     for key, group in best.items())
+    size = math.ceil(len(cables) / limit)
+    runs = [tuple(cables[k:k + size]) for k in range(0, len(cables), size)]
+    return tuple((f"{run[0]} ... {run[-1]} ({len(run)} cables)", run) for run in runs)
+
+
+def _path(name: str, depth: int) -> str:
+    """The first ``depth`` parts of a cable name's path (``p1/spine/string_0``: ``p1``,
+    ``p1/spine``)."""
+    return "/".join(name.split("/")[:-1][:depth]) or "(top level)"
+
+
 # Panel figures by kind: the y label and the height of a row [in].
 PANELS = {"tensions": ("tension [N]", 2.4), "lengths": ("length [m]", 2.2),
           "velocity_input": ("V* [mm/s]", 2.0)}
@@ -52,31 +105,37 @@ VELOCITY_TITLE = "Target cable velocity V* sent to each impedance controller"
 
 @dataclasses.dataclass(frozen=True)
 class PanelGrid:
-    """The empty grid of a panel figure: one labelled panel per cable, no data yet.
+    """The empty grid of a panel figure: one labelled panel per cable (or group of cables,
+    :func:`cable_panels`), no data yet.
 
     It can be laid out (and drawn once, which makes its ticks and text) before a run ends; a
-    plot function of the same ``kind``, cables, columns and title then only fills it.
+    plot function of the same ``kind``, panels, columns and title then only fills it.
     """
 
     kind: str
-    cables: tuple[str, ...]
+    panels: tuple[Panel, ...]
     columns: int
     title: str
     figure: Figure = dataclasses.field(compare=False)
 
-    def fits(self, kind: str, cables: Sequence[str], columns: int, title: str) -> bool:
-        return (self.kind, self.cables, self.columns, self.title) == \
-            (kind, tuple(cables), columns, title)
+    def fits(self, kind: str, panels: Sequence[Panel], columns: int, title: str) -> bool:
+        return (self.kind, self.panels, self.columns, self.title) == \
+            (kind, tuple(panels), columns, title)
 
 
-def panel_grid(kind: str, cables: Sequence[str], columns: int = 3, title: str = ""
-               ) -> PanelGrid:
-    """Lays out the empty grid of a panel figure of ``kind`` (see :data:`PANELS`).
+def panel_grid(kind: str, cables: Sequence[str], columns: int = 3, title: str = "",
+               tags: Mapping[str, Sequence[str]] | None = None) -> PanelGrid:
+    """Lays out the empty grid of a panel figure of ``kind`` (see :data:`PANELS`) for
+    ``cables`` (grouped by ``tags`` or names where there are many: :func:`cable_panels`).
 
     The margins are fixed in inches (no automatic layout pass, which cost a second a figure).
     """
+    return _grid(kind, cable_panels(cables, tags), columns, title)
+
+
+def _grid(kind: str, panels: tuple[Panel, ...], columns: int, title: str) -> PanelGrid:
     ylabel, height = PANELS[kind]
-    rows = max(1, math.ceil(len(cables) / columns))
+    rows = max(1, math.ceil(len(panels) / columns))
     header = 0.85 if "\n" in title else 0.65 if title else 0.35  # title and panel titles [in]
     width, fig_height = 4.2 * columns, height * rows + header
     fig = new_figure((width, fig_height))
@@ -84,32 +143,44 @@ def panel_grid(kind: str, cables: Sequence[str], columns: int = 3, title: str = 
     fig.subplots_adjust(left=0.62 / width, right=1 - 0.15 / width, bottom=0.5 / fig_height,
                         top=1 - header / fig_height,
                         wspace=0.75 / 4.2, hspace=0.55 / height)
-    for ax, name in zip(axes.flat, cables, strict=False):
+    for ax, (name, _) in zip(axes.flat, panels, strict=False):
         ax.set_title(name, fontsize=9, pad=3, y=1.0)  # a fixed y skips a costly layout pass
         ax.set_ylabel(ylabel, fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
-    for ax in axes.flat[len(cables):]:
+    for ax in axes.flat[len(panels):]:
         ax.set_visible(False)
     for ax in axes[-1]:
         ax.set_xlabel("time [s]", fontsize=8)
-    if title:
-        fig.suptitle(title, fontsize=11)
-    return PanelGrid(kind, tuple(cables), columns, title, fig)
+    if title:  # 0.2 in from the top of a tall figure (2 % of its height: into the panels)
+        fig.suptitle(title, fontsize=11, y=0.98 if fig_height <= 12 else 1 - 0.2 / fig_height)
+    return PanelGrid(kind, panels, columns, title, fig)
 
 
 def _panels(grid: PanelGrid | None, kind: str, cables: Sequence[str], columns: int, title: str,
-            draw: Callable[[Axes, str], None]) -> Figure:
+            draw: Callable[[Axes, str], None], draw_group: Callable[[Axes, Sequence[str]], None],
+            tags: Mapping[str, Sequence[str]] | None) -> Figure:
     """Fills ``grid`` (or a new grid, where it was laid out for other cables or options) with
-    ``draw(ax, cable)`` per cable, and the legend."""
-    if grid is None or not grid.fits(kind, cables, columns, title):
-        grid = panel_grid(kind, cables, columns, title)
+    ``draw(ax, cable)`` per single-cable panel and ``draw_group(ax, cables)`` per shared one,
+    and the legend."""
+    panels = cable_panels(cables, tags)
+    if grid is None or not grid.fits(kind, panels, columns, title):
+        grid = _grid(kind, panels, columns, title)
     axes = grid.figure.axes
-    for ax, name in zip(axes, cables, strict=False):
-        draw(ax, name)
+    for ax, (_, names) in zip(axes, panels, strict=False):
+        if len(panels) == len(cables):
+            draw(ax, names[0])
+        else:
+            draw_group(ax, names)
     if axes and axes[0].get_legend_handles_labels()[0]:
         axes[0].legend(fontsize=7, loc="best")
     return grid.figure
+
+
+def _lines(ax: Axes, t: np.ndarray, lines: Sequence[np.ndarray], **style: Any) -> None:
+    """Many cables' lines in one panel, thin, in matplotlib's colour cycle."""
+    for y in lines:
+        ax.plot(*thin(t, y, GROUP_POINTS), lw=0.6, alpha=0.7, **style)
 
 
 def _commanded(series: TimeSeries, name: str) -> np.ndarray | None:
@@ -123,12 +194,14 @@ def _commanded(series: TimeSeries, name: str) -> np.ndarray | None:
 
 def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
                         title: str = "", columns: int = 3,
-                        spans: Sequence[Span] = (), grid: PanelGrid | None = None) -> Path:
+                        spans: Sequence[Span] = (), grid: PanelGrid | None = None,
+                        tags: Mapping[str, Sequence[str]] | None = None) -> Path:
     """One panel per cable: measured (load-cell) tension, and the commanded tension T_set.
 
     The measured line is drawn over the commanded one. The y axis spans the measured tension
     and the commanded one after :data:`SETTLE_S` (the first steps' setpoints, while the robot
-    settles, can be several times larger and are clipped).
+    settles, can be several times larger and are clipped). Over :data:`MAX_PANELS` cables, a
+    panel per group of cables (:func:`cable_panels`) with each one's measured tension.
 
     Args:
         series: a recorded run.
@@ -139,6 +212,7 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
         spans: time spans to shade, e.g. when an external force acts.
         grid: the empty grid to fill, laid out before the run ended (:func:`panel_grid` of
             ``"tensions"`` for the same cables, columns and title); None: laid out here.
+        tags: each cable's tags, to group many cables by (None: by their names).
     """
     t = series.time
     later = t >= min(SETTLE_S, float(t[-1]))
@@ -159,16 +233,24 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
         margin = 0.05 * (high - low) or 0.5
         ax.set_ylim(low - margin, high + margin)
 
+    def draw_group(ax: Axes, names: Sequence[str]) -> None:
+        _lines(ax, t, [series[f"tension/{name}"] for name in names])
+        for span in spans:
+            ax.axvspan(span.start, span.stop, color=span.color, alpha=span.alpha, lw=0)
+
     cables = list(cables or series.items("tension"))
-    return save_figure(_panels(grid, "tensions", cables, columns, title, draw), path)
+    return save_figure(_panels(grid, "tensions", cables, columns, title, draw, draw_group,
+                               tags), path)
 
 
 def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
-                 columns: int = 3, title: str = LENGTHS_TITLE, grid: PanelGrid | None = None
-                 ) -> Path:
-    """One panel per cable: anchor-to-anchor length and motor rest length [m].
+                 columns: int = 3, title: str = LENGTHS_TITLE, grid: PanelGrid | None = None,
+                 tags: Mapping[str, Sequence[str]] | None = None) -> Path:
+    """One panel per cable: anchor-to-anchor length and motor rest length [m]; over
+    :data:`MAX_PANELS` cables, a panel per group with each one's length (solid) and rest
+    length (dashed).
 
-    ``grid``: the empty grid to fill (as in :func:`plot_cable_tensions`), or None.
+    ``grid``, ``tags``: as in :func:`plot_cable_tensions`.
     """
     t = series.time
 
@@ -177,8 +259,14 @@ def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None
                 label="rest length")
         ax.plot(*thin(t, series[f"length/{name}"]), color="black", lw=0.8, label="length")
 
+    def draw_group(ax: Axes, names: Sequence[str]) -> None:
+        _lines(ax, t, [series[f"length/{name}"] for name in names])
+        ax.set_prop_cycle(None)  # each rest length in its cable's colour
+        _lines(ax, t, [series[f"rest_length/{name}"] for name in names], ls="--")
+
     cables = list(cables or series.items("length"))
-    return save_figure(_panels(grid, "lengths", cables, columns, title, draw), path)
+    return save_figure(_panels(grid, "lengths", cables, columns, title, draw, draw_group,
+                               tags), path)
 
 
 def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None,
@@ -206,10 +294,12 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None
 def plot_velocity_input(table: VelocityTable, path: Path, *,
                         cables: Sequence[str] | None = None, columns: int = 3,
                         until: float | None = None, title: str = VELOCITY_TITLE,
-                        grid: PanelGrid | None = None) -> Path:
-    """One panel per cable: the target velocity V* it was commanded (held between samples).
+                        grid: PanelGrid | None = None,
+                        tags: Mapping[str, Sequence[str]] | None = None) -> Path:
+    """One panel per cable: the target velocity V* it was commanded (held between samples);
+    over :data:`MAX_PANELS` cables, a panel per group.
 
-    ``grid``: the empty grid to fill (as in :func:`plot_cable_tensions`), or None.
+    ``grid``, ``tags``: as in :func:`plot_cable_tensions`.
     """
     stop = table.values.shape[0] if until is None else min(
         table.values.shape[0], int(until / table.period + 1e-9) + 1)
@@ -220,8 +310,15 @@ def plot_velocity_input(table: VelocityTable, path: Path, *,
                 color="tab:green", lw=0.9, label="V*")
         ax.axhline(0.0, color="black", lw=0.5)
 
+    def draw_group(ax: Axes, names: Sequence[str]) -> None:
+        for name in names:
+            ax.step(times, table.values[:stop, table.cables.index(name)] * 1000.0,
+                    where="post", lw=0.6, alpha=0.7)
+        ax.axhline(0.0, color="black", lw=0.5)
+
     chosen = [c for c in (cables or table.cables) if c in table.cables]
-    return save_figure(_panels(grid, "velocity_input", chosen, columns, title, draw), path)
+    return save_figure(_panels(grid, "velocity_input", chosen, columns, title, draw,
+                               draw_group, tags), path)
 
 
 def new_figure(size: tuple[float, float]) -> Figure:

@@ -63,7 +63,8 @@ def write_report(out: Path, summary: dict[str, Any] | None = None, *,
         frame: render a frame of the robot (needs an offscreen OpenGL backend; skipped with a
             note on the page when none works).
         drawer: draws some of the folder's figures meanwhile (its pending ones are not drawn
-            here); the page is written once it has finished.
+            here); the page is written once it has finished. A disabled drawer (a run without
+            figures) means no figures and no frame here either.
 
     Returns:
         The report's path.
@@ -76,10 +77,13 @@ def write_report(out: Path, summary: dict[str, Any] | None = None, *,
         summary = json.loads(path.read_text()) if path.is_file() else {}
     if series is None:
         series = _trajectory(out)
+    if drawer is not None and not drawer.enabled:
+        frame = False
     with concurrent.futures.ThreadPoolExecutor(1) as pool:
         # the backend trial runs in a child process while the figures are drawn
         backend = pool.submit(_gl.select_backend) if frame and series is not None else None
-        _figures(out, series, drawer.pending if drawer is not None else frozenset())
+        if drawer is None or drawer.enabled:
+            _figures(out, series, drawer.pending if drawer is not None else frozenset())
         note = _frame(out, summary, series, backend) \
             if backend is not None and series is not None else None
     if drawer is not None:
