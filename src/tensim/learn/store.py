@@ -39,7 +39,7 @@ from tensim._input import InputError, describe, load_json, read_text
 from tensim.control import load_controller, save_controller
 from tensim.learn.objective import Objective
 from tensim.learn.optimizers import OptimizerSettings
-from tensim.learn.problem import Evaluation, Problem, SphereProblem, TrialProblem
+from tensim.learn.problem import LOST, Evaluation, Problem, SphereProblem, TrialProblem
 from tensim.model import WorldOptions
 from tensim.structure import load_structure, save_structure
 from tensim.terrain import parse_terrain
@@ -296,7 +296,9 @@ class RunStore:
             if not math.isfinite(evaluation.score):
                 raise RunFolderError(f"{path}: line {number} is damaged (score "
                                      f"{evaluation.score}, expected a finite number)")
-            if evaluation.index < 0 or evaluation.index in found:
+            earlier = found.get(evaluation.index)
+            # a trial lost to the cluster is run again on resume: its new record replaces it
+            if evaluation.index < 0 or (earlier is not None and earlier.status != LOST):
                 what = "a negative index" if evaluation.index < 0 else \
                     f"evaluation {evaluation.index} recorded a second time"
                 raise RunFolderError(f"{path}: line {number} is damaged ({what})")
