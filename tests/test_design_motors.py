@@ -107,3 +107,28 @@ def test_batch_of_unscaled_robots_equals_a_single_run() -> None:
     scales = random_scales(3, 0.2, seed=7)
     assert scales == random_scales(3, 0.2, seed=7)  # seeded
     assert all(0.8 <= s.stiffness <= 1.2 and 0.8 <= s.mass <= 1.2 for s in scales)
+
+
+def test_the_command_sizes_a_gait_on_randomised_robots(tmp_path) -> None:
+    # `design size --model ... --robots 1 --spread 0` is one unscaled robot: its peak tensions
+    # are a plain simulation's, and the shaft torque is safety x peak T x spool radius / gear
+    import tensim
+    from tensim.control import load_controller
+    from tensim.design.motors import cable_duty
+    from tensim.structure import load_structure
+
+    examples = Path(__file__).resolve().parent.parent / "examples" / "design"
+    structure = load_structure(examples / "hopper.yaml")
+    config = load_controller(examples / "hopper_roll.yaml", structure)
+    compiled = tensim.compile_structure(structure)
+    single = cable_duty(tensim.simulate(compiled, 0.5, controller=config.build(1e-3)).trajectory)
+    out = tmp_path / "size"
+    assert main(["--quiet", "design", "size", "--model", str(examples / "hopper.yaml"),
+                 "--controller", str(examples / "hopper_roll.yaml"), "--robots", "1",
+                 "--spread", "0", "--duration", "0.5", "--spool-radius", "0.01", "--gear", "2",
+                 "--out", str(out)]) == 0
+    rows = json.loads((out / "summary.json").read_text())["cables"]
+    assert [r["cable"] for r in rows] == [d.cable for d in single]
+    for row, duty in zip(rows, single, strict=True):
+        assert row["peak T [N]"] == pytest.approx(duty.peak_tension, rel=1e-12)
+        assert row["tau [N m]"] == pytest.approx(1.15 * duty.peak_tension * 0.01 / 2, rel=1e-12)
