@@ -90,22 +90,10 @@ def _duration(seconds: float) -> str:
 
 
 def load_model(name: str) -> Structure:
-    """A preset's structure, or a structure YAML file.
+    """A preset's structure, or a structure YAML file (:func:`tensim.models.load_model`)."""
+    from tensim.models import load_model as load
 
-    Raises:
-        InputError: neither a preset nor an existing .yaml file.
-    """
-    from tensim._input import InputError
-    from tensim.models import PRESETS, preset
-    from tensim.structure import load_structure
-
-    if name in PRESETS:
-        return preset(name).build()
-    path = Path(name)
-    if path.suffix in (".yaml", ".yml") and path.exists():
-        return load_structure(path)
-    raise InputError(f"unknown model {name!r}: not a preset ({', '.join(PRESETS)}) nor an "
-                     "existing .yaml structure file")
+    return load(name)
 
 
 def motor_sources(name: str) -> dict[str, str]:

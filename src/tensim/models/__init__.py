@@ -1,7 +1,7 @@
 """Model presets: ready-made structures (and their default controllers), and the controller
 files that name them (:mod:`tensim.models.controllers`)."""
 
-from tensim.models._registry import PRESETS, Preset, preset
+from tensim.models._registry import PRESETS, Preset, load_model, preset
 from tensim.models.complex_spines import octahedral_complex, tetrahedral_complex
 from tensim.models.controllers import load_controller, resolve_controller
 from tensim.models.prism3 import prism3
@@ -14,6 +14,7 @@ __all__ = [
     "PRESETS",
     "Preset",
     "load_controller",
+    "load_model",
     "octahedral_complex",
     "preset",
     "prism",

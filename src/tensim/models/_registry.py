@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from pathlib import Path
 
+from tensim._input import InputError
 from tensim.control import ImpedanceController
 from tensim.models.complex_spines import octahedral_complex, tetrahedral_complex
 from tensim.models.prism3 import prism3
@@ -12,7 +14,7 @@ from tensim.models.prisms import prism4, prism5
 from tensim.models.six_bar import six_bar
 from tensim.models.superball import superball
 from tensim.models.tetraspine import impedance_controller, tetraspine, tetraspine3
-from tensim.structure import Structure
+from tensim.structure import Structure, load_structure
 
 
 @dataclasses.dataclass(frozen=True)
@@ -66,3 +68,18 @@ def preset(name: str) -> Preset:
         return PRESETS[name]
     except KeyError:
         raise KeyError(f"unknown model {name!r}; presets: {', '.join(PRESETS)}") from None
+
+
+def load_model(name: str) -> Structure:
+    """A preset's structure, or a structure YAML file.
+
+    Raises:
+        InputError: neither a preset nor an existing .yaml file.
+    """
+    if name in PRESETS:
+        return PRESETS[name].build()
+    path = Path(name)
+    if path.suffix in (".yaml", ".yml") and path.is_file():
+        return load_structure(path)
+    raise InputError(f"unknown model {name!r}: neither a preset ({', '.join(PRESETS)}) nor an "
+                     "existing .yaml structure file")

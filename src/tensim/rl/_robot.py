@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -11,25 +10,15 @@ import numpy as np
 from tensim._input import InputError
 from tensim.control import default_impedance
 from tensim.model import CompiledModel, compile_structure
-from tensim.models import PRESETS, preset
+from tensim.models import PRESETS, load_model, preset
 from tensim.rl.config import EnvConfig
 from tensim.sim import MODE_IMPEDANCE, MODE_REST, CableDrive, Controller, Simulation
-from tensim.structure import Structure, load_structure
+from tensim.structure import Structure
 
 
 def load_robot(model: str) -> Structure:
-    """A preset's structure, or a structure YAML file.
-
-    Raises:
-        InputError: neither a preset nor an existing .yaml file.
-    """
-    if model in PRESETS:
-        return preset(model).build()
-    path = Path(model)
-    if path.suffix in (".yaml", ".yml") and path.is_file():
-        return load_structure(path)
-    raise InputError(f"model {model!r} is neither a preset ({', '.join(PRESETS)}) nor an "
-                     "existing .yaml structure file")
+    """A preset's structure, or a structure YAML file (:func:`tensim.models.load_model`)."""
+    return load_model(model)
 
 
 def default_controller(model: str, structure: Structure) -> Controller | None:
