@@ -21,6 +21,7 @@ from tensim.control.files import (
 )
 from tensim.control.impedance import ImpedanceController, ImpedanceGains, default_impedance
 from tensim.control.parameters import Bounds, Parameter, ParameterLayout, ParameterVector
+from tensim.control.rest import RestCommand
 from tensim.control.sine import SineController, SineGait, tagged_sine, tetraspine_sine
 from tensim.control.spine import (
     CPGParameters,
@@ -53,6 +54,7 @@ __all__ = [
     "Parameter",
     "ParameterLayout",
     "ParameterVector",
+    "RestCommand",
     "SineController",
     "SineGait",
     "SolverSettings",

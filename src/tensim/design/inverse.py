@@ -12,30 +12,28 @@ every pose; K_pin a stiff spring that holds each foot). At equilibrium K dq = A 
 so the chosen nodes move by J K^-1 A diag(k) dl0 (J their Jacobian). Each step then solves a
 linear program for the rest-length changes of least total |l0 - l0_start| that bring the nodes
 to their targets with every tension (linearised, t + diag(k)(A^T K^-1 A diag(k) - I) dl0)
-within [min_tension, max_tension] and every rest length >= min_rest_length. When no step
-exists the displacement is scaled back until one does (bisection) and the error says how far
-the motors reach. Slack cables, contact forces other than at the feet and sliding are outside
-this model. The robot gets there when its motors wind from its standing pose to the answer
-(:class:`RestCommand`); the tests simulate that. (A robot built with those rest lengths and
-dropped lands elsewhere: its feet slide while it springs into shape.)
+within [min_tension, max_tension] and every rest length >= min_rest_length (a cable without
+a motor keeps its own). When no step exists the displacement is scaled back until one does
+(bisection) and the error says how far the motors reach. Slack cables, contact forces other
+than at the feet and sliding are outside this model. The robot gets there when its motors wind
+from its standing pose to the answer (:class:`RestCommand`); the tests simulate that. (A robot
+built with those rest lengths and dropped lands elsewhere: its feet slide while it springs into
+shape.)
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.linalg import null_space
 from scipy.optimize import linprog
 from scipy.spatial.transform import Rotation
 
+from tensim.control.rest import RestCommand
 from tensim.design._bodies import GRAVITY, Bodies, bodies, cable_geometry, cable_tensions
 from tensim.design._errors import DesignError
 from tensim.structure import Structure
-
-if TYPE_CHECKING:
-    from tensim.sim import CableSetup
 
 GROUND_TOLERANCE = 1e-3  # m: nodes this close to the lowest node's height are feet
 PIN_STIFFNESS = 1e6  # N/m: the spring that holds each foot (it moves ~ force / 1e6 m)
@@ -60,9 +58,10 @@ class InverseStatics:
         friction_needed: foot node -> tangential / normal force there [-].
     """
 
-    def command(self) -> RestCommand:
-        """The controller that winds the motors to these rest lengths."""
-        return RestCommand(self.cables, tuple(float(r) for r in self.rest_lengths))
+    def command(self, speed: float | None = None) -> RestCommand:
+        """The controller that winds the motors to these rest lengths, at ``speed`` [m/s]
+        (None: at their max_speed)."""
+        return RestCommand(self.cables, tuple(float(r) for r in self.rest_lengths), speed)
 
     cables: tuple[str, ...]
     rest_lengths: np.ndarray
@@ -214,7 +213,8 @@ def _step(lin: _Linear, structure: Structure, targets: dict[str, np.ndarray],
     a_eq = np.hstack([jac @ sens, np.zeros((e, n)), -np.eye(e), np.eye(e)])
     cost = np.r_[np.zeros(n), np.ones(n), np.full(2 * e, MISS_WEIGHT)]
     result = linprog(cost, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=error,
-                     bounds=[(max(f - r, -TRUST), TRUST) for f, r in zip(floor, rest, strict=True)]
+                     bounds=[(0.0, 0.0) if c.motor.passive else (max(f - r, -TRUST), TRUST)
+                             for c, f, r in zip(structure.cables, floor, rest, strict=True)]
                      + [(0, None)] * (n + 2 * e), method="highs")
     return result.x[:n] if result.success else np.zeros(n)
 
@@ -324,26 +324,3 @@ def inverse_statics(structure: Structure, displacements: dict[str, tuple[float, 
 
 def _vector(value: np.ndarray) -> str:
     return "(" + ", ".join(f"{v:.4g}" if abs(v) >= 5e-5 else "0" for v in value) + ")"
-
-
-@dataclasses.dataclass(frozen=True)
-class RestCommand:
-    """A controller that commands every cable's rest length (the motors wind there at their
-    max_speed): the way to apply an :class:`InverseStatics` answer to a standing robot.
-
-    Attributes:
-        cables: cable names.
-        rest_lengths: commanded rest lengths, in the order of ``cables`` [m].
-    """
-
-    cables: tuple[str, ...]
-    rest_lengths: tuple[float, ...]
-
-    def configure(self, sim: CableSetup) -> None:
-        """Writes the commands into the simulation's drive (cables matched by name)."""
-        order = {name: i for i, name in enumerate(sim.index.cables)}
-        missing = sorted(set(self.cables) - set(order))
-        if missing:
-            raise DesignError(f"rest-length command names unknown cables {missing}")
-        for name, rest in zip(self.cables, self.rest_lengths, strict=True):
-            sim.drive.rest_command[order[name]] = rest

@@ -7,8 +7,6 @@ quasi-static (a fast wind makes a tall robot rock and its feet slide), then the 
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from tensim.design.inverse import InverseStatics
@@ -21,16 +19,19 @@ WIND_SPEED = 0.01  # m/s: line speed of the motors while they wind to the answer
 REST_TIME = 2.0  # s: simulated after the slowest motor arrives
 
 
+def settle_time(result: InverseStatics, speed: float = WIND_SPEED) -> float:
+    """Time [s] for the slowest motor to wind to the answer at ``speed`` [m/s] and rest
+    :data:`REST_TIME`, to 0.1 s."""
+    return round(float(np.abs(result.change).max()) / speed + REST_TIME, 1)
+
+
 def settle_errors(structure: Structure, result: InverseStatics,
                   speed: float = WIND_SPEED) -> tuple[dict[str, float], float]:
     """Each free node's distance from the static answer after winding and resting [m], and
     the simulated time [s]."""
-    slow = dataclasses.replace(structure, cables=tuple(
-        dataclasses.replace(c, motor=dataclasses.replace(
-            c.motor, max_speed=min(c.motor.max_speed, speed))) for c in structure.cables))
-    compiled = compile_structure(slow)
-    duration = round(float(np.abs(result.change).max()) / speed + REST_TIME, 1)
-    run = simulate(compiled, duration, controller=result.command())
+    compiled = compile_structure(structure)
+    duration = settle_time(result, speed)
+    run = simulate(compiled, duration, controller=result.command(speed))
     nodes = [n.name for n in structure.nodes if compiled.index.node_body.get(n.name, 0) != 0]
     settled = node_positions(run.trajectory, compiled, nodes)
     return ({n: float(np.linalg.norm(settled[n][-1] - result.target.position(n)))
