@@ -213,11 +213,17 @@ def register_pull(steps: argparse._SubParsersAction) -> None:
 
 def run_pull(args: argparse.Namespace) -> int:
     import numpy as np
-    import yaml
 
-    from tensim._files import write_text
+    from tensim.control import (
+        ControllerConfig,
+        ImpedanceController,
+        RestCommand,
+        save_controller,
+    )
     from tensim.design.inverse import inverse_statics
     from tensim.design.report import table
+    from tensim.design.verify import WIND_SPEED
+    from tensim.models import PRESETS
     from tensim.runs import check_run_folder, finish_run, replace_folder
     from tensim.structure import save_structure
 
@@ -239,11 +245,17 @@ def run_pull(args: argparse.Namespace) -> int:
         print(f"simulated {duration:g} s (motors winding at 0.01 m/s, then resting); distance "
               "from the static answer [mm]: "
               + ", ".join(f"{n} {1e3 * e:.2f}" for n, e in errors.items()))
+    passive = {c.name for c in structure.cables if c.motor.passive}  # keep their rest length
+    rest = {n: float(r) for n, r in zip(result.cables, result.rest_lengths, strict=True)
+            if n not in passive}
+    controller = ControllerConfig(
+        ImpedanceController({}), model=args.model if args.model in PRESETS else None,
+        description=f"tensim design pull {args.model} "
+        + " ".join(f"--move {n}={','.join(f'{v:g}' for v in d)}" for n, d in moves.items())
+        + f": the motors wind to these rest lengths at {WIND_SPEED:g} m/s and hold them",
+        rest=RestCommand(tuple(rest), tuple(rest.values()), WIND_SPEED))
     with replace_folder(Path(args.out)) as stage:
-        write_text(stage / "rest_lengths.yaml", yaml.safe_dump({
-            "description": "commanded rest lengths [m] from tensim design pull",
-            "rest_lengths": {n: float(r) for n, r in zip(result.cables, result.rest_lengths,
-                                                         strict=True)}}, sort_keys=False))
+        save_controller(controller, stage / "controller.yaml")
         save_structure(result.target, stage / "target.yaml")
         finish_run(stage, {"model": args.model,
                            "moves_m": {n: list(d) for n, d in moves.items()},
@@ -255,7 +267,7 @@ def run_pull(args: argparse.Namespace) -> int:
                            "verify_error_m": {n: float(e) for n, e in errors.items()},
                            "max_verify_error_m": float(np.max(list(errors.values())))
                            if errors else None})
-    print(f"wrote {args.out}/ (rest_lengths.yaml, target.yaml, summary.json)")
+    print(f"wrote {args.out}/ (controller.yaml, target.yaml, summary.json)")
     return 0
 
 

@@ -2,7 +2,9 @@
 
 A controller file holds everything needed to drive a robot's cables: the impedance law of
 each cable (paper eq. 3: T0, K, B, L*) and optionally a gait on the laws' target velocity V*
-(a spine CPG, sine waves, or a sampled V* table). SI units throughout: tensions N, lengths m,
+(a spine CPG, sine waves, or a sampled V* table); and/or commanded rest lengths, toward which
+the motors wind their cables at max_speed (:class:`~tensim.control.rest.RestCommand`; what
+``tensim design pull`` writes). SI units throughout: tensions N, lengths m,
 K N/m, B N·s/m, V* m/s, frequencies Hz, phases rad, times s. The layout::
 
     format: tensim-controller
@@ -17,6 +19,12 @@ K N/m, B N·s/m, V* m/s, frequencies Hz, phases rad, times s. The layout::
       passive: [outer]            # optional: cables (names or tags) left without gains on
                                   # purpose; any other motorised cable without gains is an
                                   # error (cables without a motor never get gains)
+    rest_lengths:                 # optional: commanded rest lengths [m] of motorised cables
+      vertical_0: 0.3808          # without impedance gains; with it 'impedance' is optional,
+                                  # and every motorised cable needs gains, a rest length or
+                                  # 'impedance.passive'
+    rest_speed: 0.01              # optional, with rest_lengths: the motors wind at this line
+                                  # speed [m/s] (at most their max_speed; omit: max_speed)
     gait:                         # optional
       type: cpg                   # cpg | sine | table
       duration: 60                # s of gait
@@ -57,6 +65,7 @@ from tensim._files import write_text
 from tensim._input import InputError, describe, load_json, load_yaml, read_text
 from tensim.control.impedance import ImpedanceController, ImpedanceGains
 from tensim.control.parameters import Bounds
+from tensim.control.rest import RestCommand
 from tensim.control.sine import SineGait, tetraspine_sine
 from tensim.control.spine import (
     DEFAULT_AMPLITUDE,
@@ -75,7 +84,7 @@ from tensim.control.velocity_table import (
     save_velocity_table,
 )
 from tensim.limits import MAX_SAMPLES, check_count
-from tensim.sim import Controller
+from tensim.sim import CableSetup, Controller
 from tensim.structure import Structure
 
 FORMAT = "tensim-controller"
@@ -101,7 +110,7 @@ class ControllerFileError(InputError):
 
 @dataclasses.dataclass(frozen=True)
 class ControllerConfig:
-    """Impedance laws plus an optional gait: the content of a controller file.
+    """Impedance laws plus an optional gait and rest-length commands: a controller file.
 
     Attributes:
         impedance: the per-cable impedance laws.
@@ -112,7 +121,8 @@ class ControllerConfig:
         model: the preset the file was made for, if any.
         description: free text.
         passive: cable names or tags the file leaves without impedance gains on purpose
-            (``impedance.passive``); every other cable must have gains.
+            (``impedance.passive``); every other cable must have gains or a rest command.
+        rest: commanded rest lengths of cables without impedance gains (``rest_lengths``).
     """
 
     impedance: ImpedanceController
@@ -122,8 +132,14 @@ class ControllerConfig:
     model: str | None = None
     description: str = ""
     passive: tuple[str, ...] = ()
+    rest: RestCommand | None = None
 
     def __post_init__(self) -> None:
+        if self.rest is not None:
+            both = [c for c in self.rest.cables if c in self.impedance.gains]
+            if both:
+                raise ValueError(f"cables {both} have both impedance gains and a commanded "
+                                 "rest length; give each one or the other")
         if not (math.isfinite(self.duration) and self.duration > 0):
             raise ValueError(f"duration must be a finite time > 0 s, got {self.duration}")
         if self.command_period is not None and not (
@@ -149,7 +165,8 @@ class ControllerConfig:
     def build(self, dt: float) -> Controller:
         """The controller to pass to :class:`~tensim.sim.Simulation` at physics step ``dt``."""
         table = self.velocity_table(dt)
-        return self.impedance if table is None else TableController(table, self.impedance)
+        laws = self.impedance if table is None else TableController(table, self.impedance)
+        return laws if self.rest is None else _Both(self.rest, laws)
 
     def with_gait(self, gait: Gait | None) -> ControllerConfig:
         """A copy with another gait (a table also sets the duration to its length)."""
@@ -160,6 +177,19 @@ class ControllerConfig:
     def with_duration(self, duration: float) -> ControllerConfig:
         """A copy whose gait covers ``duration`` seconds."""
         return dataclasses.replace(self, duration=duration)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Both:
+    """Rest-length commands for some cables and the impedance laws of the others."""
+
+    rest: RestCommand
+    laws: Controller
+
+    def configure(self, sim: CableSetup) -> None:
+        """Sets both up (they drive disjoint cables)."""
+        self.rest.configure(sim)
+        self.laws.configure(sim)
 
 
 def check_table_columns(table: VelocityTable, impedance: ImpedanceController) -> None:
@@ -226,7 +256,8 @@ def _passive(raw: dict[str, Any], structure: Structure, field: str) -> tuple[str
     return tuple(passive)
 
 
-def _gains(raw: dict[str, Any], structure: Structure, field: str
+def _gains(raw: dict[str, Any], structure: Structure, field: str,
+           commanded: frozenset[str] = frozenset()
            ) -> tuple[ImpedanceController, tuple[str, ...]]:
     _only(raw, ("groups", "cables", "target_velocity", "passive"), field)
     passive = _passive(raw, structure, field)
@@ -278,18 +309,46 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str
             gains[cable.name] = ImpedanceGains(**fields)
         except ValueError as err:
             raise ControllerFileError(str(err), field=f"{field}.cables.{cable.name}") from None
+    both = [name for name in gains if name in commanded]
+    if both:
+        raise ControllerFileError(f"cable {both[0]!r} also has impedance gains (in "
+                                  f"'{field}'); give each cable gains or a rest length, not both",
+                                  field=f"rest_lengths.{both[0]}")
     missing = [c.name for c in structure.cables if c.name not in gains and not c.motor.passive
+               and c.name not in commanded
                and not any(p == c.name or p in c.tags for p in passive)]
     if missing:
         raise ControllerFileError(
             f"{len(missing)} of the {len(structure.cables)} cables of {structure.name!r} get "
             f"no impedance gains: {missing}; give every cable its four gains {list(_GAIN_FIELDS)} "
-            "(through 'groups' or 'cables'), or list the cables left passive on purpose in "
-            f"'{field}.passive'", field=field)
-    if not gains:
+            "(through 'groups' or 'cables') or a commanded rest length ('rest_lengths'), or list "
+            f"the cables left passive on purpose in '{field}.passive'", field=field)
+    if not gains and not commanded:
         raise ControllerFileError("no cable gets impedance gains", field=field)
     velocity = _number(raw.get("target_velocity", 0.0), f"{field}.target_velocity")
     return ImpedanceController(gains, velocity), passive
+
+
+def _rest(raw: Any, structure: Structure, field: str) -> RestCommand:
+    """The ``rest_lengths`` section: motorised cable -> commanded rest length [m]."""
+    raw = _mapping(raw, field, "cable name -> commanded rest length [m]")
+    if not raw:
+        raise ControllerFileError("expected at least one cable name -> rest length [m] (or "
+                                  "leave the section out)", field=field)
+    known = {c.name for c in structure.cables}
+    for name in raw:
+        where = f"{field}.{name}"
+        if name not in known:
+            raise ControllerFileError(f"{structure.name!r} has no cable {name!r}", field=where)
+        if structure.cable(name).motor.passive:
+            raise ControllerFileError(f"cable {name!r} has no motor in {structure.name!r}, so "
+                                      "no motor can wind it to a rest length; give it a "
+                                      "'motor' in the structure file (or its 'defaults'), or "
+                                      "drop it here", field=where)
+    lengths = {name: _number(value, f"{field}.{name}", positive=True)
+               for name, value in raw.items()}
+    order = [c.name for c in structure.cables if c.name in lengths]  # structure order
+    return RestCommand(tuple(order), tuple(lengths[n] for n in order))
 
 
 def _bounds(raw: Any, field: str) -> dict[str, Bounds]:
@@ -415,8 +474,9 @@ def controller_from_dict(data: Any, structure: Structure, base: Path | None = No
     Raises:
         ControllerFileError: naming the field and what was expected.
     """
-    data = _mapping(data, "", "'format', 'impedance' and optionally 'gait'")
-    _only(data, ("format", "version", "model", "description", "impedance", "gait"), "")
+    data = _mapping(data, "", "'format', 'impedance' and/or 'rest_lengths', optionally 'gait'")
+    _only(data, ("format", "version", "model", "description", "impedance", "rest_lengths",
+                 "rest_speed", "gait"), "")
     if data.get("format") != FORMAT:
         raise ControllerFileError(f"expected 'format: {FORMAT}', got {data.get('format')!r}",
                                   field="format")
@@ -424,8 +484,28 @@ def controller_from_dict(data: Any, structure: Structure, base: Path | None = No
     if isinstance(version, bool) or version != VERSION:
         raise ControllerFileError(f"this tensim reads version {VERSION}, got "
                                   f"{data.get('version')!r}", field="version")
-    raw_impedance = _mapping(data.get("impedance"), "impedance", "'groups' and 'cables'")
-    impedance, passive = _gains(raw_impedance, structure, "impedance")
+    rest = None if data.get("rest_lengths") is None else _rest(data["rest_lengths"], structure,
+                                                                 "rest_lengths")
+    if data.get("rest_speed") is not None:
+        if rest is None:
+            raise ControllerFileError("a wind speed needs 'rest_lengths' to wind to",
+                                      field="rest_speed")
+        rest = dataclasses.replace(rest, speed=_number(data["rest_speed"], "rest_speed",
+                                                       positive=True))
+    commanded = frozenset(rest.cables if rest else ())
+    passive: tuple[str, ...]
+    if rest is not None and data.get("impedance") is None:
+        impedance, passive = ImpedanceController({}), ()
+        missing = [c.name for c in structure.cables
+                   if not c.motor.passive and c.name not in commanded]
+        if missing:
+            raise ControllerFileError(
+                f"{len(missing)} motorised cables of {structure.name!r} get no rest length: "
+                f"{missing}; give each one, or impedance gains (or 'impedance.passive') in "
+                "'impedance'", field="rest_lengths")
+    else:
+        raw_impedance = _mapping(data.get("impedance"), "impedance", "'groups' and 'cables'")
+        impedance, passive = _gains(raw_impedance, structure, "impedance", commanded)
     gait: Gait | None = None
     duration, period = 60.0, None
     if data.get("gait") is not None:
@@ -453,7 +533,7 @@ def controller_from_dict(data: Any, structure: Structure, base: Path | None = No
             raise ControllerFileError(f"expected text, got {describe(data[key])}", field=key)
     try:
         return ControllerConfig(impedance, gait, duration, period, data.get("model"),
-                                data.get("description") or "", passive)
+                                data.get("description") or "", passive, rest)
     except ValueError as err:
         raise ControllerFileError(str(err), field="gait") from None
 
@@ -542,12 +622,20 @@ def controller_to_dict(config: ControllerConfig, path: Path) -> dict[str, Any]:
         out["model"] = config.model
     if config.description:
         out["description"] = config.description
-    out["impedance"] = {"cables": {name: {f: float(getattr(g, f)) for f in _GAIN_FIELDS}
-                                   for name, g in config.impedance.gains.items()}}
+    impedance: dict[str, Any] = {}
+    if config.impedance.gains or config.rest is None:
+        impedance["cables"] = {name: {f: float(getattr(g, f)) for f in _GAIN_FIELDS}
+                               for name, g in config.impedance.gains.items()}
     if config.passive:
-        out["impedance"]["passive"] = list(config.passive)
+        impedance["passive"] = list(config.passive)
     if config.impedance.target_velocity:
-        out["impedance"]["target_velocity"] = float(config.impedance.target_velocity)
+        impedance["target_velocity"] = float(config.impedance.target_velocity)
+    if impedance:
+        out["impedance"] = impedance
+    if config.rest is not None:
+        out["rest_lengths"] = {n: float(r) for n, r in config.rest.as_dict().items()}
+        if config.rest.speed is not None:
+            out["rest_speed"] = float(config.rest.speed)
     if config.gait is not None:
         head: dict[str, Any] = {"duration": float(config.duration)}
         if config.command_period is not None:
@@ -562,6 +650,8 @@ _COMMENT = """\
 # Impedance law per cable (paper eq. 3): T_set = max(0, T0 + K (L - L*) + B (V - V*)) with
 # offset_tension T0 [N], stiffness_gain K [N/m], damping_gain B [N s/m], target_length L* [m].
 # The gait sets V* [m/s]; durations and periods in s, frequencies in Hz, phases in rad.
+# rest_lengths: commanded rest lengths [m]; the motors wind there at their max_speed, or at
+# rest_speed [m/s] where that is slower.
 """
 
 
