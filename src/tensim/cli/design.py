@@ -207,7 +207,8 @@ def register_pull(steps: argparse._SubParsersAction) -> None:
     u.add_argument("--verify", action="store_true",
                    help="simulate the motors winding there slowly (0.01 m/s) and resting 2 s; "
                         "report each node's distance from the static answer")
-    u.add_argument("--out", default="runs/pull", help="output folder")
+    u.add_argument("--out", default="runs/pull", help="output folder (controller.yaml: the "
+                   "commanded rest lengths, for simulate --controller; target.yaml; summary.json)")
     u.set_defaults(run=run_pull)
 
 
