@@ -184,3 +184,12 @@ def test_a_cable_without_a_motor_cannot_get_a_rest_length(spine, tmp_path) -> No
                        "motor"):
         load_controller(path, robot)
 
+
+
+def test_export_refuses_a_file_with_rest_lengths(spine, tmp_path, capsys) -> None:
+    path = save_controller(_mixed(spine), tmp_path / "c.yaml")
+    out = tmp_path / "v.txt"
+    assert main(["export-trajectory", str(path), "--out", str(out)]) == 2
+    assert "c.yaml: rest_lengths: a V* table carries no commanded rest lengths" \
+        in capsys.readouterr().err
+    assert not out.exists()

@@ -36,6 +36,10 @@ def run(args: argparse.Namespace) -> int:
     structure = load_model(args.model)
     config = load_controller(args.controller, structure)
     gait = config.gait
+    if config.rest is not None:  # the V* table would silently drop them
+        raise ValueError(f"{args.controller}: rest_lengths: a V* table carries no commanded "
+                         "rest lengths; export a controller whose cables all have impedance "
+                         "laws")
     if gait is None:
         raise ValueError(f"{args.controller}: has no gait, so there is no V* to export")
     if args.duration is not None:
