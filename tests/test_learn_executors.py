@@ -40,7 +40,7 @@ class _RaisingSphere(SphereProblem):
 
 @dataclasses.dataclass(frozen=True)
 class _DyingSphere(SphereProblem):
-    """Kills its worker process: always at index-0's point, once at the point below 0.1."""
+    """Kills its worker process: always at a point below 0.1, once at one above 0.9."""
 
     marker: str = ""
 

@@ -285,13 +285,8 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str,
     known = {c.name for c in structure.cables}
     for name, fields in cables.items():
         where = f"{field}.cables.{name}"
-        if name not in known:
-            raise ControllerFileError(f"{structure.name!r} has no cable {name!r}", field=where)
-        if structure.cable(name).motor.passive:
-            raise ControllerFileError(f"cable {name!r} has no motor in {structure.name!r}, so "
-                                      "no controller can drive it; give it a 'motor' in the "
-                                      "structure file (or its 'defaults'), or drop its gains",
-                                      field=where)
+        _check_motorised(structure, known, name, where, "no controller can drive it",
+                         "drop its gains")
         fields = _mapping(fields, where, f"gain fields {list(_GAIN_FIELDS)}")
         _only(fields, _GAIN_FIELDS, where)
         partial.setdefault(name, {}).update(
@@ -329,6 +324,17 @@ def _gains(raw: dict[str, Any], structure: Structure, field: str,
     return ImpedanceController(gains, velocity), passive
 
 
+def _check_motorised(structure: Structure, known: set[str], name: str, where: str,
+                     why: str, instead: str) -> None:
+    """Refuses a cable the structure lacks, or one without a motor (``why``, ``instead``)."""
+    if name not in known:
+        raise ControllerFileError(f"{structure.name!r} has no cable {name!r}", field=where)
+    if structure.cable(name).motor.passive:
+        raise ControllerFileError(f"cable {name!r} has no motor in {structure.name!r}, so "
+                                  f"{why}; give it a 'motor' in the structure file (or its "
+                                  f"'defaults'), or {instead}", field=where)
+
+
 def _rest(raw: Any, structure: Structure, field: str) -> RestCommand:
     """The ``rest_lengths`` section: motorised cable -> commanded rest length [m]."""
     raw = _mapping(raw, field, "cable name -> commanded rest length [m]")
@@ -338,13 +344,8 @@ def _rest(raw: Any, structure: Structure, field: str) -> RestCommand:
     known = {c.name for c in structure.cables}
     for name in raw:
         where = f"{field}.{name}"
-        if name not in known:
-            raise ControllerFileError(f"{structure.name!r} has no cable {name!r}", field=where)
-        if structure.cable(name).motor.passive:
-            raise ControllerFileError(f"cable {name!r} has no motor in {structure.name!r}, so "
-                                      "no motor can wind it to a rest length; give it a "
-                                      "'motor' in the structure file (or its 'defaults'), or "
-                                      "drop it here", field=where)
+        _check_motorised(structure, known, name, where,
+                         "no motor can wind it to a rest length", "drop it here")
     lengths = {name: _number(value, f"{field}.{name}", positive=True)
                for name, value in raw.items()}
     order = [c.name for c in structure.cables if c.name in lengths]  # structure order
@@ -430,13 +431,8 @@ def _sine(raw: dict[str, Any], structure: Structure, field: str) -> SineGait:
     columns: dict[str, list[float]] = {k: [] for k in _SINE_FIELDS}
     for name, wave in cables.items():
         where = f"{field}.cables.{name}"
-        if name not in known:
-            raise ControllerFileError(f"{structure.name!r} has no cable {name!r}", field=where)
-        if structure.cable(name).motor.passive:
-            raise ControllerFileError(f"cable {name!r} has no motor in {structure.name!r}, so "
-                                      "no controller can drive it; give it a 'motor' in the "
-                                      "structure file (or its 'defaults'), or drop its gains",
-                                      field=where)
+        _check_motorised(structure, known, name, where, "no controller can drive it",
+                         "drop its gains")
         wave = _mapping(wave, where, f"{list(_SINE_FIELDS)}")
         _only(wave, _SINE_FIELDS, where)
         for key in _SINE_FIELDS:
