@@ -11,13 +11,13 @@ import numpy as np
 from mujoco import batch as mjbatch
 
 from tensim.rl._robot import Robot
-from tensim.sim import PhysicsScale, StabilityLimits, Trial
+from tensim.sim import PhysicsScale, StabilityLimits, Trial, load_cell_tension
 from tensim.sim._batch import setup_trial
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
-_FIELDS = ("ten_length", "xipos", "xquat", "subtree_com", "cvel", "qvel", "actuator_force",
-           "act", "ctrl")
+_FIELDS = ("ten_length", "xpos", "xmat", "xipos", "xquat", "subtree_com", "cvel", "qvel",
+           "actuator_force", "act", "ctrl")
 
 
 class Worlds:
@@ -28,12 +28,10 @@ class Worlds:
     """
 
     def __init__(self, robot: Robot, n: int, threads: int = 1):
-        self.robot, self.n = robot, n
+        self.robot, self.n, self.threads = robot, n, threads
         c = robot.config
-        self.batch = mjbatch.Batch(robot.model, n, nthread=threads, persistent=True)
-        self.f = {k: self.batch.bind(k) for k in _FIELDS}
+        self._open_batch([robot.model] * n)
         self.rngs = [np.random.default_rng() for _ in range(n)]
-        self.models = [robot.model] * n
         self._randomize_physics = any(getattr(c.randomization, k) != (1.0, 1.0)
                                       for k in _SCALED)
         self._scratch = mujoco.MjData(robot.model)
@@ -48,15 +46,46 @@ class Worlds:
         self._body_qpos = np.array([robot.model.jnt_qposadr[robot.model.body_jntadr[b]]
                                     for b in idx.body if robot.model.body_jntadr[b] >= 0
                                     and free[robot.model.body_jntadr[b]]], dtype=int)
-        k = robot.n
-        hold = np.zeros(k) if robot.action == "vstar" else robot.rest0
-        self.hold = hold
-        self.pending = np.zeros((n, c.randomization.action_delay, k)) + hold
-        self.previous = np.zeros((n, k))
+        self.hold = robot.hold
+        self.pending = np.zeros((n, c.randomization.action_delay, robot.n)) + self.hold
+        self.previous = np.zeros((n, robot.motors.size))
         self.steps = np.zeros(n, dtype=int)
         self.start_xipos = np.zeros((n, len(idx.body), 3))
         self.target = np.zeros((n, 2))  # a unit direction or a goal position, world frame
+        base = robot.layout.get("history", (0, 0))[0]
+        self.past = np.zeros((n, c.history, base))
         self.limits = StabilityLimits()
+        self._robot_body = np.zeros(robot.model.nbody, dtype=bool)
+        self._robot_body[idx.body] = True
+
+    def _open_batch(self, models: list[mujoco.MjModel]) -> None:
+        """The batch engine over ``models`` (one per robot) and its field views."""
+        self.models = list(models)
+        self.batch = mjbatch.Batch(self.models[0], self.n, nthread=self.threads,
+                                   persistent=True)
+        if any(m is not self.models[0] for m in self.models):
+            self.batch.set_models(self.models)
+        self.f = {k: self.batch.bind(k) for k in _FIELDS}
+
+    # -- copies ----------------------------------------------------------------------------
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Everything but the batch engine, whose robots' states are saved instead."""
+        state = {k: v for k, v in self.__dict__.items() if k not in ("batch", "f")}
+        state["_states"] = np.array([self.batch.state[i] for i in range(self.n)])
+        state["_warnings"] = np.array(self.batch.warning)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        states, warnings = state.pop("_states"), state.pop("_warnings")
+        self.__dict__.update(state)
+        self._open_batch(self.models)
+        ids = np.arange(self.n, dtype=np.int32)
+        self.batch.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)
+        for i in range(self.n):
+            self.batch.state[i] = states[i]
+        self.batch.forward(ids)
+        self.batch.warning[:] = warnings
 
     # -- episodes --------------------------------------------------------------------------
 
@@ -88,6 +117,7 @@ class Worlds:
         self.start_xipos[ids] = self.f["xipos"][ids][:, self._body]
         self.pending[ids] = self.hold
         self.previous[ids] = 0.0
+        self.past[ids] = 0.0
         self.steps[ids] = 0
 
     def _scaled_model(self, rng: np.random.Generator) -> mujoco.MjModel:
@@ -152,6 +182,7 @@ class Worlds:
             commands = now
         self.f["ctrl"][ids, :n] = commands
         before = self.f["subtree_com"][ids, 0, :2].copy()
+        bodies_before = self.f["xipos"][ids][:, self._body, :2]
         failed = np.zeros(ids.size, dtype=bool)
         try:
             self.batch.step(ids, nstep=c.control_steps, stage=mujoco.mjtStage.mjSTAGE_VEL)
@@ -166,19 +197,30 @@ class Worlds:
         unstable = failed | ~(speed < self.limits.max_speed) | \
             ~(force < self.limits.max_tension) | bad
         after = f["subtree_com"][ids, 0, :2]
-        progress, reached = self._progress(ids, before, after)
+        progress, reached = self._progress(ids, before, after, bodies_before)
         control = -c.control_cost * np.mean(applied ** 2, axis=1) * c.control_dt
+        contact = np.zeros(ids.size)
+        if c.bar_contact_cost:
+            contact = -c.bar_contact_cost * self.bar_contacts(ids) * c.control_dt
         terms = {"progress": np.where(unstable, 0.0, progress),
-                 "control": np.where(unstable, 0.0, control)}
+                 "control": np.where(unstable, 0.0, control),
+                 "contact": np.where(unstable, 0.0, contact)}
         terms["unstable"] = unstable
-        return terms["progress"] + terms["control"], unstable | reached, terms
+        reward = terms["progress"] + terms["control"] + terms["contact"]
+        return reward, unstable | reached, terms
 
-    def _progress(self, ids: np.ndarray, before: np.ndarray, after: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
+    def _progress(self, ids: np.ndarray, before: np.ndarray, after: np.ndarray,
+                  bodies_before: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         c = self.robot.config
         if c.task == "direction":
             return np.einsum("ij,ij->i", after - before, self.target[ids]), np.zeros(
                 ids.size, dtype=bool)
+        if c.task == "turn":
+            bodies = self.f["xipos"][ids][:, self._body, :2]
+            turned = _yaw_change(bodies_before - before[:, None], bodies - after[:, None],
+                                 self._mass)
+            drift = np.linalg.norm(after - before, axis=1)
+            return (-turned if c.clockwise else turned) - drift, np.zeros(ids.size, bool)
         if c.task == "goal":
             far_before = np.linalg.norm(self.target[ids] - before, axis=1)
             far = np.linalg.norm(self.target[ids] - after, axis=1)
@@ -204,9 +246,13 @@ class Worlds:
         length = f["ten_length"][ids][:, robot.compiled.index.tendon]
         rest = robot.compiled.index.cable_act(f["act"][ids])
         terms["cable_length"], terms["rest_length"] = length, rest
-        terms["tension"] = np.where(length > rest, robot.stiffness * (length - rest), 0.0)
-        if "contact" in robot.layout:
-            terms["contact"] = self._contact(ids)
+        if "tension" in robot.layout:  # the load cells, with each robot's own stiffness
+            stiffness = np.stack([robot.compiled.law(self.models[i]).stiffness for i in ids])
+            terms["tension"] = load_cell_tension(length, rest, stiffness)
+        if "rod_axis" in robot.layout:
+            terms["rod_axis"] = _to_frame(self._rod_axes(ids), yaw)
+        if "contact" in robot.layout or "end_contact" in robot.layout:
+            terms["contact"], terms["end_contact"] = self._contact(ids)
         if robot.config.task == "direction":
             terms["task"] = _to_frame(self.target[ids, None], yaw)[:, 0, :2]
         elif robot.config.task == "goal":
@@ -215,8 +261,22 @@ class Worlds:
             terms["task"] = np.zeros((ids.size, 2))
         terms["previous_action"] = self.previous[ids]
         terms["position"] = com[:, :2]
-        obs = np.concatenate([terms[t].reshape(ids.size, -1) for t in robot.layout], axis=1)
-        return self._noisy(ids, obs)
+        obs = self._noisy(ids, np.concatenate([terms[t].reshape(ids.size, -1)
+                                               for t in robot.layout if t != "history"], axis=1))
+        if not robot.config.history:
+            return obs
+        out = np.concatenate([obs, self.past[ids].reshape(ids.size, -1)], axis=1)
+        self.past[ids] = np.concatenate([obs[:, None], self.past[ids][:, :-1]], axis=1)
+        return out
+
+    def _rod_axes(self, ids: np.ndarray) -> np.ndarray:
+        """(k, n_rods, 3) unit vectors from each rod's first end to its second (world)."""
+        rods = self.robot.rods
+        xpos, xmat = self.f["xpos"][ids], self.f["xmat"][ids].reshape(ids.size, -1, 3, 3)
+        ends = xpos[:, rods["body"]] + np.einsum("krexy,rey->krex", xmat[:, rods["body"]],
+                                                 rods["local"])
+        axis = ends[:, :, 1] - ends[:, :, 0]
+        return axis / np.linalg.norm(axis, axis=2, keepdims=True)
 
     def _velocity(self, ids: np.ndarray, xipos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
         cvel = self.f["cvel"][ids][:, self._body]  # (rotation, translation) at the root's com
@@ -227,15 +287,46 @@ class Worlds:
                  _to_frame(cvel[..., :3], yaw)]
         return np.concatenate([p.reshape(ids.size, -1) for p in parts], axis=1)
 
-    def _contact(self, ids: np.ndarray) -> np.ndarray:
-        """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground)."""
-        m = self.robot.model
-        out = np.zeros((ids.size, self._body.size))
+    def _contact(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground), and
+        (k, 2 n_rods) 1 where the ground touches a rod nearer that end than the other."""
+        m, rods = self.robot.model, self.robot.rods
+        touch = np.zeros((ids.size, self._body.size))
+        ends = np.zeros((ids.size, rods["body"].size))
         for row, i in enumerate(ids):
             d = self.batch.get_data(int(i))
-            bodies = m.geom_bodyid[d.contact.geom[:d.ncon]] if d.ncon else np.zeros((0, 2), int)
-            touching = bodies[(bodies == 0).any(axis=1)].ravel()
-            out[row] = np.isin(self._body, touching)
+            if not d.ncon:
+                continue
+            bodies = m.geom_bodyid[d.contact.geom[:d.ncon]]
+            ground = (bodies == 0).any(axis=1)
+            touching = bodies[ground].max(axis=1)
+            touch[row] = np.isin(self._body, touching)
+            if ends.shape[1]:
+                ends[row] = self._touched_ends(d, touching, d.contact.pos[:d.ncon][ground])
+        return touch, ends
+
+    def _touched_ends(self, d: Any, bodies: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(2 n_rods,) 1 for the rod end nearest each ground contact of its body."""
+        rods = self.robot.rods
+        body = rods["body"].ravel()
+        pos = d.xpos[body] + np.einsum("exy,ey->ex", d.xmat[body].reshape(-1, 3, 3),
+                                       rods["local"].reshape(-1, 3))
+        out = np.zeros(body.size)
+        for b, p in zip(bodies, points, strict=True):
+            mine = np.flatnonzero(body == b)
+            if mine.size:
+                out[mine[np.argmin(np.linalg.norm(pos[mine] - p, axis=1))]] = 1.0
+        return out
+
+    def bar_contacts(self, ids: np.ndarray) -> np.ndarray:
+        """(k,) contacts between two of the robot's rigid bodies, per robot."""
+        m = self.robot.model
+        out = np.zeros(ids.size)
+        for row, i in enumerate(ids):
+            d = self.batch.get_data(int(i))
+            bodies = m.geom_bodyid[d.contact.geom[:d.ncon]]
+            both = self._robot_body[bodies].all(axis=1) & (bodies[:, 0] != bodies[:, 1])
+            out[row] = both.sum()
         return out
 
     def _noisy(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
@@ -261,6 +352,15 @@ class Worlds:
     def data(self, i: int) -> Any:
         """Robot ``i``'s whole MjData (for rendering)."""
         return self.batch.get_data(i)
+
+
+def _yaw_change(before: np.ndarray, after: np.ndarray, mass: np.ndarray) -> np.ndarray:
+    """(k,) rotation about the vertical [rad] of (k, b, 2) body positions relative to the
+    centre of mass, each body weighted by m r^2 (a rigid turn gives its angle)."""
+    turn = np.arctan2(before[..., 0] * after[..., 1] - before[..., 1] * after[..., 0],
+                      np.einsum("kbj,kbj->kb", before, after))
+    weight = mass * np.einsum("kbj,kbj->kb", after, after)
+    return np.einsum("kb,kb->k", weight, turn) / np.maximum(weight.sum(axis=1), 1e-12)
 
 
 def _to_frame(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
