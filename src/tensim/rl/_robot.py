@@ -37,15 +37,21 @@ def default_controller(model: str, structure: Structure) -> Controller | None:
 
 
 class _Configure:
-    """Sets the law's gains (from the controller) and every cable's mode for the actions."""
+    """Sets the law's gains (from the controller) and the mode of the motorised cables (all
+    cables when ``motors`` is None) for the actions; the others hold their rest length."""
 
-    def __init__(self, controller: Controller | None, mode: int):
-        self.controller, self.mode = controller, mode
+    def __init__(self, controller: Controller | None, mode: int,
+                 motors: np.ndarray | None = None):
+        self.controller, self.mode, self.motors = controller, mode, motors
 
     def configure(self, setup: Any) -> None:
         if self.controller is not None:
             self.controller.configure(setup)
-        setup.drive.mode[:] = self.mode
+        if self.motors is None:
+            setup.drive.mode[:] = self.mode
+        else:
+            setup.drive.mode[:] = MODE_REST
+            setup.drive.mode[self.motors] = self.mode
 
 
 class Robot:
@@ -74,14 +80,15 @@ class Robot:
             raise InputError(f"model {config.model!r} has no impedance controller, so V* "
                              "actions would do nothing: use action='rest_length'")
         mode = MODE_IMPEDANCE if self.action == "vstar" else MODE_REST
-        with Simulation(self.compiled, controller=_Configure(controller, mode)) as sim:
+        self.motors = motorised(config.model, structure)
+        with Simulation(self.compiled, controller=_Configure(controller, mode,
+                                                             self.motors)) as sim:
             self.model = sim.model
             self.initial_state = sim.get_state()
             rest0 = sim.drive.rest.copy()
         drive = CableDrive(self.compiled, self.model)  # parameters read from the MjModel
         self.n = self.compiled.n_cables
         self.n_bodies = len(self.compiled.index.bodies)
-        self.motors = motorised(config.model, structure)
         self.cables = tuple(self.compiled.index.cables[i] for i in self.motors)
         speed = drive.max_speed.astype(float)[self.motors]
         if not (speed > 0).any():  # (in a model edited by hand) no motor speed
@@ -94,7 +101,9 @@ class Robot:
             self.low = np.maximum(drive.min_rest[self.motors], rest0[self.motors] - span)
             self.high = rest0[self.motors] + span
         self.rest0 = rest0
-        self.hold = np.zeros(self.n) if self.action == "vstar" else rest0.copy()
+        self.hold = rest0.copy()  # passive cables keep their rest length (MODE_REST)
+        if self.action == "vstar":
+            self.hold[self.motors] = 0.0
         m = self.motors.size
         if config.normalize_actions:
             self.action_space = gym.spaces.Box(-1.0, 1.0, (m,), dtype=np.float32)
