@@ -177,3 +177,64 @@ def test_the_turn_task_rewards_the_angle_turned_about_the_vertical():
     c, s = np.cos(0.3), np.sin(0.3)
     after = before @ np.array([[c, s], [-s, c]])  # each point turned +0.3 rad
     assert _yaw_change(before, after, np.array([0.2, 0.3, 0.5]))[0] == pytest.approx(0.3)
+
+
+def _train(robot_file, out, algo, steps):
+    from tensim.cli import main
+
+    return main(["--quiet", "rl", "train", robot_file, "--algo", algo, "--steps", str(steps),
+                 "--envs", "2", "--checkpoint", str(steps // 2), "--episode", "1",
+                 "--out", str(out)])
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, capsys):
+    pytest.importorskip("stable_baselines3")
+    import json
+
+    from tensim.cli import main
+
+    out = tmp_path / algo
+    assert _train(robot_file, out, algo, 512 if algo == "ppo" else 200) == 0  # seconds
+    progress = json.loads((out / "progress.json").read_text())
+    assert progress["steps_done"] >= (512 if algo == "ppo" else 200)
+    assert (out / "learning_curve.png").is_file() and (out / "robot.yaml").is_file()
+    assert _train(robot_file, out, algo, 1024) == 2  # no silent restart over a run
+    assert "add --resume" in capsys.readouterr().err
+    assert main(["--quiet", "rl", "evaluate", str(out), "--duration", "0.4"]) == 0
+    summary = json.loads((out / "evaluation" / "summary.json").read_text())
+    assert summary["body_length_m"] == pytest.approx(1.4, abs=0.01)  # the longest rod
+    speed = summary["displacement_along_heading_m"] / summary["duration_s"] / 1.399
+    assert summary["body_lengths_per_s"] == pytest.approx(speed, abs=2e-6)  # 6 digits kept
+    assert main(["--quiet", "rl", "export", str(out), "--onnx",
+                 str(tmp_path / "robot" / "policy.onnx")]) == 0
+    assert (tmp_path / "robot" / "policy.json").is_file()
+
+
+@pytest.fixture(scope="module")
+def trained(robot_file, tmp_path_factory):
+    pytest.importorskip("stable_baselines3")
+    out = tmp_path_factory.mktemp("run") / "sac"
+    assert _train(robot_file, out, "sac", 200) == 0
+    return out
+
+
+def test_the_exported_policy_acts_as_the_trained_one(trained, tmp_path):
+    from tensim.rl import policy as numpy_policy
+    from tensim.rl.evaluate import run_policy
+    from tensim.rl.export import export, load_learner
+    from tensim.rl.train import load_settings
+
+    export(trained, tmp_path / "policy.onnx")
+    runner = numpy_policy.load(tmp_path / "policy.json")
+    recorded = run_policy(load_settings(trained), runner, 1.0, seed=4)["observations"]
+    learner = load_learner(trained)
+    want = learner.predict(runner.normalize(recorded).astype(np.float32),
+                           deterministic=True)[0]
+    assert np.abs(want).max() > 1e-3  # a policy that acts
+    # float32 network against float64 NumPy: rounding well under 1e-5
+    np.testing.assert_allclose(runner(recorded), want, atol=1e-5)
+    ort = pytest.importorskip("onnxruntime")
+    session = ort.InferenceSession(str(tmp_path / "policy.onnx"))
+    got = session.run(["action"], {"observation": recorded.astype(np.float32)})[0]
+    np.testing.assert_allclose(got, want, atol=1e-5)

@@ -67,9 +67,11 @@ def train(args: argparse.Namespace) -> int:
                          checkpoint_steps=args.checkpoint, progress=bar)
     curve = state["curve"]
     last = [r for _, r in curve[-max(1, len(curve) // 10):]] if curve else []
-    mean = sum(last) / len(last) if last else float("nan")
-    print(f"{state['steps_done']} env steps in {state['cpu_s']:.0f} CPU s; mean return of the "
-          f"last {len(last)} episodes {mean:+.3f}; wrote {args.out}")
+    mean = sum(last) / len(last) if last else 0.0
+    returns = f"mean return of the last {len(last)} episodes {mean:+.3f}" if last else \
+        "no episode ended yet"
+    print(f"{state['steps_done']} env steps in {state['cpu_s']:.0f} CPU s; {returns}; "
+          f"wrote {args.out}")
     return 0
 
 

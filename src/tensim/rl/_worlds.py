@@ -35,6 +35,7 @@ class Worlds:
         self._randomize_physics = any(getattr(c.randomization, k) != (1.0, 1.0)
                                       for k in _SCALED)
         self._scratch = mujoco.MjData(robot.model)
+        self._scratch_contacts = mujoco.MjData(robot.model)  # a robot's data, for its contacts
         idx = robot.compiled.index
         self._body = idx.body
         self._root = robot.model.body_rootid[idx.body]
@@ -294,7 +295,7 @@ class Worlds:
         touch = np.zeros((ids.size, self._body.size))
         ends = np.zeros((ids.size, rods["body"].size))
         for row, i in enumerate(ids):
-            d = self.batch.get_data(int(i))
+            d = self.batch.get_data(int(i), self._scratch_contacts)
             if not d.ncon:
                 continue
             bodies = m.geom_bodyid[d.contact.geom[:d.ncon]]
@@ -323,7 +324,7 @@ class Worlds:
         m = self.robot.model
         out = np.zeros(ids.size)
         for row, i in enumerate(ids):
-            d = self.batch.get_data(int(i))
+            d = self.batch.get_data(int(i), self._scratch_contacts)
             bodies = m.geom_bodyid[d.contact.geom[:d.ncon]]
             both = self._robot_body[bodies].all(axis=1) & (bodies[:, 0] != bodies[:, 1])
             out[row] = both.sum()

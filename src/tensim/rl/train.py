@@ -86,12 +86,16 @@ class TrainSettings:
                          bar_contact_cost=self.bar_contact_cost)
 
 
+ROBOT_FILE = "robot.yaml"  # a structure file's copy in the run folder
+
+
 def fingerprint(settings: TrainSettings) -> str:
-    """A hash of the settings and of the robot file's contents (a preset: its name)."""
-    text = json.dumps(dataclasses.asdict(settings) | {"steps": 0}, sort_keys=True)
+    """A hash of the settings, with a robot file's contents in place of its path (a preset:
+    its name); ``steps`` is left out, so a resumed run may train longer."""
+    record = dataclasses.asdict(settings) | {"steps": 0}
     if settings.model not in PRESETS:
-        text += hashlib.sha256(Path(settings.model).read_bytes()).hexdigest()
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+        record["model"] = hashlib.sha256(Path(settings.model).read_bytes()).hexdigest()
+    return hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:16]
 
 
 def load_settings(folder: Path) -> TrainSettings:
@@ -105,6 +109,8 @@ def load_settings(folder: Path) -> TrainSettings:
         raise InputError(f"{folder}: no training run here (no settings.json); train one with "
                          "`tensim rl train`")
     data = json.loads(path.read_text())
+    if data["model"] not in PRESETS:  # the copy of the robot file it trained on
+        data["model"] = str(Path(folder) / ROBOT_FILE)
     return TrainSettings(**{k: v for k, v in data.items() if k != "fingerprint"})
 
 
@@ -153,6 +159,7 @@ def _open(settings: TrainSettings, out: Path, resume: bool) -> dict[str, Any]:
                              "continue it, or choose another --out")
         old = json.loads((out / "settings.json").read_text())
         if old.get("fingerprint") != print_:
+            old["model"] = settings.model if old["model"] not in PRESETS else old["model"]
             raise InputError(f"--out {out}: its run was trained with other settings or another "
                              f"robot file ({_differences(old, settings)}); --resume continues "
                              "only the same run (--steps may grow)")
@@ -161,6 +168,9 @@ def _open(settings: TrainSettings, out: Path, resume: bool) -> dict[str, Any]:
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise InputError(f"--out {out}: not an empty folder and holds no training run")
     out.mkdir(parents=True, exist_ok=True)
+    if settings.model not in PRESETS:
+        with atomic_path(out / ROBOT_FILE) as tmp:
+            tmp.write_bytes(Path(settings.model).read_bytes())
     write_json(out / "settings.json", dataclasses.asdict(settings) | {"fingerprint": print_})
     return {"steps_done": 0, "curve": [], "cpu_s": 0.0}
 
@@ -173,9 +183,12 @@ def _differences(old: dict[str, Any], settings: TrainSettings) -> str:
 
 def _learner(settings: TrainSettings, out: Path, state: dict[str, Any]) -> Any:
     import stable_baselines3 as sb3
+    import torch
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from tensim.rl.sb3 import SB3VecEnv
+
+    torch.set_num_threads(1)  # small networks: one thread is fastest, and leaves the rest free
 
     venv = SB3VecEnv(settings.envs, settings.env_config())
     venv.seed(settings.seed)
