@@ -91,7 +91,7 @@ def test_seeds_differ_by_default_and_one_seed_repeats_its_episode(robot_file):
         out = [obs] + [env.step(rng.uniform(-1, 1, 6).astype(np.float32))[0] for _ in range(8)]
         return start, np.array(out)
 
-    (s1, e1), (s1b, e1b), (s2, e2) = episode(1), episode(1), episode(2)
+    (s1, e1), (s1b, e1b), (s2, _) = episode(1), episode(1), episode(2)
     np.testing.assert_array_equal(s1, s1b)
     np.testing.assert_array_equal(e1, e1b)
     assert np.abs(s1 - s2).max() > 1e-3  # another heading and pose noise

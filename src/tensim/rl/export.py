@@ -23,7 +23,7 @@ def load_learner(folder: Path) -> Any:
     if not path.is_file():
         raise InputError(f"{folder}: the run has no policy yet (no policy.zip): let "
                          "`tensim rl train` reach its first checkpoint")
-    algo = {"ppo": sb3.PPO, "sac": sb3.SAC}[settings.algo]
+    algo: Any = {"ppo": sb3.PPO, "sac": sb3.SAC}[settings.algo]
     return algo.load(path, device="cpu")
 
 
@@ -96,7 +96,7 @@ def export(folder: Path, onnx: Path | None = None) -> dict[str, Any]:
     where = Path(folder) if onnx is None else Path(onnx).parent
     where.mkdir(parents=True, exist_ok=True)
     with atomic_path(where / "policy.npz") as tmp, open(tmp, "wb") as f:
-        np.savez(f, **arrays)
+        np.savez(f, **arrays)  # type: ignore[arg-type]
     if onnx is not None:
         meta["network"]["onnx"] = Path(onnx).name
         _write_onnx(Policy(meta, [arrays[f"w{k}"] for k in range(len(arrays) // 2)],

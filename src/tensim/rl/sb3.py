@@ -13,7 +13,6 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 from tensim.rl.config import EnvConfig
 from tensim.rl.vector import TensegrityVectorEnv
 
-
 _TERMS = ("reward_progress", "reward_control", "reward_contact", "unstable")
 
 

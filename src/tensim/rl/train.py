@@ -192,10 +192,10 @@ def _learner(settings: TrainSettings, out: Path, state: dict[str, Any]) -> Any:
 
     venv = SB3VecEnv(settings.envs, settings.env_config())
     venv.seed(settings.seed)
-    env = VecNormalize(VecMonitor(venv, info_keywords=("reward_progress",)),
+    env: Any = VecNormalize(VecMonitor(venv, info_keywords=("reward_progress",)),
                        norm_obs=True, norm_reward=settings.algo == "ppo",
                        clip_obs=CLIP_OBS, epsilon=EPSILON)
-    algo = {"ppo": sb3.PPO, "sac": sb3.SAC}[settings.algo]
+    algo: Any = {"ppo": sb3.PPO, "sac": sb3.SAC}[settings.algo]
     if state["steps_done"]:
         with np.load(out / "normalizer.npz") as saved:
             env.obs_rms.mean, env.obs_rms.var = saved["mean"], saved["var"]

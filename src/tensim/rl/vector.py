@@ -154,7 +154,8 @@ class TensegrityVectorEnv(VectorEnv):
             return None
         if self._renders is None:
             self._renders = Renders(self.robot.compiled)
-        return tuple(self._renders.image(self.worlds.models[i], self.worlds.data(i)) for i in range(self.num_envs))
+        return tuple(self._renders.image(self.worlds.models[i], self.worlds.data(i))
+                     for i in range(self.num_envs))
 
     def close_extras(self, **kwargs: Any) -> None:
         """Frees the offscreen renderer."""
