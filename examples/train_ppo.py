@@ -218,7 +218,7 @@ def speed(args: argparse.Namespace) -> None:
     config = dataclasses.replace(training_config(args), threads=args.threads)
     vector, sb3 = TensegrityVectorEnv(args.envs, config), SB3VecEnv(args.envs, config)
     raw = vector.worlds.batch
-    actions = np.random.default_rng(0).uniform(-1, 1, (args.envs, vector.robot.n))
+    actions = np.random.default_rng(0).uniform(-1, 1, (args.envs, vector.robot.motors.size))
     vector.reset(seed=0)
     sb3.reset()
 

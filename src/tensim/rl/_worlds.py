@@ -58,6 +58,8 @@ class Worlds:
         self.limits = StabilityLimits()
         self._robot_body = np.zeros(robot.model.nbody, dtype=bool)
         self._robot_body[idx.body] = True
+        self._slot = np.full(robot.model.nbody, -1)  # MuJoCo body id -> rigid body number
+        self._slot[idx.body] = np.arange(idx.body.size)
 
     def _open_batch(self, models: list[mujoco.MjModel]) -> None:
         """The batch engine over ``models`` (one per robot) and its field views."""
@@ -240,10 +242,12 @@ class Worlds:
         ahead = xipos[:, 0, :2] - com[:, :2]  # the robot frame's x axis: toward body 0
         yaw = np.arctan2(ahead[:, 1], ahead[:, 0])
         terms: dict[str, np.ndarray] = {"height": com[:, 2:3]}
-        rel = _to_frame(xipos - com[:, None], yaw)
-        terms["pose"] = np.concatenate([rel, _quat_to_frame(f["xquat"][ids][:, self._body],
-                                                            yaw)], axis=2).reshape(ids.size, -1)
-        terms["velocity"] = self._velocity(ids, xipos, yaw)
+        if "pose" in robot.layout:
+            rel = _to_frame(xipos - com[:, None], yaw)
+            quat = _quat_to_frame(f["xquat"][ids][:, self._body], yaw)
+            terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(ids.size, -1)
+        if "velocity" in robot.layout:
+            terms["velocity"] = self._velocity(ids, xipos, yaw)
         length = f["ten_length"][ids][:, robot.compiled.index.tendon]
         rest = robot.compiled.index.cable_act(f["act"][ids])
         terms["cable_length"], terms["rest_length"] = length, rest
@@ -272,10 +276,7 @@ class Worlds:
 
     def _rod_axes(self, ids: np.ndarray) -> np.ndarray:
         """(k, n_rods, 3) unit vectors from each rod's first end to its second (world)."""
-        rods = self.robot.rods
-        xpos, xmat = self.f["xpos"][ids], self.f["xmat"][ids].reshape(ids.size, -1, 3, 3)
-        ends = xpos[:, rods["body"]] + np.einsum("krexy,rey->krex", xmat[:, rods["body"]],
-                                                 rods["local"])
+        ends = self._end_positions(ids).reshape(ids.size, -1, 2, 3)
         axis = ends[:, :, 1] - ends[:, :, 0]
         return axis / np.linalg.norm(axis, axis=2, keepdims=True)
 
@@ -292,32 +293,37 @@ class Worlds:
         """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground), and
         (k, 2 n_rods) 1 where the ground touches a rod nearer that end than the other."""
         m, rods = self.robot.model, self.robot.rods
+        rows, bodies, points = [], [], []
+        for row, i in enumerate(ids):  # MuJoCo's contact list of each robot
+            d = self.batch.get_data(int(i), self._scratch_contacts)
+            if d.ncon:
+                pair = m.geom_bodyid[d.contact.geom[:d.ncon]]
+                ground = (pair == 0).any(axis=1)
+                bodies.append(pair[ground].max(axis=1))
+                points.append(d.contact.pos[:d.ncon][ground])
+                rows.append(np.full(bodies[-1].size, row))
         touch = np.zeros((ids.size, self._body.size))
         ends = np.zeros((ids.size, rods["body"].size))
-        for row, i in enumerate(ids):
-            d = self.batch.get_data(int(i), self._scratch_contacts)
-            if not d.ncon:
-                continue
-            bodies = m.geom_bodyid[d.contact.geom[:d.ncon]]
-            ground = (bodies == 0).any(axis=1)
-            touching = bodies[ground].max(axis=1)
-            touch[row] = np.isin(self._body, touching)
-            if ends.shape[1]:
-                ends[row] = self._touched_ends(d, touching, d.contact.pos[:d.ncon][ground])
+        if not rows:
+            return touch, ends
+        row, body, point = np.concatenate(rows), np.concatenate(bodies), np.concatenate(points)
+        slot = self._slot[body]
+        touch[row[slot >= 0], slot[slot >= 0]] = 1.0
+        if ends.shape[1]:  # the nearest end of the touching rod's body
+            where = self._end_positions(ids)[row]  # (c, 2 n_rods, 3)
+            far = np.linalg.norm(where - point[:, None], axis=2)
+            far[rods["body"].ravel()[None] != body[:, None]] = np.inf
+            hit = np.isfinite(far).any(axis=1)
+            ends[row[hit], np.argmin(far[hit], axis=1)] = 1.0
         return touch, ends
 
-    def _touched_ends(self, d: Any, bodies: np.ndarray, points: np.ndarray) -> np.ndarray:
-        """(2 n_rods,) 1 for the rod end nearest each ground contact of its body."""
+    def _end_positions(self, ids: np.ndarray) -> np.ndarray:
+        """(k, 2 n_rods, 3) world positions of the rod ends."""
         rods = self.robot.rods
         body = rods["body"].ravel()
-        pos = d.xpos[body] + np.einsum("exy,ey->ex", d.xmat[body].reshape(-1, 3, 3),
-                                       rods["local"].reshape(-1, 3))
-        out = np.zeros(body.size)
-        for b, p in zip(bodies, points, strict=True):
-            mine = np.flatnonzero(body == b)
-            if mine.size:
-                out[mine[np.argmin(np.linalg.norm(pos[mine] - p, axis=1))]] = 1.0
-        return out
+        xmat = self.f["xmat"][ids].reshape(ids.size, -1, 3, 3)[:, body]
+        return self.f["xpos"][ids][:, body] + np.einsum("kexy,ey->kex", xmat,
+                                                        rods["local"].reshape(-1, 3))
 
     def bar_contacts(self, ids: np.ndarray) -> np.ndarray:
         """(k,) contacts between two of the robot's rigid bodies, per robot."""
