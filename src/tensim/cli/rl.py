@@ -70,8 +70,8 @@ def train(args: argparse.Namespace) -> int:
     mean = sum(last) / len(last) if last else 0.0
     returns = f"mean return of the last {len(last)} episodes {mean:+.3f}" if last else \
         "no episode ended yet"
-    print(f"{state['steps_done']} env steps in {state['cpu_s']:.0f} CPU s; {returns}; "
-          f"wrote {args.out}")
+    print(f"{state['steps_done']} env steps; {returns}")
+    print(f"training CPU time {state['cpu_s']:.0f} s; wrote {args.out}")
     return 0
 
 
@@ -80,7 +80,8 @@ def evaluate(args: argparse.Namespace) -> int:
 
     out = Path(args.out) if args.out else Path(args.run_dir) / "evaluation"
     s = run_evaluation(Path(args.run_dir), out, args.duration, args.seed)
-    print(f"{s['model']}: {s['displacement_along_heading_m']:+.3f} m along the heading in "
+    print(f"policy of {args.run_dir}: {s['displacement_along_heading_m']:+.3f} m along the "
+          f"heading in "
           f"{s['duration_s']:g} s = {s['body_lengths_per_s']:+.4f} body lengths/s "
           f"(body length {s['body_length_m']:.3f} m); wrote {out}")
     return 0
