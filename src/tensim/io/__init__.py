@@ -1,6 +1,18 @@
-"""Model exchange: import the original toolkit's YAML structures, export MuJoCo MJCF."""
+"""Model exchange: import the original toolkit's YAML structures and MuJoCo MJCF files,
+export MuJoCo MJCF."""
 
 from tensim.io.mjcf import mjcf_spec, save_mjcf, to_mjcf
+from tensim.io.mjcf_import import (
+    ActuatorMapping,
+    CommandMap,
+    MjcfImport,
+    MjcfImportWarning,
+    explicit_step,
+    import_mjcf,
+    save_import,
+)
 from tensim.io.ntrt import UNITS, NtrtImport, import_ntrt
 
-__all__ = ["UNITS", "NtrtImport", "import_ntrt", "mjcf_spec", "save_mjcf", "to_mjcf"]
+__all__ = ["UNITS", "ActuatorMapping", "CommandMap", "MjcfImport", "MjcfImportWarning",
+           "NtrtImport", "explicit_step", "import_mjcf", "import_ntrt", "mjcf_spec",
+           "save_import", "save_mjcf", "to_mjcf"]

@@ -10,17 +10,24 @@ band [0, rest length], so that, like the cable, it pulls only while stretched pa
 length, with k (x - l) + b dx/dt.
 Two differences remain: MuJoCo damps a slack tendon too (the cable law does not), and the rest
 lengths stay fixed (no motors, no controller). MuJoCo writes numbers with 6 significant digits.
+
+Each cable actuator's ``user`` numbers carry the cable as tensim has it (stiffness, damping,
+rest length and motor, in the order the custom text ``tensim_cable_user`` names), so that
+``tensim import-mjcf`` reads the motors back exactly; other tools ignore them.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 
 import mujoco
 
 from tensim._files import write_text
+from tensim.io._mjcf_motors import MOTOR_KIND, USER_FIELDS, USER_TEXT
 from tensim.model import CompiledModel, compile_spec, without_cable_law
+from tensim.structure import Cable
 
 _COMMENT = ("Written by tensim from structure {name!r}. Each cable is a spatial tendon plus a "
             "tendon actuator (ctrl = -tension [N]); tensim computes the tension in its cable law. "
@@ -40,6 +47,10 @@ def mjcf_spec(compiled: CompiledModel, *, springs: bool = True) -> mujoco.MjSpec
     spec = without_cable_law(compiled)
     spec.comment = _COMMENT.format(name=compiled.structure.name,
                                    springs=_SPRINGS if springs else _NO_SPRINGS)
+    spec.add_text(name=USER_TEXT, data=" ".join(USER_FIELDS))
+    for actuator, cable, rest in zip(spec.actuators, compiled.structure.cables,
+                                     compiled.rest_length, strict=False):
+        actuator.userdata = _user(cable, float(rest))
     if springs:
         law = compiled.law()
         for name, k, b, rest in zip(compiled.index.cables, law.stiffness, law.damping,
@@ -49,6 +60,19 @@ def mjcf_spec(compiled: CompiledModel, *, springs: bool = True) -> mujoco.MjSpec
             tendon.damping = [float(b), 0.0, 0.0]
             tendon.springlength = [0.0, float(rest)]  # dead band: no force below the rest length
     return spec
+
+
+def _user(cable: Cable, rest_length: float) -> list[float]:
+    """The cable's numbers in the order of ``USER_FIELDS``."""
+    motor = cable.motor
+    kind = "passive" if motor.passive else "kinematic" if motor.dc is None else "dc"
+    values = {"motor": MOTOR_KIND[kind], "stiffness": cable.stiffness, "damping": cable.damping,
+              "rest_length": rest_length, "max_speed": motor.max_speed,
+              "max_tension": motor.max_tension, "min_rest_length": motor.min_rest_length,
+              "min_length": motor.min_length}
+    if motor.dc is not None:
+        values.update({k: float(v) for k, v in dataclasses.asdict(motor.dc).items()})
+    return [float(values.get(field, 0.0)) for field in USER_FIELDS]
 
 
 def to_mjcf(compiled: CompiledModel, *, springs: bool = True) -> str:
