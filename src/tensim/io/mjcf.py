@@ -27,7 +27,7 @@ import mujoco
 from tensim._files import write_text
 from tensim.io._mjcf_motors import MOTOR_KIND, USER_FIELDS, USER_TEXT
 from tensim.model import CompiledModel, compile_spec, without_cable_law
-from tensim.structure import Cable
+from tensim.structure import Cable, Structure
 
 _COMMENT = ("Written by tensim from structure {name!r}. Each cable is a spatial tendon plus a "
             "tendon actuator (ctrl = -tension [N]); tensim computes the tension in its cable law. "
@@ -47,6 +47,7 @@ def mjcf_spec(compiled: CompiledModel, *, springs: bool = True) -> mujoco.MjSpec
     spec = without_cable_law(compiled)
     spec.comment = _COMMENT.format(name=compiled.structure.name,
                                    springs=_SPRINGS if springs else _NO_SPRINGS)
+    _geom_masses(spec, compiled.structure)
     spec.add_text(name=USER_TEXT, data=" ".join(USER_FIELDS))
     for actuator, cable, rest in zip(spec.actuators, compiled.structure.cables,
                                      compiled.rest_length, strict=False):
@@ -60,6 +61,21 @@ def mjcf_spec(compiled: CompiledModel, *, springs: bool = True) -> mujoco.MjSpec
             tendon.damping = [float(b), 0.0, 0.0]
             tendon.springlength = [0.0, float(rest)]  # dead band: no force below the rest length
     return spec
+
+
+def _geom_masses(spec: mujoco.MjSpec, structure: Structure) -> None:
+    """Gives each rod and point-mass geom its own mass, so that the file says how a body's mass
+    is shared; the bodies' inertials hold the sums (``inertiafromgeom="false"``: MuJoCo's
+    writer keeps geom masses only then)."""
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    for body in spec.bodies:  # the inertial still holds: the compiler takes no other
+        body.explicitinertial = False
+    for rod in structure.rods:
+        spec.geom(rod.name).mass = rod.mass_per_length() * structure.distance(*rod.nodes)
+    for mass in structure.point_masses:
+        geom = spec.geom(f"mass_{mass.node}")
+        if geom is not None:
+            geom.mass = mass.mass
 
 
 def _user(cable: Cable, rest_length: float) -> list[float]:
