@@ -1,5 +1,6 @@
-"""``tensim import-ntrt`` and ``tensim export-mjcf``: bring models in from the original toolkit's
-YAML files, send compiled models out as MuJoCo MJCF."""
+"""``tensim import-ntrt``, ``tensim import-mjcf`` and ``tensim export-mjcf``: bring models in
+from the original toolkit's YAML files and from MuJoCo MJCF, send compiled models out as
+MJCF."""
 
 from __future__ import annotations
 
@@ -29,6 +30,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="tensim structure .yaml to write")
     p.set_defaults(run=run_import)
 
+    p = sub.add_parser("import-mjcf", help="convert a tensegrity's MuJoCo MJCF file to a tensim "
+                       "structure",
+                       description="Reads an MJCF file with MuJoCo: bodies with capsule, "
+                       "cylinder and sphere geoms become rods, end caps and point masses (mass "
+                       "and inertia kept), the sites of spatial tendons nodes, the tendons "
+                       "cables, their actuators motors. Prints how each actuator maps and "
+                       "every difference from the file's semantics, and writes them as comments "
+                       "atop the structure file.")
+    p.add_argument("file", help="the MJCF .xml file")
+    p.add_argument("--name", default=None, help="structure name (default: the file's model name)")
+    p.add_argument("--out", required=True, help="tensim structure .yaml to write")
+    p.set_defaults(run=run_import_mjcf)
+
     p = sub.add_parser("export-mjcf", help="write a preset or structure as MuJoCo MJCF",
                        description="Compiles the model and writes it as MJCF for other MuJoCo "
                        "tools: bodies, geoms, the cables' tendons and actuators, and (unless "
@@ -57,6 +71,23 @@ def run_import(args: argparse.Namespace) -> int:
           f"{s.total_mass():.4g} kg")
     for note in result.notes:
         print(f"note: {note}")
+    return 0
+
+
+def run_import_mjcf(args: argparse.Namespace) -> int:
+    from tensim.io import import_mjcf, save_import
+
+    result = import_mjcf(args.file, name=args.name, warn=False)
+    s = result.structure
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    save_import(result, out)
+    motors = sum(not c.motor.passive for c in s.cables)
+    print(f"wrote {out}: {len(s.nodes)} nodes, {len(s.rods)} rods in "
+          f"{len(s.rigid_groups())} rigid bodies, {len(s.cables)} cables ({motors} with "
+          f"motors), {s.total_mass():.4g} kg")
+    for line in result.header()[1:]:
+        print(line)
     return 0
 
 

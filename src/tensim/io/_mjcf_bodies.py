@@ -34,7 +34,7 @@ class _Point:
     position: np.ndarray
     hint: str
     fixed: bool
-    rank: int = -1  # what gave the name: -1 none, 0 rod end, 1 site, 2 sphere
+    rank: int = -1  # what gave the name: -1 none, 0 rod end, 1 sphere, 2 site, 3 tensim's mass
 
 
 @dataclasses.dataclass
@@ -136,8 +136,8 @@ class _Body:
                        ": tensim's nodes sit on rod axes (or at the centre of a lone sphere)")
 
     def _name_point(self, k: int, hint: str, rank: int) -> None:
-        """Offers ``hint`` as point k's name; a higher ``rank`` wins (rod end 0, site 1,
-        sphere 2)."""
+        """Offers ``hint`` as point k's name; a higher ``rank`` wins (rod end 0, sphere 1,
+        site 2, a sphere of tensim's export ``mass_<node>`` 3)."""
         point = self.points[k]
         if rank > point.rank:
             point.hint, point.rank = hint, rank
@@ -152,7 +152,7 @@ class _Body:
                                "cylinder or sphere geom: give the body its rod or mass")
             site_point = {s: self._node(f.data.site_xpos[s], "") for s in self.sites}
             for s, k in site_point.items():
-                self._name_point(k, self._site_name(s), 1)
+                self._name_point(k, self._site_name(s), 2)
             names = self._finish_names()
             self.out.site_node.update({s: names[k] for s, k in site_point.items()})
             return
@@ -170,13 +170,13 @@ class _Body:
             self.sphere_point[g] = k
             moved = max(moved, shift)
             hint = self._geom_name(g)
-            self._name_point(k, hint[5:] if hint.startswith("mass_") else hint, 2)
+            self._name_point(k, hint.removeprefix("mass_"), 3 if hint.startswith("mass_") else 1)
         site_point = {}
         for s in self.sites:
             k, shift = self._place(f.data.site_xpos[s], f"site {self._site_name(s)!r}")
             site_point[s] = k
             moved = max(moved, shift)
-            self._name_point(k, self._site_name(s), 1)
+            self._name_point(k, self._site_name(s), 2)
         if moved > TOL:
             self.out.notes.append(f"{self.item}: spheres and sites moved onto a rod's axis "
                                   f"or end (sites: or a sphere's centre) by up to {moved:.3g} m (tensim's cables anchor at "
@@ -265,11 +265,13 @@ class _Body:
             parts.append((0.5 * (p0 + p1),
                           _rod_inertia(1.0, length, m.geom_size[g][0], (p1 - p0) / length)))
             prior.append(f.geom_mass[g] * length / total)
-        for g in self.spheres:
-            parts.append((self.points[self.sphere_point[g]].position,
-                          0.4 * m.geom_size[g][0] ** 2 * np.eye(3)))
-            prior.append(f.geom_mass[g])
+        ends = self._bare_ends(pieces)
+        spheres = [(self.sphere_point[g], float(m.geom_size[g][0])) for g in self.spheres]
+        for k, radius in spheres + ends:
+            parts.append((self.points[k].position, 0.4 * radius**2 * np.eye(3)))
+        prior += [f.geom_mass[g] for g in self.spheres] + [0.0] * len(ends)
         x = self._fit(mass, com, inertia, parts, np.asarray(prior, float))
+        x[x < 1e-9 * mass] = 0.0
         for (g, name, a, c), share in zip(pieces, x[:len(pieces)], strict=True):
             if share <= 0:
                 raise f.refuse(self.item, f"rod {name!r} gets no mass from the body's mass and "
@@ -280,13 +282,24 @@ class _Body:
                                      linear_density=share / length, friction=sliding,
                                      restitution=restitution, tags=(self.name,)))
         masses: dict[int, tuple[float, float]] = {}  # point -> (mass, radius): spheres summed
-        for g, share in zip(self.spheres, x[len(pieces):], strict=True):
-            k = self.sphere_point[g]
+        for (k, radius), share in zip(spheres + ends, x[len(pieces):], strict=True):
             before = masses.get(k, (0.0, 0.0))
-            masses[k] = (before[0] + float(share), max(before[1], float(m.geom_size[g][0])))
+            masses[k] = (before[0] + float(share), max(before[1], radius))
         self.out.point_masses += [PointMass(names[k], mass, radius)
                                   for k, (mass, radius) in masses.items() if mass > 0]
         self._note_fit(mass, com, inertia, parts, x)
+
+    def _bare_ends(self, pieces: list[tuple[int, str, int, int]]) -> list[tuple[int, float]]:
+        """The rod ends that no sphere sits on, each with the radius of its thickest rod: they
+        may carry mass the rods cannot (a capsule's rounded ends, an ``inertial`` heavier at
+        the ends); such a point mass lies within its rod, so it adds no contact."""
+        spheres = set(self.sphere_point.values())
+        radius: dict[int, float] = {}
+        for g, _, a, c in pieces:
+            for k in (a, c):
+                if k not in spheres:
+                    radius[k] = max(radius.get(k, 0.0), float(self.f.model.geom_size[g][0]))
+        return sorted(radius.items())
 
     def _fit(self, mass: float, com: np.ndarray, inertia: np.ndarray,
              parts: list[tuple[np.ndarray, np.ndarray]], prior: np.ndarray) -> np.ndarray:

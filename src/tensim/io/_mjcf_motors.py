@@ -155,9 +155,14 @@ def _range(f: Loaded, a: int) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def _start(lo: float, hi: float) -> float:
-    """The input at the start: MuJoCo's ctrl and act are 0, clamped into their range."""
-    return float(np.clip(0.0, lo, hi))
+def _start(f: Loaded, a: int, lo: float, hi: float) -> float:
+    """The input at the start: the first keyframe's (its act after a filter, else its ctrl),
+    else MuJoCo's reset value 0; clamped into the input's range as MuJoCo clamps it."""
+    m, u = f.model, 0.0
+    if m.nkey:
+        filtered = m.actuator_dyntype[a] in _FILTERS and m.actuator_actadr[a] >= 0
+        u = float(m.key_act[0][m.actuator_actadr[a]] if filtered else m.key_ctrl[0][a])
+    return float(np.clip(u, lo, hi))
 
 
 def _lag(f: Loaded, a: int, span: float) -> tuple[float, list[str]]:
@@ -166,12 +171,12 @@ def _lag(f: Loaded, a: int, span: float) -> tuple[float, list[str]]:
     dyn = _DYN(m.actuator_dyntype[a])
     if dyn in _FILTERS:
         tau = float(m.actuator_dynprm[a][0])
-        return span / tau, [f"its filter lags the command with time constant {tau:g} s; "
+        return span / tau, [f"a filter lags the command with time constant {tau:g} s; "
                             f"tensim's motor moves the rest length at up to {span / tau:.4g} m/s "
                             "(the span over the time constant, the filter's fastest rate) and "
                             "then stops, without the exponential approach"]
     step = float(m.opt.timestep)
-    return span / step, [f"it acts at once; tensim's motor crosses its range in one step "
+    return span / step, [f"the force acts at once; tensim's motor crosses its range in one step "
                          f"({step:g} s) at up to {span / step:.4g} m/s"]
 
 
@@ -197,7 +202,7 @@ def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actuator
     if command.rate:
         speed = abs(command.scale) * max(abs(v) for v in m.actuator_ctrlrange[a]) \
             if m.actuator_ctrllimited[a] else span / float(m.opt.timestep)
-        notes.append("its control is a force rate (integrator dynamics): the rest length "
+        notes.append("the control is a force rate (integrator dynamics): the rest length "
                      f"moves at scale x ctrl, up to {speed:.4g} m/s; tensim's motor takes a "
                      "rest-length target")
     else:
@@ -207,14 +212,14 @@ def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actuator
     if cap <= 0:
         cap = k * spring.length
     notes.append(f"the file adds {_amount(pull)} of pull to the spring whatever the stretch; "
-                 f"tensim reaches it as the rest-length floor {floor:.6g} m (exact while taut) "
-                 f"and stops reeling in above {cap:.6g} N of static tension (a saturating "
+                 f"tensim reaches it as the rest-length floor l0 - {pull:.4g} N / k (exact while "
+                 f"taut) and stops reeling in above {cap:.4g} N of static tension (a saturating "
                  "force cap would hold it exactly)")
     notes.append("while the cable is slacker than its rest length the file's actuator still "
                  "pulls; tensim's cable pulls nothing")
     motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
                   min_length=_min_length(f, spring.tendon))
-    rest = rest0 + command.scale * (0.0 if command.rate else _start(lo, hi))
+    rest = rest0 + command.scale * (0.0 if command.rate else _start(f, a, lo, hi))
     return ActuatorMapping(name, cable, "force", motor, k, spring.damping, rest, command,
                            tuple(notes))
 
@@ -242,25 +247,26 @@ def _position(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actua
         forces = sorted(-gear * v for v in m.actuator_forcerange[a])
         pull = forces[1]
         if forces[0] < 0:
-            notes.append("it also pushes (its force range allows lengthening force) when the "
+            notes.append("the actuator also pushes (its force range allows lengthening force) when the "
                          "tendon is shorter than its target; tensim's cable goes slack")
     else:
-        notes.append("it also pushes when the tendon is shorter than its target; tensim's "
+        notes.append("the actuator also pushes when the tendon is shorter than its target; tensim's "
                      "cable goes slack")
     cap = pull if math.isfinite(pull) and pull > 0 else k * spring.length
-    notes.append(f"its force limit: tensim stops reeling in above {cap:.6g} N of static tension "
+    notes.append(f"the force limit: tensim stops reeling in above {cap:.4g} N of static tension "
                  "rather than saturating the force" if math.isfinite(pull) else
-                 f"no force limit in the file; chosen max_tension {cap:.6g} N (k x the "
+                 f"no force limit in the file; chosen max_tension {cap:.4g} N (k x the "
                  "tendon's length: it never binds before the rest length reaches 0)")
     if spring.stiffness > 0:
         notes.append(f"the tendon's spring ({spring.stiffness:g} N/m) and the actuator's "
                      f"kp ({k_act:g} N/m) make one cable of {k:g} N/m, exact while both pull")
     motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
                   min_length=_min_length(f, spring.tendon))
-    rest = command.offset + command.scale * _start(lo, hi)
+    rest = command.offset + command.scale * _start(f, a, lo, hi)
     if rest <= 0:
         raise f.refuse(f"actuator {name!r}", f"its initial target gives tendon {cable!r} a rest "
-                       f"length of {rest:.4g} m; give ctrlrange or a keyframe-free start above 0")
+                       f"length of {rest:.4g} m; give a keyframe whose ctrl sets the targets, or a "
+                       "ctrlrange above 0")
     return ActuatorMapping(name, cable, "position", motor, k, spring.damping + b_act, rest,
                            command, tuple(notes))
 

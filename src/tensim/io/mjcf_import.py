@@ -116,6 +116,10 @@ def import_mjcf(path: str | os.PathLike[str] | None = None, *, xml: str | None =
     bodies = _mjcf_bodies.convert(f, used, contact)
     notes += bodies.notes
     cables, actuators = _cables(f, bodies.site_node, notes)
+    if f.model.nkey:
+        key = f.name(mujoco.mjtObj.mjOBJ_KEY, 0, "#0")
+        notes.append(f"the rest lengths start at the controls of keyframe {key!r}; the build "
+                     "pose is the bodies' own (qpos0), not the keyframe's")
     title = name or f.model.names[:f.model.names.index(b"\0")].decode() or \
         (Path(path).stem if path is not None else "mjcf")
     try:
@@ -156,7 +160,7 @@ def _used_sites(f: _mjcf_read.Loaded) -> set[int]:
 def _spring(f: _mjcf_read.Loaded, t: int, name: str, notes: list[str]) -> Spring:
     m = f.model
     low, high = (float(v) for v in m.tendon_lengthspring[t])
-    if low > 0:
+    if low > 0 and m.tendon_stiffness[t] > 0:
         notes.append(f"tendon {name!r}: its spring also pushes below {low:g} m (the low end "
                      "of its springlength); tensim's cable is slack below its rest length")
     extra = {"stiffnesspoly": m.tendon_stiffnesspoly[t], "dampingpoly": m.tendon_dampingpoly[t],
@@ -184,6 +188,7 @@ def _cables(f: _mjcf_read.Loaded, site_node: dict[int, str],
     for a in range(m.nu):
         drives.setdefault(int(m.actuator_trnid[a][0]), []).append(a)
     cables, mappings = [], []
+    differences: dict[str, list[str]] = {}  # what differs -> the actuators it concerns
     for t in range(m.ntendon):
         name = f.name(mujoco.mjtObj.mjOBJ_TENDON, t, f"tendon{t}")
         path = [site_node[int(m.wrap_objid[k])]
@@ -197,8 +202,8 @@ def _cables(f: _mjcf_read.Loaded, site_node: dict[int, str],
         if acts:
             mapping = map_actuator(f, acts[0], name, spring)
             mappings.append(mapping)
-            notes += [f"actuator {mapping.actuator!r} on cable {name!r}: {d}"
-                      for d in mapping.differences]
+            for text in mapping.differences:
+                differences.setdefault(text, []).append(mapping.actuator)
             k, b, rest, motor = mapping.stiffness, mapping.damping, mapping.rest_length, \
                 mapping.motor
         else:
@@ -214,6 +219,10 @@ def _cables(f: _mjcf_read.Loaded, site_node: dict[int, str],
                                 motor=motor, via=tuple(path[1:-1])))
         except StructureError as err:
             raise f.refuse(item, err.detail) from None
+    for text, names in differences.items():
+        who = f"actuator {names[0]!r}" if len(names) == 1 else \
+            f"actuators {', '.join(map(repr, names))}"
+        notes.append(f"{who}: {text}")
     return cables, mappings
 
 
