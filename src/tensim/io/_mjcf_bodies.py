@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 from scipy.optimize import lsq_linear
 
+from tensim.io._mjcf_motors import NODE_SITE, USER_TEXT
 from tensim.io._mjcf_read import GEOM, ROD_GEOMS, Loaded, body_inertia
 from tensim.structure import Node, PointMass, Rod
 from tensim.structure._mass import _rod_inertia, _shift
@@ -25,6 +26,7 @@ TOL = 1e-5  # m: points this close are one node (MJCF numbers carry about 6 digi
 THIN = 0.0101  # a principal moment below this share of the largest is a thin rod's axis:
 # MuJoCo and tensim raise it (WorldOptions.min_inertia_ratio), so the fit does not chase it
 _NOTE_SHARE = 0.01  # inertia or centre-of-mass differences above 1% are noted
+_PULL = 1e-6  # weight of the pull toward the geoms' own masses: it only picks among exact fits
 
 
 @dataclasses.dataclass
@@ -92,6 +94,7 @@ class _Body:
         self.sites = [s for s in range(m.nsite) if m.site_bodyid[s] == b and s in used_sites]
         self.points: list[_Point] = []
         self.sphere_point: dict[int, int] = {}  # sphere geom id -> its point
+        self.tensim = f.spec.text(USER_TEXT) is not None  # tensim's own export
 
     # -- geometry ----------------------------------------------------------------------------
 
@@ -137,7 +140,7 @@ class _Body:
 
     def _name_point(self, k: int, hint: str, rank: int) -> None:
         """Offers ``hint`` as point k's name; a higher ``rank`` wins (rod end 0, sphere 1,
-        site 2, a sphere of tensim's export ``mass_<node>`` 3)."""
+        site 2, a sphere of tensim's export ``mass_<node>`` 3, its node site 4)."""
         point = self.points[k]
         if rank > point.rank:
             point.hint, point.rank = hint, rank
@@ -152,7 +155,7 @@ class _Body:
                                "cylinder or sphere geom: give the body its rod or mass")
             site_point = {s: self._node(f.data.site_xpos[s], "") for s in self.sites}
             for s, k in site_point.items():
-                self._name_point(k, self._site_name(s), 2)
+                self._name_point(k, *self._site_hint(s))
             names = self._finish_names()
             self.out.site_node.update({s: names[k] for s, k in site_point.items()})
             return
@@ -176,11 +179,11 @@ class _Body:
             k, shift = self._place(f.data.site_xpos[s], f"site {self._site_name(s)!r}")
             site_point[s] = k
             moved = max(moved, shift)
-            self._name_point(k, self._site_name(s), 2)
+            self._name_point(k, *self._site_hint(s))
         if moved > TOL:
             self.out.notes.append(f"{self.item}: spheres and sites moved onto a rod's axis "
-                                  f"or end (sites: or a sphere's centre) by up to {moved:.3g} m (tensim's cables anchor at "
-                                  "nodes)")
+                                  "or end (sites: or a sphere's centre) by up to "
+                                  f"{moved:.3g} m (tensim's cables anchor at nodes)")
         names = self._finish_names()
         self.out.site_node.update({s: names[k] for s, k in site_point.items()})
         pieces = self._rods(names)
@@ -192,6 +195,14 @@ class _Body:
 
     def _site_name(self, s: int) -> str:
         return self.f.name(mujoco.mjtObj.mjOBJ_SITE, s, f"{self.name}_site{s}")
+
+    def _site_hint(self, s: int) -> tuple[str, int]:
+        """The name a site offers its node, and its rank (a node site of tensim's export
+        names it outright)."""
+        name = self._site_name(s)
+        if self.tensim and name.startswith(NODE_SITE):
+            return name.removeprefix(NODE_SITE), 4
+        return name, 2
 
     def _rod_name(self, g: int) -> str:
         k = self.rods.index(g)
@@ -324,8 +335,8 @@ class _Body:
                 rows.append(np.array([axes[:, i] @ _shift(unit, 1.0, c - com) @ axes[:, j]
                                       for c, unit in parts]) / (mass * size**2))
                 rhs.append(moments[i] / (mass * size**2) if i == j else 0.0)
-        a = np.vstack([*rows, 1e-3 * np.eye(len(parts)) / mass])
-        b = np.concatenate([rhs, 1e-3 * prior / mass])
+        a = np.vstack([*rows, _PULL * np.eye(len(parts)) / mass])
+        b = np.concatenate([rhs, _PULL * prior / mass])
         x = lsq_linear(a, b, bounds=(0.0, np.inf)).x
         return x * mass / x.sum()
 

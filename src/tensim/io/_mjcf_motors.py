@@ -34,6 +34,7 @@ from tensim.structure import PASSIVE, DCMotor, Motor
 
 # tensim's export: names of the numbers in each cable actuator's ``user`` data (see io.mjcf)
 USER_TEXT = "tensim_cable_user"
+NODE_SITE = "node_"  # tensim's export marks each node with a site named node_<name>
 USER_FIELDS = ("motor", "stiffness", "damping", "rest_length", "max_speed", "max_tension",
                "min_rest_length", "min_length", "spool_radius", "stall_torque", "no_load_speed",
                "rotor_inertia", "viscous_friction", "coulomb_friction", "back_drivable",
@@ -247,11 +248,12 @@ def _position(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actua
         forces = sorted(-gear * v for v in m.actuator_forcerange[a])
         pull = forces[1]
         if forces[0] < 0:
-            notes.append("the actuator also pushes (its force range allows lengthening force) when the "
-                         "tendon is shorter than its target; tensim's cable goes slack")
+            notes.append("the actuator also pushes (its force range allows lengthening "
+                         "force) when the tendon is shorter than its target; tensim's cable "
+                         "goes slack")
     else:
-        notes.append("the actuator also pushes when the tendon is shorter than its target; tensim's "
-                     "cable goes slack")
+        notes.append("the actuator also pushes when the tendon is shorter than its target; "
+                     "tensim's cable goes slack")
     cap = pull if math.isfinite(pull) and pull > 0 else k * spring.length
     notes.append(f"the force limit: tensim stops reeling in above {cap:.4g} N of static tension "
                  "rather than saturating the force" if math.isfinite(pull) else

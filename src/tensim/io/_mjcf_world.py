@@ -143,15 +143,14 @@ def _shared(f: Loaded, contacts: list[Contact], notes: list[str]) -> dict[str, A
 
 
 def _self_collision(m: mujoco.MjModel) -> bool:
-    """Whether any two robot geoms on different bodies may touch (contype/conaffinity)."""
+    """Whether the robot's bodies may touch each other: some two robot geoms on different
+    bodies have matching contype/conaffinity bits (True for a robot of one body: nothing to
+    turn off)."""
     robot = [g for g in range(m.ngeom) if m.geom_bodyid[g] != 0]
-    for i, a in enumerate(robot):
-        for b in robot[i + 1:]:
-            if m.geom_bodyid[a] != m.geom_bodyid[b] and (
-                    m.geom_contype[a] & m.geom_conaffinity[b] or
-                    m.geom_contype[b] & m.geom_conaffinity[a]):
-                return True
-    return False
+    pairs = [(a, b) for i, a in enumerate(robot) for b in robot[i + 1:]
+             if m.geom_bodyid[a] != m.geom_bodyid[b]]
+    return not pairs or any(m.geom_contype[a] & m.geom_conaffinity[b] or
+                            m.geom_contype[b] & m.geom_conaffinity[a] for a, b in pairs)
 
 
 def command_line(world: WorldOptions) -> str:

@@ -12,8 +12,9 @@ Two differences remain: MuJoCo damps a slack tendon too (the cable law does not)
 lengths stay fixed (no motors, no controller). MuJoCo writes numbers with 6 significant digits.
 
 Each cable actuator's ``user`` numbers carry the cable as tensim has it (stiffness, damping,
-rest length and motor, in the order the custom text ``tensim_cable_user`` names), so that
-``tensim import-mjcf`` reads the motors back exactly; other tools ignore them.
+rest length and motor, in the order the custom text ``tensim_cable_user`` names), each rod and
+mass geom its own mass, and a hidden site ``node_<name>`` marks each node, so that
+``tensim import-mjcf`` reads the structure back as it was; other tools ignore them.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from pathlib import Path
 import mujoco
 
 from tensim._files import write_text
-from tensim.io._mjcf_motors import MOTOR_KIND, USER_FIELDS, USER_TEXT
+from tensim.io._mjcf_motors import MOTOR_KIND, NODE_SITE, USER_FIELDS, USER_TEXT
 from tensim.model import CompiledModel, compile_spec, without_cable_law
 from tensim.structure import Cable, Structure
 
@@ -48,6 +49,7 @@ def mjcf_spec(compiled: CompiledModel, *, springs: bool = True) -> mujoco.MjSpec
     spec.comment = _COMMENT.format(name=compiled.structure.name,
                                    springs=_SPRINGS if springs else _NO_SPRINGS)
     _geom_masses(spec, compiled.structure)
+    _node_sites(spec, compiled)
     spec.add_text(name=USER_TEXT, data=" ".join(USER_FIELDS))
     for actuator, cable, rest in zip(spec.actuators, compiled.structure.cables,
                                      compiled.rest_length, strict=False):
@@ -76,6 +78,17 @@ def _geom_masses(spec: mujoco.MjSpec, structure: Structure) -> None:
         geom = spec.geom(f"mass_{mass.node}")
         if geom is not None:
             geom.mass = mass.mass
+
+
+def _node_sites(spec: mujoco.MjSpec, compiled: CompiledModel) -> None:
+    """A hidden site ``node_<name>`` at every node, so that an import names the nodes as the
+    structure did."""
+    m, index = compiled.model, compiled.index
+    for node in compiled.structure.nodes:
+        body = index.node_body[node.name]
+        parent = spec.worldbody if body == 0 else spec.body(m.body(body).name)
+        parent.add_site(name=f"{NODE_SITE}{node.name}", pos=index.node_local[node.name].tolist(),
+                        size=[0.001, 0, 0], group=5)
 
 
 def _user(cable: Cable, rest_length: float) -> list[float]:

@@ -34,11 +34,19 @@ import mujoco
 import numpy as np
 
 from tensim.io import _mjcf_bodies, _mjcf_read, _mjcf_world
-from tensim.io._mjcf_motors import ActuatorMapping, CommandMap, Spring, map_actuator
+from tensim.io._mjcf_motors import (
+    NODE_SITE,
+    USER_TEXT,
+    ActuatorMapping,
+    CommandMap,
+    Spring,
+    map_actuator,
+)
 from tensim.model import WorldOptions
 from tensim.structure import (
     PASSIVE,
     Cable,
+    RigidGroup,
     Structure,
     StructureError,
     mass_properties,
@@ -127,6 +135,12 @@ def import_mjcf(path: str | os.PathLike[str] | None = None, *, xml: str | None =
                               tuple(bodies.point_masses))
     except StructureError as err:
         raise err.with_source(f.source) from None
+    thin = [g.name for g in structure.rigid_groups() if not g.fixed and _thin(structure, g,
+                                                                             world)]
+    if thin:
+        notes.append(f"bodies {thin} are thin rods: tensim's compiler raises their axial "
+                     f"inertia to {world.min_inertia_ratio:g} of their transverse one "
+                     "(WorldOptions.min_inertia_ratio; 0 keeps the file's)")
     step = explicit_step(structure)
     if step < world.timestep:
         notes.append(f"tensim's cable law is explicit: at the file's step {world.timestep:g} s "
@@ -152,9 +166,13 @@ def save_import(result: MjcfImport, path: str | os.PathLike[str]) -> Path:
 
 
 def _used_sites(f: _mjcf_read.Loaded) -> set[int]:
+    """The sites tendons pass through (and, in tensim's own export, its node sites)."""
     m = f.model
-    return {int(m.wrap_objid[k]) for t in range(m.ntendon)
+    used = {int(m.wrap_objid[k]) for t in range(m.ntendon)
             for k in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t])}
+    if f.spec.text(USER_TEXT) is not None:
+        used |= {s for s in range(m.nsite) if m.site(s).name.startswith(NODE_SITE)}
+    return used
 
 
 def _spring(f: _mjcf_read.Loaded, t: int, name: str, notes: list[str]) -> Spring:
@@ -263,6 +281,11 @@ def explicit_step(structure: Structure) -> float:
         if damping[node] > 0:
             step = min(step, 2.0 / damping[node])
     return step
+
+
+def _thin(structure: Structure, group: RigidGroup, world: WorldOptions) -> bool:
+    moments = mass_properties(structure, group).principal_moments()
+    return bool(moments[0] < world.min_inertia_ratio * moments[-1])
 
 
 def _round_down(step: float) -> float:
