@@ -7,12 +7,12 @@ from tensim.io.mjcf_import import (
     CommandMap,
     MjcfImport,
     MjcfImportWarning,
-    explicit_step,
     import_mjcf,
     save_import,
+    stable_step,
 )
 from tensim.io.ntrt import UNITS, NtrtImport, import_ntrt
 
 __all__ = ["UNITS", "ActuatorMapping", "CommandMap", "MjcfImport", "MjcfImportWarning",
-           "NtrtImport", "explicit_step", "import_mjcf", "import_ntrt", "mjcf_spec",
-           "save_import", "save_mjcf", "to_mjcf"]
+           "NtrtImport", "import_mjcf", "import_ntrt", "mjcf_spec", "save_import",
+           "save_mjcf", "stable_step", "to_mjcf"]

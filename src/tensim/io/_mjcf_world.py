@@ -98,9 +98,8 @@ def _options(f: Loaded, notes: list[str]) -> dict[str, Any]:
         fields["cone"] = _CONES[mujoco.mjtCone(o.cone)]
     integrator = kind_name(mujoco.mjtIntegrator(o.integrator))
     if integrator != "euler":
-        notes.append(f"the file integrates with {integrator}; tensim steps with Euler and "
-                     "applies its cable law explicitly through actuator callbacks (see "
-                     "max_step for the step that holds the cables)")
+        notes.append(f"the file integrates with {integrator}; tensim steps with Euler, its "
+                     "cable law explicit (the step that holds the cables: 'stable below')")
     if o.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT:
         notes.append("the file disables contacts; tensim's robot touches its ground")
     return fields

@@ -54,7 +54,7 @@ from tensim.structure import (
 )
 
 __all__ = ["ActuatorMapping", "CommandMap", "MjcfImport", "MjcfImportWarning",
-           "explicit_step", "import_mjcf", "save_import"]
+           "import_mjcf", "save_import", "stable_step"]
 
 
 class MjcfImportWarning(UserWarning):
@@ -72,8 +72,8 @@ class MjcfImport:
         notes: what was approximated, left out or chosen, one line each (the actuators'
             differences included).
         source: the file read.
-        max_step: an estimate of the longest physics step at which tensim's explicit cable
-            law holds the stiffest cable on its bodies [s] (:func:`explicit_step`).
+        max_step: the longest physics step at which tensim's explicit step integrates the
+            structure's stiffest mode [s] (:func:`stable_step`); run at half of it or less.
     """
 
     structure: Structure
@@ -92,6 +92,9 @@ class MjcfImport:
         actuator mappings and every note."""
         lines = [f"imported from {Path(self.source).name} by tensim import-mjcf",
                  f"run with: {self.command_line()}"]
+        if math.isfinite(self.max_step):
+            lines.append(f"stable below: {self.max_step:.3g} s (tensim's Euler step; run at "
+                         "half of it or less)")
         for a in self.actuators:
             if a.command is not None:
                 u = "rate of ctrl" if a.command.rate else "ctrl"
@@ -141,11 +144,14 @@ def import_mjcf(path: str | os.PathLike[str] | None = None, *, xml: str | None =
         notes.append(f"bodies {thin} are thin rods: tensim's compiler raises their axial "
                      f"inertia to {world.min_inertia_ratio:g} of their transverse one "
                      "(WorldOptions.min_inertia_ratio; 0 keeps the file's)")
-    step = explicit_step(structure)
-    if step < world.timestep:
-        notes.append(f"tensim's cable law is explicit: at the file's step {world.timestep:g} s "
-                     f"its stiffest cable on its bodies needs a step below about {step:.2g} s; "
-                     f"run with --dt {_round_down(step):g}")
+    step = stable_step(structure)
+    if world.timestep > step / 2:
+        from tensim.design.check import nice_step
+
+        notes.append(f"tensim's cable law is explicit (Euler): its stiffest mode needs a step "
+                     f"below {step:.3g} s to stay stable and below half that to damp right, so "
+                     f"the file's {world.timestep:g} s does not hold it; run with --dt "
+                     f"{nice_step(step / 2):g}")
     for field, default in (("gravity", (0.0, 0.0, -9.81)), ("contact_timeconst", 0.02)):
         if getattr(world, field) != default:
             notes.append(f"{field} {getattr(world, field)} has no command-line option: "
@@ -244,51 +250,20 @@ def _cables(f: _mjcf_read.Loaded, site_node: dict[int, str],
     return cables, mappings
 
 
-def explicit_step(structure: Structure) -> float:
-    """An estimate of the longest stable physics step for tensim's explicit cable law [s].
+def stable_step(structure: Structure) -> float:
+    """The longest physics step at which tensim's explicit (Euler) step integrates every mode
+    of the structure's cables and bodies at its build pose [s] (the modal criterion of
+    :func:`tensim.design.stable_timestep`; inf where nothing springs or the analysis does not
+    apply)."""
+    from tensim.design import stable_timestep, stiffness
+    from tensim.design.check import MAX_DOF
 
-    Each cable of stiffness k between points of effective masses m1 and m2 (the smallest
-    mass a force at that node meets: the body's mass with its rotation about the centre of
-    mass) is a spring of frequency w = sqrt(k (1/m1 + 1/m2)), stable under MuJoCo's
-    semi-implicit Euler step below 2 / w; damping b adds the bound 2 / (b (1/m1 + 1/m2)).
-    Every cable at a node adds its stiffness there, so the bound takes the sum per node.
-    """
-    inverse = {n.name: 0.0 for n in structure.nodes}  # a world anchor does not move
-    for group in structure.rigid_groups():
-        if group.fixed:
-            inverse.update({n: 0.0 for n in group.nodes})
-            continue
-        props = mass_properties(structure, group)
-        moments, axes = np.linalg.eigh(props.inertia)
-        moments = np.maximum(moments, 0.01 * moments[-1])  # as the compiler regularizes
-        inv_inertia = axes @ np.diag(1.0 / moments) @ axes.T
-        for node in group.nodes:
-            r = structure.position(node) - props.com
-            cross = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
-            w = np.eye(3) / props.mass + cross.T @ inv_inertia @ cross
-            inverse[node] = float(np.linalg.eigvalsh(w)[-1])
-    stiffness = dict.fromkeys(inverse, 0.0)
-    damping = dict.fromkeys(inverse, 0.0)
-    for cable in structure.cables:
-        for node, other in ((cable.path[0], cable.path[1]), (cable.path[-1], cable.path[-2])):
-            both = inverse[node] + inverse[other]
-            stiffness[node] += cable.stiffness * both
-            damping[node] += cable.damping * both
-    step = math.inf
-    for node in inverse:
-        if stiffness[node] > 0:
-            step = min(step, 2.0 / math.sqrt(stiffness[node]))
-        if damping[node] > 0:
-            step = min(step, 2.0 / damping[node])
-    return step
+    free = sum(not g.fixed for g in structure.rigid_groups())
+    if not structure.cables or 6 * free > MAX_DOF:  # the dense eigenproblem's bound
+        return math.inf
+    return float(stable_timestep(stiffness(structure, count=False))[0])
 
 
 def _thin(structure: Structure, group: RigidGroup, world: WorldOptions) -> bool:
     moments = mass_properties(structure, group).principal_moments()
     return bool(moments[0] < world.min_inertia_ratio * moments[-1])
-
-
-def _round_down(step: float) -> float:
-    """``step`` rounded down to one significant digit (1, 2 or 5 times a power of ten)."""
-    power = 10.0 ** math.floor(math.log10(step))
-    return max(d for d in (1, 2, 5) if d * power <= step) * power
