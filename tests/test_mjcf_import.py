@@ -171,6 +171,16 @@ def test_a_body_without_a_joint_is_fixed_and_world_sites_are_anchors() -> None:
     assert all(g.fixed for g in s.rigid_groups())
 
 
+def test_geoms_for_looks_and_the_worlds_geoms_are_left_out_and_named() -> None:
+    looks = "<geom name='shell' type='mesh' mesh='m' mass='0' contype='0' conaffinity='0'/>"
+    xml = _doc(_bar("p", 0.0, body=looks) + "<geom name='post' type='capsule' size='.05 .5'/>",
+               extra="<asset><mesh name='m' vertex='0 0 0 1 0 0 0 1 0 0 0 1'/></asset>")
+    result = _imported(xml)
+    assert _group(result.structure, "p").mass == pytest.approx(1.0)
+    assert any("geoms ['shell'] have no mass and no contact" in n for n in result.notes)
+    assert any("the world's other geoms (1" in n for n in result.notes)
+
+
 # -- tendons: cables ---------------------------------------------------------------------------
 
 

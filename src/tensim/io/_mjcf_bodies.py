@@ -86,9 +86,15 @@ class _Body:
         self.name = f.name(mujoco.mjtObj.mjOBJ_BODY, b, f"body{b}") if b else "world"
         self.item = f"body {self.name!r}"
         self.fixed = bool(b == 0 or m.body_jntnum[b] == 0)
-        geoms = [g for g in range(m.body_geomadr[b], m.body_geomadr[b] + m.body_geomnum[b])
-                 if GEOM(m.geom_type[g]) in (*ROD_GEOMS, GEOM.mjGEOM_SPHERE)
+        # the world's geoms are its ground and obstacles (tensim builds its own): only its
+        # sites count, as anchors
+        own = range(m.body_geomadr[b], m.body_geomadr[b] + m.body_geomnum[b]) if b else ()
+        geoms = [g for g in own if GEOM(m.geom_type[g]) in (*ROD_GEOMS, GEOM.mjGEOM_SPHERE)
                  and (f.geom_mass[g] > 0 or m.geom_contype[g] or m.geom_conaffinity[g])]
+        looks = [self._geom_name(g) for g in own if g not in geoms]
+        if b and looks:
+            out.notes.append(f"{self.item}: geoms {looks} have no mass and no contact (looks "
+                             "only): not imported")
         self.rods = [g for g in geoms if GEOM(m.geom_type[g]) in ROD_GEOMS]
         self.spheres = [g for g in geoms if GEOM(m.geom_type[g]) == GEOM.mjGEOM_SPHERE]
         self.sites = [s for s in range(m.nsite) if m.site_bodyid[s] == b and s in used_sites]

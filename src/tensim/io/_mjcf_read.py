@@ -106,17 +106,14 @@ def _check_tree(f: Loaded) -> None:
                                f"{f.name(obj.mjOBJ_JOINT, j, '')!r}: a tensegrity's bodies "
                                "move freely (one free joint) or not at all (none); hinge "
                                "chains and other joints are not imported")
+    by_id = {g.id: g for g in f.spec.geoms}
     for g in range(m.ngeom):
         kind = GEOM(m.geom_type[g])
-        if m.geom_bodyid[g] == 0 and kind in (*_GROUND, GEOM.mjGEOM_BOX):
-            continue  # the world's ground and obstacles: tensim builds its own (see notes)
-        if kind not in SHAPES:
-            raise f.refuse(f.geom_item(g), f"is a {kind_name(kind)}: tensim imports "
-                           "rods (capsule, cylinder), end caps and point masses (sphere); "
-                           "meshes, boxes and other shapes are not imported")
-        if m.geom_bodyid[g] == 0:
-            raise f.refuse(f.geom_item(g), "a capsule, cylinder or sphere fixed in the world: "
-                           "give it a body of its own (without a joint for a fixed rod)")
+        if m.geom_bodyid[g] == 0 or kind in SHAPES or visual(m, by_id[g], g):
+            continue  # the world's geoms (tensim builds its ground) and looks: noted later
+        raise f.refuse(f.geom_item(g), f"is a {kind_name(kind)}: tensim imports rods "
+                       "(capsule, cylinder), end caps and point masses (sphere); meshes, "
+                       "boxes and other shapes with mass or contact are not imported")
     _check_tendons(f)
     for a in range(m.nu):
         if m.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_TENDON:
@@ -128,6 +125,12 @@ def _check_tree(f: Loaded) -> None:
         raise f.refuse(f"equality {f.name(obj.mjOBJ_EQUALITY, 0, '#0')!r}",
                        "equality constraints (welds, connects) are not imported: rods share "
                        "nodes by their ends meeting in the file's pose")
+
+
+def visual(m: mujoco.MjModel, geom: mujoco.MjsGeom, g: int) -> bool:
+    """Whether geom ``g`` is for looks only: no contact and no mass of its own."""
+    massless = geom.mass == 0 or (np.isnan(geom.mass) and geom.density == 0)
+    return bool(massless and not m.geom_contype[g] and not m.geom_conaffinity[g])
 
 
 def _check_tendons(f: Loaded) -> None:
@@ -156,6 +159,9 @@ def _geom_masses(f: Loaded) -> np.ndarray:
         source = by_id[g]
         if GEOM(m.geom_type[g]) not in SHAPES:
             body.add_site()  # a ground plane has no mass; keep the ids in step
+            continue
+        if visual(m, source, g):
+            body.add_site()  # looks only: no mass
             continue
         geom = body.add_geom(type=GEOM(m.geom_type[g]), size=m.geom_size[g].tolist(),
                              density=source.density, typeinertia=source.typeinertia)
