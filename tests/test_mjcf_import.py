@@ -41,8 +41,8 @@ def _doc(bodies: str, tendons: str = "", actuators: str = "", extra: str = "",
             f"<tendon>{tendons}</tendon><actuator>{actuators}</actuator></mujoco>")
 
 
-def _imported(xml: str, **kwargs: object):
-    return import_mjcf(xml=xml, warn=False, **kwargs)
+def _imported(xml: str, name: str | None = None):
+    return import_mjcf(xml=xml, warn=False, name=name)
 
 
 def _group(structure: Structure, rod: str):
@@ -292,6 +292,8 @@ def test_notes_are_also_warnings() -> None:
     (_two_bars(actuators="<motor name='m1' tendon='c'/><motor name='m2' tendon='c'/>"),
      "tendon 'c'", "2 actuators"),
     (_two_bars("damping='1'"), "tendon 'c'", "no spring"),
+    (_doc(_bar("p", 0.0).replace("<freejoint/>", "").replace("mass='1'", "mass='0'")),
+     "body 'p'", "has no mass"),
     (_two_bars("damping='1'", "<velocity name='v' tendon='c' kv='3'/>"), "actuator 'v'",
      "no spring"),
     (_two_bars("damping='1'", "<motor name='m' tendon='c'/>"), "actuator 'm'", "no spring"),
@@ -462,8 +464,9 @@ def test_the_imported_three_bar_moves_as_mujoco_moves_the_file(u, atol) -> None:
     d.ctrl[0] = u
     names = [n.name for n in result.structure.nodes]
     with Simulation(compiled) as sim:
-        a = result.actuators[0]
-        sim.drive.rest_command[0] = a.command.offset + a.command.scale * u
+        command = result.actuators[0].command
+        assert command is not None
+        sim.drive.rest_command[0] = command.offset + command.scale * u
         sim.step(2999)  # to t = 3 s: the prism sags under its 12 kg and settles
         while d.time < sim.data.time - 1e-9:
             mujoco.mj_step(m, d)

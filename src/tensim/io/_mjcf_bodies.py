@@ -274,6 +274,9 @@ class _Body:
         and adds the rods and point masses."""
         f, m = self.f, self.f.model
         mass, com, inertia = body_inertia(f, self.b)
+        if mass <= 0:
+            raise f.refuse(self.item, "has no mass: tensim's rods and point masses need one "
+                           "(give its geoms a mass or density, or an inertial)")
         parts, prior = [], []
         for g, _, a, c in pieces:
             p0, p1 = self.points[a].position, self.points[c].position
