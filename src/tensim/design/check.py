@@ -76,7 +76,7 @@ def check_structure(structure: Structure, timestep: float = 1e-3,
         structure: the structure.
         timestep: the physics step to check [s].
         source: the YAML file it was read from, if any: cables whose motor the file leaves out
-            (so they inherit tensim's default motor) are then named too.
+            (so they are passive) are then named too.
     """
     findings = (_units(structure) + _slack(structure) + _motors(structure, source)
                 + _thin(structure))
