@@ -20,7 +20,10 @@ from tensim.model import compile_structure
 from tensim.models import preset
 from tensim.sim import Simulation
 from tensim.structure import (
+    PASSIVE,
     Cable,
+    DCMotor,
+    Motor,
     Node,
     PointMass,
     Rod,
@@ -376,6 +379,13 @@ def _routed() -> Structure:
     return Structure("routed", nodes, rods, cables, (PointMass("v", 0.05, 0.01),))
 
 
+def _motor_numbers(cable: Cable) -> list[float]:
+    """A cable's motor as numbers (its DC motor's too)."""
+    motor = dataclasses.asdict(cable.motor)
+    dc = motor.pop("dc") or {}
+    return [float(v) for v in (*motor.values(), *dc.values())]
+
+
 def _same(a: Structure, b: Structure) -> None:
     """The same robot: nodes (by name and position), rods, point masses, cables, motors and
     every rigid body's mass properties, to the 6 digits MuJoCo's writer keeps."""
@@ -396,16 +406,28 @@ def _same(a: Structure, b: Structure) -> None:
         assert (got.nodes, got.via) == (c.nodes, c.via)
         assert (got.stiffness, got.damping) == (c.stiffness, c.damping)
         assert got.rest_length == pytest.approx(a.rest_length(c), rel=1e-5)
-        assert dataclasses.astuple(got.motor) == pytest.approx(dataclasses.astuple(c.motor))
+        assert _motor_numbers(got) == pytest.approx(_motor_numbers(c), rel=1e-5)
+        assert (got.motor.passive, got.motor.dc is None) == (c.motor.passive, c.motor.dc is None)
     for ga, gb in zip(a.rigid_groups(), b.rigid_groups(), strict=True):
         pa, pb = mass_properties(a, ga), mass_properties(b, gb)
         assert pb.mass == pytest.approx(pa.mass, rel=1e-5)
         np.testing.assert_allclose(pb.inertia, pa.inertia, rtol=1e-4, atol=1e-9)
 
 
-@pytest.mark.parametrize("name", ["prism3", "six_bar", "routed"])
+def _motors_of_each_kind() -> Structure:
+    """prism3 with a DC motor on one cable and no motor on another."""
+    s = preset("prism3").build()
+    dc = Motor(max_tension=400.0, dc=DCMotor(stall_torque=0.8, back_drivable=False))
+    cables = list(s.cables)
+    cables[0] = dataclasses.replace(cables[0], motor=dc)
+    cables[1] = dataclasses.replace(cables[1], motor=PASSIVE)
+    return dataclasses.replace(s, cables=tuple(cables))
+
+
+@pytest.mark.parametrize("name", ["prism3", "six_bar", "routed", "motors"])
 def test_export_then_import_gives_the_same_structure(name) -> None:
-    structure = _routed() if name == "routed" else preset(name).build()
+    structure = {"routed": _routed, "motors": _motors_of_each_kind}.get(
+        name, lambda: preset(name).build())()
     compiled = compile_structure(structure)
     for springs in (True, False):
         back = _imported(to_mjcf(compiled, springs=springs))
