@@ -7,7 +7,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from tensim.cli._common import add_world_options, load_model, nonnegative, world_from_args
+from tensim.cli._common import (
+    add_world_options,
+    load_model,
+    nonnegative,
+    positive,
+    world_from_args,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,6 +47,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("file", help="the MJCF .xml file")
     p.add_argument("--name", default=None, help="structure name (default: the file's model name)")
     p.add_argument("--out", required=True, help="tensim structure .yaml to write")
+    p.add_argument("--compare", type=positive, default=None, metavar="SECONDS",
+                   help="also run the file in MuJoCo and its import in tensim for this long "
+                        "(passive, the file's initial controls) and print how far apart the "
+                        "nodes get")
     p.set_defaults(run=run_import_mjcf)
 
     p = sub.add_parser("export-mjcf", help="write a preset or structure as MuJoCo MJCF",
@@ -88,6 +98,14 @@ def run_import_mjcf(args: argparse.Namespace) -> int:
           f"motors), {s.total_mass():.4g} kg")
     for line in result.header()[1:]:
         print(line)
+    if args.compare is not None:
+        from tensim.io import compare_with_mujoco
+
+        agreement = compare_with_mujoco(args.file, args.compare)
+        print(f"compared with MuJoCo's own run of the file over {agreement.duration:g} s (the "
+              f"file's rod inertia kept): nodes within {agreement.max_difference:.2g} m "
+              f"({agreement.final_difference:.2g} m at the end); they moved up to "
+              f"{agreement.max_displacement:.2g} m")
     return 0
 
 

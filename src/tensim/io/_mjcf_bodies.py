@@ -48,6 +48,7 @@ class Bodies:
         rods: the rods.
         point_masses: the point masses.
         site_node: site id -> node name.
+        node_body: node name -> id of the file's body that carries it.
         notes: what was approximated, one line each.
     """
 
@@ -55,6 +56,7 @@ class Bodies:
     rods: list[Rod] = dataclasses.field(default_factory=list)
     point_masses: list[PointMass] = dataclasses.field(default_factory=list)
     site_node: dict[int, str] = dataclasses.field(default_factory=dict)
+    node_body: dict[str, int] = dataclasses.field(default_factory=dict)
     notes: list[str] = dataclasses.field(default_factory=list)
 
 
@@ -228,6 +230,7 @@ class _Body:
             self.names.add(name)
             names.append(name)
             self.out.nodes.append(Node(name, tuple(p.position), fixed=p.fixed))
+            self.out.node_body[name] = self.b
         self._names = names
         return names
 

@@ -28,6 +28,7 @@ import dataclasses
 import math
 import os
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 
 import mujoco
@@ -74,6 +75,8 @@ class MjcfImport:
         source: the file read.
         max_step: the longest physics step at which tensim's explicit step integrates the
             structure's stiffest mode [s] (:func:`stable_step`); run at half of it or less.
+        node_frames: node name -> (the file's body id that carries it, (3,) its position in
+            that body's frame [m]).
     """
 
     structure: Structure
@@ -82,6 +85,7 @@ class MjcfImport:
     notes: tuple[str, ...]
     source: str
     max_step: float
+    node_frames: Mapping[str, tuple[int, np.ndarray]] = dataclasses.field(default_factory=dict)
 
     def command_line(self) -> str:
         """The ``tensim simulate`` world options that reproduce the file's settings."""
@@ -160,7 +164,11 @@ def import_mjcf(path: str | os.PathLike[str] | None = None, *, xml: str | None =
     if warn:
         for note in notes:
             warnings.warn(f"{f.source}: {note}", MjcfImportWarning, stacklevel=2)
-    return MjcfImport(structure, world, tuple(actuators), tuple(notes), f.source, step)
+    frames = {}
+    for node, body in bodies.node_body.items():
+        rotation = f.data.xmat[body].reshape(3, 3)
+        frames[node] = (body, rotation.T @ (structure.position(node) - f.data.xpos[body]))
+    return MjcfImport(structure, world, tuple(actuators), tuple(notes), f.source, step, frames)
 
 
 def save_import(result: MjcfImport, path: str | os.PathLike[str]) -> Path:
