@@ -103,6 +103,7 @@ class _Body:
         self.points: list[_Point] = []
         self.sphere_point: dict[int, int] = {}  # sphere geom id -> its point
         self.tensim = f.spec.text(USER_TEXT) is not None  # tensim's own export
+        self._names: list[str] | None = None  # the nodes' names, once made
 
     # -- geometry ----------------------------------------------------------------------------
 
@@ -219,8 +220,8 @@ class _Body:
 
     def _finish_names(self) -> list[str]:
         """Unique node names, made once (later calls return the same)."""
-        if hasattr(self, "_names"):
-            return self._names  # type: ignore[has-type]
+        if self._names is not None:
+            return self._names
         names = []
         for k, p in enumerate(self.points):
             base = p.hint or f"{self.name}_node{k}"
