@@ -247,6 +247,17 @@ def test_a_position_servo_beside_a_spring_is_one_stiffer_cable() -> None:
     assert any("pushes when the tendon is shorter" in n for n in result.notes)
 
 
+def test_an_integrated_velocity_servo_is_a_motor_of_that_speed() -> None:
+    act = "<intvelocity name='iv' tendon='c' kp='100' actrange='0.3 0.9' ctrlrange='-0.2 0.2'/>"
+    result = _imported(_two_bars("stiffness='1000' springlength='0 0.55'", act))
+    m, c = result.actuators[0], result.structure.cable("c")
+    # k = 1000 + 100; rest = (1000 x 0.55 + 100 act) / 1100; act starts at 0, clamped to 0.3
+    assert m.kind == "position" and m.command.rate and c.stiffness == pytest.approx(1100.0)
+    assert c.rest_length == pytest.approx((550 + 30) / 1100)
+    assert c.motor.min_rest_length == pytest.approx((550 + 30) / 1100)
+    assert c.motor.max_speed == pytest.approx(0.2 * 100 / 1100)  # |ctrl| x d(rest)/d(act)
+
+
 def test_a_keyframe_sets_the_starting_targets() -> None:
     act = "<position name='s' tendon='c' kp='2000' ctrlrange='0.3 0.9'/>"
     xml = _two_bars("damping='1'", act).replace(

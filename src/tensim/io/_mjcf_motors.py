@@ -122,7 +122,7 @@ def map_actuator(f: Loaded, a: int, cable: str, spring: Spring) -> ActuatorMappi
         return _force(f, a, name, cable, spring)
     if fixed and affine and m.actuator_gainprm[a][0] > 0 and \
             math.isclose(bias[1], -m.actuator_gainprm[a][0], rel_tol=1e-6) and bias[2] <= 0 \
-            and dyn in (_DYN.mjDYN_NONE, *_FILTERS):
+            and dyn in (_DYN.mjDYN_NONE, *_FILTERS, _DYN.mjDYN_INTEGRATOR):
         return _position(f, a, name, cable, spring)
     what = _describe(f, a)
     if spring.stiffness <= 0:
@@ -161,7 +161,8 @@ def _start(f: Loaded, a: int, lo: float, hi: float) -> float:
     else MuJoCo's reset value 0; clamped into the input's range as MuJoCo clamps it."""
     m, u = f.model, 0.0
     if m.nkey:
-        filtered = m.actuator_dyntype[a] in _FILTERS and m.actuator_actadr[a] >= 0
+        filtered = m.actuator_dyntype[a] in (*_FILTERS, _DYN.mjDYN_INTEGRATOR) and \
+            m.actuator_actadr[a] >= 0
         u = float(m.key_act[0][m.actuator_actadr[a]] if filtered else m.key_ctrl[0][a])
     return float(np.clip(u, lo, hi))
 
@@ -212,21 +213,22 @@ def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actuator
     cap = pull + k * max(spring.length - rest0, 0.0) if math.isfinite(pull) else 0.0
     if cap <= 0:
         cap = k * spring.length
-    notes.append(f"the file adds {_amount(pull)} of pull to the spring whatever the stretch; "
-                 f"tensim reaches it as the rest-length floor l0 - {pull:.4g} N / k (exact while "
-                 f"taut) and stops reeling in above {cap:.4g} N of static tension (a saturating "
-                 "force cap would hold it exactly)")
+    if math.isfinite(pull):
+        notes.append(f"the file adds up to {pull:.4g} N of pull to the spring whatever the "
+                     f"stretch; tensim reaches it as the rest-length floor l0 - {pull:.4g} N / k "
+                     f"(exact while taut) and stops reeling in above {cap:.4g} N of static "
+                     "tension (a saturating force cap would hold it exactly)")
+    else:
+        notes.append("the file's pull is unlimited (no ctrlrange or forcerange); chosen: a "
+                     f"rest-length floor of 0 m and a stop above {cap:.4g} N of static tension "
+                     "(k x the tendon's length)")
     notes.append("while the cable is slacker than its rest length the file's actuator still "
                  "pulls; tensim's cable pulls nothing")
     motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
                   min_length=_min_length(f, spring.tendon))
-    rest = rest0 + command.scale * (0.0 if command.rate else _start(f, a, lo, hi))
+    rest = rest0 + command.scale * _start(f, a, lo, hi)
     return ActuatorMapping(name, cable, "force", motor, k, spring.damping, rest, command,
                            tuple(notes))
-
-
-def _amount(force: float) -> str:
-    return f"up to {force:.6g} N" if math.isfinite(force) else "unlimited force"
 
 
 def _position(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> ActuatorMapping:
@@ -236,13 +238,20 @@ def _position(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actua
     k_act, b_act = gear**2 * kp, gear**2 * kv
     k = spring.stiffness + k_act
     # rest length = (k_s l_s + k_act (u + b0 / kp) / gear) / k
+    rate = m.actuator_dyntype[a] == _DYN.mjDYN_INTEGRATOR  # intvelocity: ctrl moves the target
     command = CommandMap((spring.stiffness * spring.dead_band[1] + k_act * b0 / (kp * gear)) / k,
-                         k_act / (gear * k))
+                         k_act / (gear * k), rate=rate)
     lo, hi = _range(f, a)
     rests = sorted(command.offset + command.scale * u for u in (lo, hi))
     floor = max(rests[0], 0.0) if math.isfinite(rests[0]) else 0.0
     span = rests[1] - rests[0] if math.isfinite(rests[1] - rests[0]) else spring.length
-    speed, notes = _lag(f, a, span)
+    if rate:
+        speed = abs(command.scale) * max(abs(v) for v in m.actuator_ctrlrange[a]) \
+            if m.actuator_ctrllimited[a] else span / float(m.opt.timestep)
+        notes = [f"the control is the target's rate (integrator dynamics): tensim's motor takes "
+                 f"a rest-length target and moves toward it at up to {speed:.4g} m/s"]
+    else:
+        speed, notes = _lag(f, a, span)
     pull = math.inf
     if m.actuator_forcelimited[a]:
         forces = sorted(-gear * v for v in m.actuator_forcerange[a])

@@ -75,6 +75,8 @@ def load(path: str | os.PathLike[str] | None = None, xml: str | None = None) -> 
     try:
         spec = mujoco.MjSpec.from_file(str(path)) if path is not None else \
             mujoco.MjSpec.from_string(xml or "")
+        # actuator length ranges (muscles') are not needed, and a free robot's may not converge
+        spec.compiler.LRopt.mode = mujoco.mjtLRMode.mjLRMODE_NONE
         model = spec.compile()
     except ValueError as err:
         raise StructureError(f"MuJoCo cannot read it: {err}".strip(), source=source) from None
