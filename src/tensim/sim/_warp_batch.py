@@ -5,14 +5,15 @@ and friction as per-world model fields, its commands through ``ctrl``, and is re
 same channels. The cable law runs as a Warp kernel in MuJoCo Warp's step
 (:mod:`tensim.sim._warp_law`). MuJoCo Warp computes in float32 and its constraint solver is
 its own, so a world agrees with the CPU engine to a tolerance, not bit for bit (see
-``docs/gpu.md``).
+``docs/gpu.md``). A trial's mass scale moves its masses, inertias and the constants MuJoCo
+derives from them (``mj_setConst`` on its model copy) into per-world model fields.
 
 Every world's inputs (V* commands, commanded rest lengths, node loads: its ``ctrl`` rows) are
 computed on the host once per stretch of steps and held on the device, where a kernel copies
 the current row into ``ctrl`` before each step, so no Python runs between the steps of a
 record interval. On a CUDA device the record interval (its steps, the law and the input
 copies) is captured once as a CUDA graph and replayed per record. Not yet here: per-trial
-compiled models and mass scaling (they need MuJoCo Warp's ``set_const`` per world).
+compiled models.
 """
 
 from __future__ import annotations
@@ -44,6 +45,9 @@ from tensim.sim._trials import PhysicsScale, Trial, TrialResult, setup_trial, tr
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _PER_WORLD = ("actuator_dynprm", "actuator_biasprm", "geom_friction")
+# a mass scale changes these (each trial's model copy has them from mj_setConst)
+_PER_WORLD_MASS = ("body_mass", "body_inertia", "body_subtreemass", "dof_invweight0",
+                   "body_invweight0", "tendon_invweight0", "actuator_acc0")
 
 
 def warp_available() -> bool:
@@ -76,8 +80,8 @@ def run_batch_warp(compiled: CompiledModel, trials: Sequence[Trial], duration: f
 
     Raises:
         ImportError: MuJoCo Warp is not installed.
-        ValueError: a trial the Warp backend cannot run (its own compiled model, a mass
-            scale, a mix of fresh and restored initial states).
+        ValueError: a trial the Warp backend cannot run (its own compiled model, a mix of
+            fresh and restored initial states).
     """
     if not warp_available():
         raise ImportError("the warp backend needs MuJoCo Warp: pip install 'tensim[gpu]'")
@@ -87,8 +91,6 @@ def run_batch_warp(compiled: CompiledModel, trials: Sequence[Trial], duration: f
         if trial.compiled is not None and trial.compiled is not compiled:
             raise ValueError(f"trial {i}: per-trial compiled models are not supported on the "
                              "warp backend; use PhysicsScale multipliers")
-        if trial.physics.mass != PhysicsScale().mass:
-            raise ValueError(f"trial {i}: mass scaling is not supported on the warp backend")
     restored = {t.initial_state is not None for t in trials}
     if len(restored) > 1:
         raise ValueError("on the warp backend either every trial or none has an initial state")
@@ -128,8 +130,10 @@ class _WarpRun:
         host = warp_host_model(compiled.model)
         data = mujoco.MjData(host)
         mujoco.mj_resetDataKeyframe(host, data, host.key(BUILD_KEY).id)
-        self.m = mjw.put_model(host, batch_sizes=dict.fromkeys(_PER_WORLD, n))
-        for name in _PER_WORLD:
+        fields = _PER_WORLD + (_PER_WORLD_MASS if any(
+            t.physics.mass != PhysicsScale().mass for t in trials) else ())
+        self.m = mjw.put_model(host, batch_sizes=dict.fromkeys(fields, n))
+        for name in fields:
             getattr(self.m, name).assign(np.stack([getattr(m, name) for m in self.models]))
         install_warp_law(self.m)
         self.m.opt.warn_overflow = 0  # overflows fail their world in check(), with a message
