@@ -72,7 +72,8 @@ def _timed_batch(compiled: CompiledModel, trials: list[Trial], duration: float,
 def bench_warp(worlds: Sequence[int] = (256, 1024, 4096, 16384), duration: float = 1.0,
                cases: Sequence[str] = CASES, device: str | None = None, cpu_trials: int = 256,
                report: Callable[[dict[str, Any]], None] | None = None,
-               max_worlds: dict[str, int] | None = None) -> dict[str, Any]:
+               max_worlds: dict[str, int] | None = None, record_dt: float = 0.01
+               ) -> dict[str, Any]:
     """Aggregate physics steps per second on MuJoCo Warp against the number of worlds.
 
     Args:
@@ -84,6 +85,7 @@ def bench_warp(worlds: Sequence[int] = (256, 1024, 4096, 16384), duration: float
         report: called with each row as it is measured (progress for long runs).
         max_worlds: per case, the largest batch to run (the 12-segment spine's recorded
             channels fill host memory fastest).
+        record_dt: recording period [s] (each record copies the worlds' state to the host).
 
     Returns:
         ``device``, ``host_cores`` and ``rows``: per case and batch size the whole call and
@@ -111,19 +113,20 @@ def bench_warp(worlds: Sequence[int] = (256, 1024, 4096, 16384), duration: float
             if n > max_worlds.get(name, n):
                 continue
             whole, loop, failed = _timed_batch(compiled, trials(n), duration, backend="warp",
-                                               device=device)
+                                               device=device, record_dt=record_dt)
             add({"case": name, "what": what, "engine": "warp", "worlds": n, "whole_s": whole,
                  "loop_s": loop, "failed": failed, "steps_per_s": n * steps / loop,
                  "real_time_factor": n * duration / loop})
         n = cpu_trials
         whole, loop, failed = _timed_batch(compiled, trials(n), duration, backend="cpu",
-                                           threads=threads)
+                                           threads=threads, record_dt=record_dt)
         add({"case": name, "what": what, "engine": f"cpu x{threads}", "worlds": n,
              "whole_s": whole, "loop_s": loop, "failed": failed, "steps_per_s": n * steps / loop,
              "real_time_factor": n * duration / loop})
     dev = wp.get_device(device)
     return {"device": dev.name if not dev.is_cuda else f"{dev.name} ({dev.alias})",
-            "host_cores": threads, "duration_s": duration, "dt_s": 1e-3, "rows": rows}
+            "host_cores": threads, "duration_s": duration, "record_dt_s": record_dt,
+            "rows": rows}
 
 
 def format_row(row: dict[str, Any]) -> str:

@@ -29,6 +29,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "where there is one) beside the CPU batch engine on every core")
     p.add_argument("--worlds", default="256,1024,4096,16384", metavar="N,N,...",
                    help="batch sizes of --backend warp")
+    p.add_argument("--record-dt", type=positive, default=0.01, metavar="S",
+                   help="recording period of --backend warp [s] (default 0.01)")
+    p.add_argument("--cases", default=None, metavar="NAME,...",
+                   help="cases of --backend warp (default all: tetraspine3_cpg, "
+                   "tetraspine_sidewind, superball, prism3)")
     p.add_argument("--device", default=None, help="the Warp device of --backend warp "
                    "(default: a GPU where there is one, e.g. cuda:0 or cpu)")
     p.set_defaults(run=run)
@@ -46,13 +51,19 @@ def _worlds(text: str) -> list[int]:
 
 def _run_warp(args: argparse.Namespace) -> int:
     from tensim._files import write_json
-    from tensim.bench_warp import bench_warp, format_row
+    from tensim.bench_warp import CASES, bench_warp, format_row
     from tensim.sim._warp_batch import warp_available
 
     worlds = _worlds(args.worlds)
     if not warp_available():
         raise InputError("--backend warp needs MuJoCo Warp: pip install 'tensim[gpu]'")
-    report = bench_warp(worlds, args.duration, device=args.device,
+    cases = CASES if args.cases is None else tuple(args.cases.split(","))
+    unknown = sorted(set(cases) - set(CASES))
+    if unknown:
+        raise InputError(f"--cases: unknown case {unknown[0]!r}; expected some of "
+                         f"{', '.join(CASES)}")
+    report = bench_warp(worlds, args.duration, cases, device=args.device,
+                        record_dt=args.record_dt,
                         report=lambda row: print(format_row(row), flush=True))
     print(f"device: {report['device']}; CPU engine on {report['host_cores']} cores")
     if args.json:
