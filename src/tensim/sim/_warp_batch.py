@@ -5,8 +5,15 @@ and friction as per-world model fields, its commands through ``ctrl``, and is re
 same channels. The cable law runs as a Warp kernel in MuJoCo Warp's step
 (:mod:`tensim.sim._warp_law`). MuJoCo Warp computes in float32 and its constraint solver is
 its own, so a world agrees with the CPU engine to a tolerance, not bit for bit (see
-``docs/gpu.md``). Not yet here: per-trial compiled models and mass scaling (they need MuJoCo
-Warp's ``set_const`` per world), and CUDA graph capture of the record loop.
+``docs/gpu.md``). A trial's mass scale moves its masses, inertias and the constants MuJoCo
+derives from them (``mj_setConst`` on its model copy) into per-world model fields.
+
+Every world's inputs (V* commands, commanded rest lengths, node loads: its ``ctrl`` rows) are
+computed on the host once per stretch of steps and held on the device, where a kernel copies
+the current row into ``ctrl`` before each step, so no Python runs between the steps of a
+record interval. On a CUDA device the record interval (its steps, the law and the input
+copies) is captured once as a CUDA graph and replayed per record. Not yet here: per-trial
+compiled models.
 """
 
 from __future__ import annotations
@@ -15,6 +22,7 @@ import copy
 import logging
 import time as _time
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -37,6 +45,9 @@ from tensim.sim._trials import PhysicsScale, Trial, TrialResult, setup_trial, tr
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _PER_WORLD = ("actuator_dynprm", "actuator_biasprm", "geom_friction")
+# a mass scale changes these (each trial's model copy has them from mj_setConst)
+_PER_WORLD_MASS = ("body_mass", "body_inertia", "body_subtreemass", "dof_invweight0",
+                   "body_invweight0", "tendon_invweight0", "actuator_acc0")
 
 
 def warp_available() -> bool:
@@ -56,19 +67,21 @@ def warp_available() -> bool:
 def run_batch_warp(compiled: CompiledModel, trials: Sequence[Trial], duration: float, *,
                    record_steps: int, n_samples: int, limits: StabilityLimits,
                    progress: Callable[[float, float], None] | None = None,
-                   device: str | None = None, njmax: int = 256, nconmax: int = 64
-                   ) -> list[TrialResult]:
+                   device: str | None = None, njmax: int | None = None,
+                   nconmax: int | None = None) -> list[TrialResult]:
     """:func:`tensim.sim.run_batch` with ``backend="warp"`` (see there; ``compiled`` already
     has every trial's load nodes).
 
     Args:
         device: the Warp device (None: Warp's default, a GPU when there is one).
-        njmax, nconmax: constraint rows and contacts MuJoCo Warp allocates per world.
+        njmax, nconmax: constraint rows and contacts MuJoCo Warp allocates per world (None:
+            sized from the model by :func:`world_capacity`). A world that needs more fails
+            with a message that says so (MuJoCo Warp would drop the rest and go on).
 
     Raises:
         ImportError: MuJoCo Warp is not installed.
-        ValueError: a trial the Warp backend cannot run (its own compiled model, a mass
-            scale, a mix of fresh and restored initial states).
+        ValueError: a trial the Warp backend cannot run (its own compiled model, a mix of
+            fresh and restored initial states).
     """
     if not warp_available():
         raise ImportError("the warp backend needs MuJoCo Warp: pip install 'tensim[gpu]'")
@@ -78,17 +91,25 @@ def run_batch_warp(compiled: CompiledModel, trials: Sequence[Trial], duration: f
         if trial.compiled is not None and trial.compiled is not compiled:
             raise ValueError(f"trial {i}: per-trial compiled models are not supported on the "
                              "warp backend; use PhysicsScale multipliers")
-        if trial.physics.mass != PhysicsScale().mass:
-            raise ValueError(f"trial {i}: mass scaling is not supported on the warp backend")
     restored = {t.initial_state is not None for t in trials}
     if len(restored) > 1:
         raise ValueError("on the warp backend either every trial or none has an initial state")
+    rows, contacts = world_capacity(compiled.model)
     with wp.ScopedDevice(device):
-        run = _WarpRun(compiled, trials, record_steps, limits, njmax, nconmax)
+        run = _WarpRun(compiled, trials, record_steps, limits, njmax or rows, nconmax or contacts)
         started = _time.perf_counter()
         run.run(n_samples, duration, progress, fresh=not restored.pop())
         wall = _time.perf_counter() - started
     return run.results(duration, wall)
+
+
+def world_capacity(model: mujoco.MjModel) -> tuple[int, int]:
+    """(constraint rows, contacts) to allocate per MuJoCo Warp world for ``model``: two
+    contacts per geom (a rod's two end caps, each on the ground and on one other part),
+    each taking the rows of its friction cone, plus the tendon and equality rows."""
+    contacts = max(64, 2 * model.ngeom)
+    cone = 2 * 2 if model.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL else 3
+    return max(256, cone * contacts + model.ntendon + 6 * model.neq), contacts
 
 
 class _WarpRun:
@@ -109,13 +130,17 @@ class _WarpRun:
         host = warp_host_model(compiled.model)
         data = mujoco.MjData(host)
         mujoco.mj_resetDataKeyframe(host, data, host.key(BUILD_KEY).id)
-        self.m = mjw.put_model(host, batch_sizes=dict.fromkeys(_PER_WORLD, n))
-        for name in _PER_WORLD:
+        fields = _PER_WORLD + (_PER_WORLD_MASS if any(
+            t.physics.mass != PhysicsScale().mass for t in trials) else ())
+        self.m = mjw.put_model(host, batch_sizes=dict.fromkeys(fields, n))
+        for name in fields:
             getattr(self.m, name).assign(np.stack([getattr(m, name) for m in self.models]))
         install_warp_law(self.m)
+        self.m.opt.warn_overflow = 0  # overflows fail their world in check(), with a message
         self.d = mjw.put_data(host, data, nworld=n, nconmax=nconmax, njmax=njmax)
         self._restore(host, trials)
         self._step = mjw.step
+        self._graph: Any = None
         self.samples = SampleBuffers.empty(compiled, 0, (n,))
         self.count = np.zeros(n, dtype=int)
         self.steps = np.zeros(n, dtype=np.int64)
@@ -161,23 +186,39 @@ class _WarpRun:
                 out[i] = plan.control(int(first[i]), count)
         return out
 
-    def _advance(self, control: np.ndarray) -> None:
-        """Steps every world through ``control``'s rows, one ``mjw.step`` per step."""
+    def _advance(self, nstep: int) -> None:
+        """Steps every world ``nstep`` steps on its held inputs: a replay of the captured
+        record interval where there is one, else one launch sequence per step."""
         import warp as wp
 
-        ctrl = self.d.ctrl
-        for k in range(control.shape[1]):
-            if k == 0 or (control[:, k] != control[:, k - 1]).any():
-                ctrl.assign(control[:, k])
-            self._step(self.m, self.d)
+        if self.inputs.left() < nstep:
+            self.inputs.load(self._control(self.steps, self.inputs.next_rows(nstep)))
+        if nstep == self.record_steps and self.inputs.device.is_cuda:
+            if self._graph is None:
+                with wp.ScopedCapture() as capture:
+                    self._launch(nstep)
+                self._graph = capture.graph
+            wp.capture_launch(self._graph)
+        else:
+            self._launch(nstep)
         wp.synchronize()
-        self.steps += control.shape[1]
+        self.inputs.consumed(nstep)
+        self.steps += nstep
+
+    def _launch(self, nstep: int) -> None:
+        for _ in range(nstep):
+            self.inputs.apply(self.d.ctrl)
+            self._step(self.m, self.d)
 
     def run(self, n_samples: int, duration: float,
             progress: Callable[[float, float], None] | None, fresh: bool) -> None:
+        from tensim.sim._warp_inputs import HeldInputs
+
         self.samples = SampleBuffers.empty(self.compiled, n_samples + 1, (len(self.trials),))
+        self.inputs = HeldInputs(len(self.trials), self.compiled.model.nu, self.record_steps,
+                                 n_samples * self.record_steps + int(fresh))
         if fresh:
-            self._advance(self._control(self.steps, 1))  # the motor update at t = 0
+            self._advance(1)  # the motor update at t = 0
         else:
             import mujoco_warp as mjw
 
@@ -188,7 +229,7 @@ class _WarpRun:
     # trials are no longer sampled or checked
 
     def advance(self, k: int, nstep: int) -> bool:
-        self._advance(self._control(self.steps, nstep))
+        self._advance(nstep)
         return any(e is None for e in self.error)
 
     def take(self) -> None:
@@ -207,6 +248,7 @@ class _WarpRun:
         qvel, force = self.d.qvel.numpy(), self.d.actuator_force.numpy()
         bad_acc = bad_acceleration(self.d.qacc.numpy())
         fine = stable(qvel, force[:, :n], bad_acc, self.limits)
+        self._check_room(fine)
         for i in np.flatnonzero(~fine):
             if self.error[i] is not None:
                 continue
@@ -218,6 +260,18 @@ class _WarpRun:
                                                       bool(bad_acc[i]), reset=False)
         if self._contact is not None:
             self._check_contact(np.flatnonzero(fine))
+
+    def _check_room(self, fine: np.ndarray) -> None:
+        """Fails the worlds MuJoCo Warp ran out of room for (contacts or constraint rows
+        dropped: their physics is wrong from then on)."""
+        overflow = self.d.overflow.numpy()
+        for i in np.flatnonzero(overflow != 0):
+            fine[i] = False
+            if self.error[i] is None:
+                time = float(self.samples.time[i, self.count[i] - 1])
+                self.error[i] = (f"trial {i}: at t = {time:.3f} s MuJoCo Warp ran out of room "
+                                 f"for contacts or constraint rows (overflow flags "
+                                 f"{int(overflow[i])}); rerun with more (njmax, nconmax)")
 
     def _check_contact(self, worlds: np.ndarray) -> None:
         """Fails the worlds whose contact cables went through an obstacle: each world's
@@ -239,3 +293,4 @@ class _WarpRun:
         return trial_results(self.samples, self.count, self.models, self.error,
                              self.compiled.index.cable_act(self.d.act.numpy(), 1),
                              self.compiled.index, self.dt, duration, wall)
+
