@@ -54,6 +54,39 @@ def test_warp_worlds_agree_with_the_cpu_engine():
     assert np.abs(heavy.matrix("tension") - nominal.matrix("tension")).max() > 1.0
 
 
+def test_a_trial_with_its_own_compiled_model_runs_as_on_the_cpu_engine():
+    # a recompiled structure (stiffer cables, heavier rods, more friction) of the same layout:
+    # every field it changes, derived constants included, becomes a per-world field
+    import dataclasses
+
+    p = preset("tetraspine3")
+    structure = p.build()
+    compiled = compile_structure(structure)
+    gait = load_controller("tetraspine3_cpg", structure).with_duration(DURATION).build(
+        compiled.model.opt.timestep)
+    changed = dataclasses.replace(
+        structure,
+        cables=tuple(dataclasses.replace(c, stiffness=1.1 * c.stiffness, pretension=None,
+                                         rest_length=structure.rest_length(c))
+                     for c in structure.cables),
+        rods=tuple(dataclasses.replace(
+            r, friction=1.5 * r.friction,
+            linear_density=None if r.linear_density is None else 1.2 * r.linear_density,
+            density=None if r.density is None else 1.2 * r.density) for r in structure.rods))
+    own = compile_structure(changed)
+    trials = [Trial(gait), Trial(gait, compiled=own)]
+    warp = run_batch(compiled, trials, DURATION, backend="warp", device="cpu")
+    cpu = run_batch(compiled, trials, DURATION)
+    for w, c in zip(warp, cpu, strict=True):
+        assert w.ok and c.ok, (w.error, c.error)
+        a, b = c.result.trajectory, w.result.trajectory
+        assert np.abs(a.matrix("tension") - b.matrix("tension")).max() < 1.0
+        for axis in "xyz":
+            assert np.abs(a[f"pos_{axis}/com"] - b[f"pos_{axis}/com"]).max() < 1e-3
+    nominal, rebuilt = (r.result.trajectory for r in warp)
+    assert np.abs(rebuilt.matrix("tension") - nominal.matrix("tension")).max() > 1.0
+
+
 def test_inputs_held_on_the_device_are_reloaded_at_the_right_step(monkeypatch):
     # with room for one record interval of inputs, the rows are reloaded before every record;
     # a row taken from the wrong step (one early or late) would change the V* the motors see
@@ -169,3 +202,15 @@ def test_held_inputs_give_each_step_its_own_row():
             np.testing.assert_array_equal(ctrl.numpy(), rows[:, j])
         held.consumed(steps)
         assert held.left() == 0 and held.remaining == 0
+
+
+def test_a_world_out_of_room_for_contacts_fails_with_a_message(monkeypatch):
+    # MuJoCo Warp drops contacts past its allocation and steps on (wrong physics, a printed
+    # warning): tensim fails such a world instead, saying what to raise
+    import tensim.sim._warp_batch as warp_batch
+
+    monkeypatch.setattr(warp_batch, "world_capacity", lambda model: (8, 1))
+    p = preset("tetraspine3")
+    compiled = compile_structure(p.build())  # stands on several feet: more than one contact
+    result = run_batch(compiled, [Trial(p.controller())], 0.02, backend="warp", device="cpu")[0]
+    assert not result.ok and "ran out of room for contacts" in result.error

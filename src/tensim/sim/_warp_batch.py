@@ -1,19 +1,20 @@
 """Batches on MuJoCo Warp: one world per trial, on a GPU or on Warp's CPU device.
 
-The same trials as :func:`tensim.sim.run_batch`: each world gets its trial's law parameters
-and friction as per-world model fields, its commands through ``ctrl``, and is recorded into the
-same channels. The cable law runs as a Warp kernel in MuJoCo Warp's step
+The same trials as :func:`tensim.sim.run_batch`: each world steps its trial's model (law
+parameters, friction, masses, or a whole recompiled structure of the same layout): every model
+field in which any trial differs from the batch's model becomes a per-world field of MuJoCo
+Warp's model, filled from the trials' own model copies (with the constants MuJoCo derived for
+each, as ``mj_setConst`` leaves them). Commands go through ``ctrl`` and each world is recorded
+into the same channels. The cable law runs as a Warp kernel in MuJoCo Warp's step
 (:mod:`tensim.sim._warp_law`). MuJoCo Warp computes in float32 and its constraint solver is
 its own, so a world agrees with the CPU engine to a tolerance, not bit for bit (see
-``docs/gpu.md``). A trial's mass scale moves its masses, inertias and the constants MuJoCo
-derives from them (``mj_setConst`` on its model copy) into per-world model fields.
+``docs/gpu.md``).
 
 Every world's inputs (V* commands, commanded rest lengths, node loads: its ``ctrl`` rows) are
 computed on the host once per stretch of steps and held on the device, where a kernel copies
 the current row into ``ctrl`` before each step, so no Python runs between the steps of a
 record interval. On a CUDA device the record interval (its steps, the law and the input
-copies) is captured once as a CUDA graph and replayed per record. Not yet here: per-trial
-compiled models.
+copies) is captured once as a CUDA graph and replayed per record.
 """
 
 from __future__ import annotations
@@ -41,13 +42,14 @@ from tensim.sim._loop import (
 )
 from tensim.sim._samples import SampleBuffers
 from tensim.sim._simulation import diagnose
-from tensim.sim._trials import PhysicsScale, Trial, TrialResult, setup_trial, trial_results
+from tensim.sim._trials import Trial, TrialResult, setup_trial, trial_models, trial_results
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
-_PER_WORLD = ("actuator_dynprm", "actuator_biasprm", "geom_friction")
-# a mass scale changes these (each trial's model copy has them from mj_setConst)
-_PER_WORLD_MASS = ("body_mass", "body_inertia", "body_subtreemass", "dof_invweight0",
-                   "body_invweight0", "tendon_invweight0", "actuator_acc0")
+# a trial's model may differ from the batch's in values, never in these sizes
+# fields MuJoCo Warp holds once but reads only for island sleeping, which tensim leaves off
+_SLEEP_ONLY = frozenset({"dof_length"})
+_SIZES = ("nq", "nv", "nu", "na", "nbody", "ngeom", "nsite", "ntendon", "nwrap", "neq",
+          "nkey")
 
 
 def warp_available() -> bool:
@@ -80,17 +82,14 @@ def run_batch_warp(compiled: CompiledModel, trials: Sequence[Trial], duration: f
 
     Raises:
         ImportError: MuJoCo Warp is not installed.
-        ValueError: a trial the Warp backend cannot run (its own compiled model, a mix of
-            fresh and restored initial states).
+        ValueError: trials the Warp backend cannot run together (models of other sizes, a
+            field that differs and MuJoCo Warp holds once for all worlds, a mix of fresh and
+            restored initial states).
     """
     if not warp_available():
         raise ImportError("the warp backend needs MuJoCo Warp: pip install 'tensim[gpu]'")
     import warp as wp
 
-    for i, trial in enumerate(trials):
-        if trial.compiled is not None and trial.compiled is not compiled:
-            raise ValueError(f"trial {i}: per-trial compiled models are not supported on the "
-                             "warp backend; use PhysicsScale multipliers")
     restored = {t.initial_state is not None for t in trials}
     if len(restored) > 1:
         raise ValueError("on the warp backend either every trial or none has an initial state")
@@ -101,6 +100,45 @@ def run_batch_warp(compiled: CompiledModel, trials: Sequence[Trial], duration: f
         run.run(n_samples, duration, progress, fresh=not restored.pop())
         wall = _time.perf_counter() - started
     return run.results(duration, wall)
+
+
+def per_world_fields(batch: mujoco.MjModel, models: Sequence[mujoco.MjModel]) -> list[str]:
+    """The model fields MuJoCo Warp must hold per world: those in which any of ``models``
+    differs from ``batch``.
+
+    Raises:
+        ValueError: a model of other sizes, or one that differs in a field MuJoCo Warp holds
+            once for all worlds.
+    """
+    import dataclasses
+
+    from mujoco_warp._src import types
+    from mujoco_warp._src.warp_util import is_array_spec
+
+    for i, m in enumerate(models):
+        other = [s for s in _SIZES if getattr(m, s) != getattr(batch, s)]
+        if other:
+            raise ValueError(f"trial {i}: its model differs in size ({other[0]} "
+                             f"{getattr(m, other[0])} against {getattr(batch, other[0])}); a "
+                             "batch's trials share one layout")
+    known = {f.name: f.type for f in dataclasses.fields(types.Model)}
+    batched = {name for name, kind in known.items()
+               if is_array_spec(kind) and getattr(kind, "shape", ("",))[0] == "*"}
+    fields = []
+    for name in dir(batch):
+        value = getattr(batch, name, None)
+        if name.startswith("_") or not isinstance(value, np.ndarray) or value.size == 0:
+            continue
+        differs = next((i for i, m in enumerate(models)
+                        if not np.array_equal(getattr(m, name), value)), None)
+        if differs is None or name not in known or name in _SLEEP_ONLY \
+                or name.startswith("key_"):  # each world starts from its own keyframe
+            continue  # equal, or a field MuJoCo Warp's step does not read
+        if name not in batched:
+            raise ValueError(f"trial {differs}: its model differs in {name}, which MuJoCo Warp "
+                             "holds once for all worlds; run it on the CPU engine")
+        fields.append(name)
+    return fields
 
 
 def world_capacity(model: mujoco.MjModel) -> tuple[int, int]:
@@ -125,16 +163,24 @@ class _WarpRun:
         self.record_steps, self.dt = record_steps, float(compiled.model.opt.timestep)
         n = len(trials)
         self.error: list[str | None] = [None] * n
-        self.models = [copy.copy(compiled.model) for _ in trials]
+        self.compileds = trial_models(compiled, trials)
+        # each trial steps its own copy of its model: its controller's gains, its physics
+        self.models = [copy.copy(c.model) for c in self.compileds]
         self.plans = [self._setup(i, t) for i, t in enumerate(trials)]
         host = warp_host_model(compiled.model)
         data = mujoco.MjData(host)
         mujoco.mj_resetDataKeyframe(host, data, host.key(BUILD_KEY).id)
-        fields = _PER_WORLD + (_PER_WORLD_MASS if any(
-            t.physics.mass != PhysicsScale().mass for t in trials) else ())
+        fields = per_world_fields(compiled.model, self.models)
         self.m = mjw.put_model(host, batch_sizes=dict.fromkeys(fields, n))
         for name in fields:
-            getattr(self.m, name).assign(np.stack([getattr(m, name) for m in self.models]))
+            rows = np.stack([getattr(m, name) for m in self.models])
+            try:
+                target = getattr(self.m, name)
+                target.assign(rows.reshape(target.numpy().shape))
+            except (ValueError, RuntimeError) as exc:
+                raise ValueError(f"the trials' models differ in {name}, which MuJoCo Warp "
+                                 f"cannot hold per world here ({exc}); run them on the CPU "
+                                 "engine") from None
         install_warp_law(self.m)
         self.m.opt.warn_overflow = 0  # overflows fail their world in check(), with a message
         self.d = mjw.put_data(host, data, nworld=n, nconmax=nconmax, njmax=njmax)
@@ -150,7 +196,7 @@ class _WarpRun:
 
     def _setup(self, i: int, trial: Trial) -> InputPlan | None:
         try:
-            return setup_trial(self.compiled, self.models[i], trial, self.dt)
+            return setup_trial(self.compileds[i], self.models[i], trial, self.dt)
         except (ValueError, KeyError, TypeError) as exc:
             self.error[i] = f"trial {i}: {exc}"
             # a failed trial's world still steps (worlds cannot be left out): keep it harmless
@@ -163,8 +209,11 @@ class _WarpRun:
         rows: dict[str, list[np.ndarray]] = {f: [] for f in fields}
         times = []
         data = mujoco.MjData(host)
-        for trial in trials:
+        for model, trial in zip(self.models, trials, strict=True):
             mujoco.mj_resetDataKeyframe(host, data, host.key(BUILD_KEY).id)
+            # the trial's own build pose (a recompiled structure may stand otherwise)
+            data.qpos[:] = model.key(BUILD_KEY).qpos
+            data.act[:] = model.key(BUILD_KEY).act
             if trial.initial_state is not None and trial.initial_state.shape == (
                     mujoco.mj_stateSize(host, _STATE),):
                 mujoco.mj_setState(host, data, trial.initial_state, _STATE)
@@ -248,7 +297,6 @@ class _WarpRun:
         qvel, force = self.d.qvel.numpy(), self.d.actuator_force.numpy()
         bad_acc = bad_acceleration(self.d.qacc.numpy())
         fine = stable(qvel, force[:, :n], bad_acc, self.limits)
-        self._check_room(fine)
         for i in np.flatnonzero(~fine):
             if self.error[i] is not None:
                 continue
@@ -258,6 +306,7 @@ class _WarpRun:
             self.error[i] = f"trial {i}: " + diagnose(self.compiled.model, d,
                                                       self.compiled.index, self.limits, time,
                                                       bool(bad_acc[i]), reset=False)
+        self._check_room(fine)  # after: a diverging world also overflows; instability first
         if self._contact is not None:
             self._check_contact(np.flatnonzero(fine))
 
