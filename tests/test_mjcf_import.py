@@ -223,6 +223,16 @@ def test_a_filtered_force_actuator_beside_a_spring_maps_to_rest_lengths() -> Non
     assert all(n.startswith("actuator 'a'") for n in result.notes if "filter" in n)
 
 
+def test_file_controls_become_a_controllers_rest_lengths() -> None:
+    result = import_mjcf(EXAMPLES / "three_bar_lab.xml", warn=False)
+    rest = result.rest_lengths({"act_top1": -0.5})
+    assert sorted(rest) == ["bottom0", "bottom1", "bottom2", "top0", "top1", "top2"]
+    assert rest["top1"] == pytest.approx(0.853035 - 0.5 * 400 / 10000)
+    assert rest["top0"] == pytest.approx(0.853035)  # the others keep their start
+    with pytest.raises(KeyError, match="no actuator 'act_vertical0'"):
+        result.rest_lengths({"act_vertical0": -1.0})
+
+
 def test_a_plain_motor_with_a_gear_acts_at_once() -> None:
     result = _imported(_two_bars("stiffness='1000' springlength='0 0.55'",
                                  "<motor name='m' tendon='c' gear='2' ctrlrange='-50 10'/>"))

@@ -91,6 +91,24 @@ class MjcfImport:
         """The ``tensim simulate`` world options that reproduce the file's settings."""
         return _mjcf_world.command_line(self.world)
 
+    def rest_lengths(self, controls: Mapping[str, float]) -> dict[str, float]:
+        """The rest-length command [m] of every motorised cable whose actuator takes a target,
+        for the file's controls (actuator name -> ctrl; the others keep their start): what a
+        controller file's ``rest_lengths`` holds to do what those controls do.
+
+        Raises:
+            KeyError: a control names no actuator with a target (a rate, or no motor).
+        """
+        targets = {a.actuator: (a, a.command) for a in self.actuators
+                   if a.command is not None and not a.command.rate}
+        unknown = sorted(set(controls) - set(targets))
+        if unknown:
+            raise KeyError(f"{self.source}: no actuator {unknown[0]!r} whose control is a "
+                           f"target; those are {sorted(targets)}")
+        return {a.cable: command.offset + command.scale * controls[name]
+                if name in controls else a.rest_length
+                for name, (a, command) in targets.items()}
+
     def header(self) -> list[str]:
         """Comment lines for the written structure file: the source, the run options, the
         actuator mappings and every note."""
