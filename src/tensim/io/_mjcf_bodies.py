@@ -15,7 +15,6 @@ import dataclasses
 
 import mujoco
 import numpy as np
-from scipy.optimize import lsq_linear
 
 from tensim.io._mjcf_motors import NODE_SITE, USER_TEXT
 from tensim.io._mjcf_read import GEOM, ROD_GEOMS, Loaded, body_inertia
@@ -335,6 +334,7 @@ class _Body:
         prior = prior * mass / prior.sum()
         if self._moments_match(mass, com, inertia, parts, prior):
             return prior  # the file's inertia is its geoms': keep their masses
+        from scipy.optimize import lsq_linear  # on first use: scipy is slow to import
         size = max(float(np.ptp([p.position for p in self.points], axis=0).max()), TOL)
         moments, axes = np.linalg.eigh(inertia)
         rows, rhs = [np.ones(len(parts)) / mass * 1e3], [1e3]
