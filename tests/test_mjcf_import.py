@@ -212,7 +212,7 @@ def test_a_filtered_force_actuator_beside_a_spring_maps_to_rest_lengths() -> Non
     assert mapping.command.offset == pytest.approx(0.55)
     assert mapping.command.scale == pytest.approx(400 / 10000)
     assert c.rest_length == pytest.approx(0.55)  # ctrl starts at 0
-    assert c.motor.min_rest_length == pytest.approx(0.55 - 400 / 10000)  # full pull
+    assert c.motor.min_rest_length == pytest.approx(0.2)  # reels in as far as the pull folds
     assert c.motor.max_speed == pytest.approx(400 / 10000 / 0.1)  # the span over tau
     assert c.motor.max_tension == pytest.approx(400 + 10000 * 0.05)  # pull + build stretch
     assert c.motor.min_length == pytest.approx(0.2)  # the tendon's lower limit
@@ -238,7 +238,7 @@ def test_a_plain_motor_with_a_gear_acts_at_once() -> None:
                                  "<motor name='m' tendon='c' gear='2' ctrlrange='-50 10'/>"))
     m = result.actuators[0]
     assert m.command.scale == pytest.approx(2 / 1000)
-    assert m.motor.min_rest_length == pytest.approx(0.55 - 100 / 1000)  # 2 x 50 N of pull
+    assert m.motor.max_tension == pytest.approx(100 + 1000 * 0.05)  # 2 x 50 N on the build 50 N
     assert m.motor.max_speed == pytest.approx((100 + 20) / 1000 / 0.002)  # the range in a step
     assert any("acts at once" in n for n in result.notes)
 

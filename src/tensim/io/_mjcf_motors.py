@@ -6,9 +6,10 @@ toward a command at up to ``max_speed`` (a floor ``min_rest_length``, a stop at
 
 - a force actuator (``motor``, or ``general`` with a fixed gain and no bias) in parallel with
   the tendon spring adds a tension T = -gear x gain x u: while taut that is the spring with the
-  rest length l0 - T/k, so the command becomes a rest length, the force range a rest-length
-  range (its pull limit the floor), and a ``filter`` time constant tau a speed (the range over
-  tau, the filter's fastest rate);
+  rest length l0 - T/k, so the command becomes a rest length; the pull limit on top of the
+  build tension becomes the motor's stop (``max_tension``), the tendon's lower limit its floor
+  (the file's actuator shortens the cable as far as its pull folds the robot), and a
+  ``filter`` time constant tau a speed (the range over tau, the filter's fastest rate);
 - a position actuator (``position``, or ``general`` with bias [b0, -kp, -kv]) is a PD on
   tendon length: beside the spring it is one cable of stiffness k + gear^2 kp and damping
   b + gear^2 kv whose rest length is the stiffness-weighted mean of the two targets;
@@ -199,7 +200,9 @@ def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actuator
     rest0 = spring.dead_band[1]
     command = CommandMap(rest0, per_u / k, rate=m.actuator_dyntype[a] == _DYN.mjDYN_INTEGRATOR)
     notes = []
-    floor = max(rest0 - pull / k, 0.0) if math.isfinite(pull) else 0.0
+    # the file's actuator shortens the cable as far as its pull folds the robot: the motor may
+    # reel in down to the tendon's lower limit, its force bounded by the stop at max_tension
+    floor = _min_length(f, spring.tendon)
     span = (pull + push) / k if math.isfinite(pull + push) else rest0
     if command.rate:
         speed = abs(command.scale) * max(abs(v) for v in m.actuator_ctrlrange[a]) \
@@ -215,13 +218,14 @@ def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actuator
         cap = k * spring.length
     if math.isfinite(pull):
         notes.append(f"the file adds up to {pull:.4g} N of pull to the spring whatever the "
-                     f"stretch; tensim reaches it as the rest-length floor l0 - {pull:.4g} N / k "
-                     f"(exact while taut) and stops reeling in above {cap:.4g} N of static "
-                     "tension (a saturating force cap would hold it exactly)")
+                     f"stretch; tensim's motor reels in (down to the tendon's lower limit, "
+                     f"{floor:g} m) while the static tension stays below {cap:.4g} N (the pull "
+                     "on top of the build tension): the command map matches the file's force "
+                     "while taut, a saturating force cap would hold it exactly")
     else:
         notes.append("the file's pull is unlimited (no ctrlrange or forcerange); chosen: a "
-                     f"rest-length floor of 0 m and a stop above {cap:.4g} N of static tension "
-                     "(k x the tendon's length)")
+                     f"rest-length floor of {floor:g} m and a stop above {cap:.4g} N of static "
+                     "tension (k x the tendon's length)")
     notes.append("while the cable is slacker than its rest length the file's actuator still "
                  "pulls; tensim's cable pulls nothing")
     motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
