@@ -147,7 +147,8 @@ class Robot:
         elif self.config.normalize_actions:
             command = np.clip(self.rest0[self.motors] * (1.0 + applied * self.config.rest_span),
                               self.low, self.high)
-        commands = np.tile(self.hold, (action.shape[0], 1))
+        commands = np.empty((action.shape[0], self.n))
+        commands[:] = self.hold
         commands[:, self.motors] = command
         return commands, applied, out
 

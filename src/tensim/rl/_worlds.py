@@ -283,7 +283,7 @@ class Worlds:
     def _velocity(self, ids: np.ndarray, xipos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
         cvel = self.f["cvel"][ids][:, self._body]  # (rotation, translation) at the root's com
         root_com = self.f["subtree_com"][ids][:, self._root]
-        linear = cvel[..., 3:] + np.cross(cvel[..., :3], xipos - root_com)
+        linear = cvel[..., 3:] + _cross(cvel[..., :3], xipos - root_com)
         com_velocity = np.einsum("b,kbj->kj", self._mass, linear)
         parts = [_to_frame(com_velocity[:, None], yaw), _to_frame(linear, yaw),
                  _to_frame(cvel[..., :3], yaw)]
@@ -359,6 +359,15 @@ class Worlds:
     def data(self, i: int) -> Any:
         """Robot ``i``'s whole MjData (for rendering)."""
         return self.batch.get_data(i)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b over the last axis (np.cross's result, without its per-call overhead)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
 
 
 def _yaw_change(before: np.ndarray, after: np.ndarray, mass: np.ndarray) -> np.ndarray:
