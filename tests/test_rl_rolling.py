@@ -201,6 +201,11 @@ def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, cap
     assert (out / "learning_curve.png").is_file() and (out / "robot.yaml").is_file()
     assert _train(robot_file, out, algo, 1024) == 2  # no silent restart over a run
     assert "add --resume" in capsys.readouterr().err
+    budget = 1024 if algo == "ppo" else 400
+    assert main(["--quiet", "rl", "train", robot_file, "--algo", algo, "--steps", str(budget),
+                 "--envs", "2", "--episode", "1", "--out", str(out), "--resume"]) == 0
+    resumed = json.loads((out / "progress.json").read_text())
+    assert resumed["steps_done"] >= budget and len(resumed["curve"]) >= len(progress["curve"])
     assert main(["--quiet", "rl", "evaluate", str(out), "--duration", "0.4"]) == 0
     summary = json.loads((out / "evaluation" / "summary.json").read_text())
     assert summary["body_length_m"] == pytest.approx(1.4, abs=0.01)  # the longest rod
