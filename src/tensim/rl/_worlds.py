@@ -306,15 +306,15 @@ class Worlds:
         ends = np.zeros((ids.size, rods["body"].size))
         if not rows:
             return touch, ends
-        row, body, point = np.concatenate(rows), np.concatenate(bodies), np.concatenate(points)
+        at, body, point = np.concatenate(rows), np.concatenate(bodies), np.concatenate(points)
         slot = self._slot[body]
-        touch[row[slot >= 0], slot[slot >= 0]] = 1.0
+        touch[at[slot >= 0], slot[slot >= 0]] = 1.0
         if ends.shape[1]:  # the nearest end of the touching rod's body
-            where = self._end_positions(ids)[row]  # (c, 2 n_rods, 3)
+            where = self._end_positions(ids)[at]  # (c, 2 n_rods, 3)
             far = np.linalg.norm(where - point[:, None], axis=2)
             far[rods["body"].ravel()[None] != body[:, None]] = np.inf
             hit = np.isfinite(far).any(axis=1)
-            ends[row[hit], np.argmin(far[hit], axis=1)] = 1.0
+            ends[at[hit], np.argmin(far[hit], axis=1)] = 1.0
         return touch, ends
 
     def _end_positions(self, ids: np.ndarray) -> np.ndarray:
