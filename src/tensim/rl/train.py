@@ -214,8 +214,8 @@ def _learner(settings: TrainSettings, out: Path, state: dict[str, Any]) -> Any:
 
 
 class _Curve:
-    """The learning curve: (env steps, mean return of the episodes that ended since the last
-    point) from SB3's episode records."""
+    """The learning curve: (env steps, return) of every episode that ended, from SB3's
+    episode records (``VecMonitor``)."""
 
     def __init__(self, points: list[list[float]]):
         self.points = [list(p) for p in points]
@@ -227,10 +227,8 @@ class _Curve:
 
         class _Record(BaseCallback):
             def _on_step(self) -> bool:
-                returns = [info["episode"]["r"] for info in self.locals.get("infos", [])
-                           if "episode" in info]
-                if returns:
-                    curve.points.append([int(self.num_timesteps), float(np.mean(returns))])
+                curve.points += [[int(self.num_timesteps), float(info["episode"]["r"])]
+                                 for info in self.locals.get("infos", []) if "episode" in info]
                 return True
 
         return _Record()
