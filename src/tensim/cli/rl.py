@@ -39,6 +39,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.add_argument("run_dir", metavar="DIR", help="a `tensim rl train` folder")
     e.add_argument("--duration", type=positive, default=30.0, help="simulated time [s]")
     e.add_argument("--seed", type=int, default=0, help="the start's seed")
+    e.add_argument("--video", action="store_true", help="also video.mp4 (offscreen OpenGL)")
     e.add_argument("--out", default=None, help="run folder (default DIR/evaluation)")
     e.set_defaults(run=evaluate)
 
@@ -79,7 +80,7 @@ def evaluate(args: argparse.Namespace) -> int:
     from tensim.rl.evaluate import evaluate as run_evaluation
 
     out = Path(args.out) if args.out else Path(args.run_dir) / "evaluation"
-    s = run_evaluation(Path(args.run_dir), out, args.duration, args.seed)
+    s = run_evaluation(Path(args.run_dir), out, args.duration, args.seed, video=args.video)
     print(f"policy of {args.run_dir}: {s['displacement_along_heading_m']:+.3f} m along the "
           f"heading in "
           f"{s['duration_s']:g} s = {s['body_lengths_per_s']:+.4f} body lengths/s "

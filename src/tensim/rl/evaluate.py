@@ -22,10 +22,10 @@ def body_length(model: str) -> float:
     return max(float(np.linalg.norm(nodes[m.nodes[0]] - nodes[m.nodes[1]])) for m in members)
 
 
-def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed: int
-               ) -> dict[str, Any]:
+def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed: int,
+               frames: list[np.ndarray] | None = None) -> dict[str, Any]:
     """Drives the robot with ``policy`` for ``duration_s`` seconds from the start ``seed``
-    draws.
+    draws; with ``frames``, appends about 15 images per second to it (offscreen OpenGL).
 
     Returns:
         ``time`` (T,) [s], ``com`` (T, 3) [m] (from MjData), ``heading`` (2,) the rewarded
@@ -34,11 +34,17 @@ def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed:
     """
     from tensim.rl.env import TensegrityEnv
 
-    env = TensegrityEnv(settings.env_config(episode_s=duration_s))
+    env = TensegrityEnv(settings.env_config(episode_s=duration_s),
+                        render_mode=None if frames is None else "rgb_array")
     obs, _ = env.reset(seed=seed)
+    every = max(1, round(1.0 / (15 * env.robot.config.control_dt)))
     com = [env.worlds.f["subtree_com"][0, 0].copy()]
     observations, actions, unstable = [], [], False
-    for _ in range(env.robot.config.max_steps):
+    for k in range(env.robot.config.max_steps):
+        if frames is not None and k % every == 0:
+            image = env.render()
+            if image is not None:
+                frames.append(image)
         action = policy(obs)
         observations.append(obs)
         actions.append(action)
@@ -47,16 +53,21 @@ def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed:
         if terminated:
             unstable = bool(info["unstable"])
             break
+    env.close()
     dt = env.robot.config.control_dt
-    return {"time": np.arange(len(com)) * dt, "com": np.array(com),
-            "heading": env.worlds.target[0].copy(), "observations": np.array(observations),
-            "actions": np.array(actions), "unstable": unstable}
+    return {"fps": round(1.0 / (every * dt)), "time": np.arange(len(com)) * dt,
+            "com": np.array(com), "heading": env.worlds.target[0].copy(),
+            "observations": np.array(observations), "actions": np.array(actions), "unstable": unstable}
 
 
-def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0
-             ) -> dict[str, Any]:
+def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
+             video: bool = False) -> dict[str, Any]:
     """Evaluates the run in ``folder`` and writes a run folder ``out`` (``trajectory.parquet``,
-    ``summary.json`` with ``body_lengths_per_s``, ``path.png``, ``report.html``).
+    ``summary.json`` with ``body_lengths_per_s``, ``path.png``, ``report.html``; with
+    ``video``, ``video.mp4``).
+
+    Raises:
+        tensim.viz._gl.OffscreenUnavailable: ``video`` where no offscreen OpenGL works.
 
     Returns:
         the summary.
@@ -71,7 +82,8 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0
     n = len(arrays) // 2
     policy = Policy(meta, [arrays[f"w{k}"] for k in range(n)], [arrays[f"b{k}"]
                                                                  for k in range(n)])
-    run = run_policy(settings, policy, duration_s, seed)
+    frames: list[np.ndarray] | None = [] if video else None
+    run = run_policy(settings, policy, duration_s, seed, frames)
     t, com, heading = run["time"], run["com"], run["heading"]
     along = float((com[-1, :2] - com[0, :2]) @ heading)
     length = body_length(settings.model)
@@ -94,5 +106,9 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0
         ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal",
                title=f"{summary['body_lengths_per_s']:.3f} body lengths/s along the heading")
         save_figure(fig, stage / "path.png")
+        if frames:
+            from tensim.viz.video import write_video
+
+            write_video(frames, stage / "video.mp4", run["fps"])
         finish_run(stage, summary, series)
     return summary
