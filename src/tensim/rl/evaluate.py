@@ -57,7 +57,8 @@ def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed:
     dt = env.robot.config.control_dt
     return {"fps": round(1.0 / (every * dt)), "time": np.arange(len(com)) * dt,
             "com": np.array(com), "heading": env.worlds.target[0].copy(),
-            "observations": np.array(observations), "actions": np.array(actions), "unstable": unstable}
+            "observations": np.array(observations), "actions": np.array(actions),
+            "unstable": unstable}
 
 
 def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
