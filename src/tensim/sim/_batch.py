@@ -59,7 +59,7 @@ __all__ = ["PhysicsScale", "Trial", "TrialResult", "run_batch", "setup_trial"]
 MAX_SAMPLES = 50_000_000  # trials x samples x channels a batch may hold in memory
 _BLOCK_STEPS = 2_000  # physics steps of inputs computed at once
 _MAX_STEP_CALLS = 3  # runs of constant inputs in a record stepped one Batch.step call each
-_CHUNKS_PER_THREAD = 4  # chunks of trials per thread: the last chunks balance the threads
+_CHUNKS_PER_THREAD = 2  # chunks of trials per thread: the last ones balance the threads
 _RECORD = ("ten_length", "ten_velocity", "xpos", "xquat", "subtree_com", "act", "ctrl", "qvel",
            "actuator_force")
 
@@ -298,7 +298,11 @@ class _BatchRun:
     def _take(self, ids: np.ndarray, fields: dict[str, np.ndarray]) -> None:
         assert self.samples is not None
         time = sample_time(self.batch.state[ids, 0], self.dt)
-        self.samples.put(ids, self.count[ids], time, fields, self.compiled.index)
+        if ids.size == len(self.trials) and (self.count == self.count[0]).all():
+            # every trial, all at the same sample: plain slices, no fancy indexing
+            self.samples.put(slice(None), int(self.count[0]), time, fields, self.compiled.index)
+        else:
+            self.samples.put(ids, self.count[ids], time, fields, self.compiled.index)
         self.count[ids] += 1
 
     def _check(self, ids: np.ndarray, fields: dict[str, np.ndarray]) -> None:
@@ -375,11 +379,16 @@ class _Block:
                 for start, stop in itertools.pairwise(cuts):
                     run._bound["ctrl"][live] = rows[:, start]  # a view of the state rows
                     run.batch.step(live, stop - start)
-                fields = {name: field[live] for name, field in run._bound.items()}
+                # every trial of the chunk: the bound arrays themselves (read before the next
+                # call refreshes them)
+                fields = run._bound if live.size == len(run.trials) else \
+                    {name: field[live] for name, field in run._bound.items()}
         except mjbatch.SimulationError as exc:
             run._fail(exc.ids)
             fields = {name: field[live] for name, field in run._bound.items()}
         ran = np.array([run.error[int(i)] is None for i in live])
+        if ran.all():
+            return live, fields
         return live[ran], {name: v[ran] for name, v in fields.items()}
 
 

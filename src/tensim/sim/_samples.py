@@ -59,12 +59,13 @@ class SampleBuffers:
         return SampleBuffers(**{f.name: getattr(self, f.name)[:k]
                                 for f in dataclasses.fields(self)})
 
-    def put(self, ids: np.ndarray, k: np.ndarray, time: np.ndarray,
+    def put(self, ids: np.ndarray | slice, k: np.ndarray | int, time: np.ndarray,
             fields: dict[str, np.ndarray], index: ModelIndex) -> None:
         """Stores sample k[j] of trial ids[j] from MjData fields, one row per trial.
 
         Args:
-            ids, k: (m,) trials and their sample positions.
+            ids, k: (m,) trials and their sample positions (or every trial, ``slice(None)``,
+                at one position).
             time: (m,) the samples' times [s].
             fields: ten_length, ten_velocity, act, ctrl, xpos, xquat, subtree_com, (m, ...).
             index: the model's ids.
