@@ -181,4 +181,10 @@ def load_structure(path: str | os.PathLike[str]) -> Structure:
 
 def save_structure(structure: Structure, path: str | os.PathLike[str]) -> None:
     """Writes a structure to a YAML file atomically (never a half-written file)."""
-    write_text(Path(path), yaml.safe_dump(structure_to_dict(structure), sort_keys=False))
+    text = yaml.dump(structure_to_dict(structure), Dumper=_SafeDumper, sort_keys=False)
+    write_text(Path(path), text)
+
+
+# libyaml's emitter where PyYAML has it: the same text as yaml.safe_dump, 4x faster (a robot of
+# hundreds of cables writes half a megabyte)
+_SafeDumper: type[yaml.SafeDumper] = getattr(yaml, "CSafeDumper", yaml.SafeDumper)

@@ -6,11 +6,12 @@ import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
 
+import matplotlib
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
@@ -189,10 +190,15 @@ def _panels(grid: PanelGrid | None, kind: str, cables: Sequence[str], columns: i
     return grid.figure
 
 
-def _lines(ax: Axes, t: np.ndarray, lines: Sequence[np.ndarray], **style: Any) -> None:
-    """Many cables' lines in one panel, thin, in matplotlib's colour cycle."""
-    for y in lines:
-        ax.plot(*thin(t, y, GROUP_PIXELS), lw=0.6, alpha=0.7, **style)
+def _lines(ax: Axes, t: np.ndarray, lines: Sequence[np.ndarray], ls: str = "solid") -> None:
+    """Many cables' lines in one panel, thin, in matplotlib's colour cycle (the k-th line in
+    the k-th colour): one collection, not an artist per cable."""
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
+    segments = [np.column_stack(thin(t, y, GROUP_PIXELS)) for y in lines]
+    ax.add_collection(LineCollection(segments, colors=[colors[k % len(colors)]
+                                                       for k in range(len(lines))],
+                                     linewidths=0.6, alpha=0.7, linestyles=ls))
+    ax.autoscale_view()
 
 
 def _commanded(series: TimeSeries, name: str) -> np.ndarray | None:
@@ -273,12 +279,15 @@ def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None
 
     def draw_group(ax: Axes, names: Sequence[str]) -> None:
         _lines(ax, t, [series[f"length/{name}"] for name in names])
-        ax.set_prop_cycle(None)  # each rest length in its cable's colour
+        # each rest length in its cable's colour
         _lines(ax, t, [series[f"rest_length/{name}"] for name in names], ls="--")
 
     cables = list(cables or series.items("length"))
     return save_figure(_panels(grid, "lengths", cables, columns, title, draw, draw_group,
                                tags), path)
+
+
+PATH_LEGEND = 12  # bodies named in a path figure's legend; more are drawn as one grey bundle
 
 
 def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None,
@@ -290,10 +299,18 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None
     ax = fig.subplots()
     if title:
         ax.set_title(title, fontsize=10)
-    for name in items:
+    named = list(items) if len(items) <= PATH_LEGEND else [n for n in items if n == "com"]
+    for name in named:
         x, y = series[f"pos_x/{name}"], series[f"pos_y/{name}"]
         ax.plot(x, y, lw=1.0, label=name)
         ax.plot(x[:1], y[:1], "o", color=ax.lines[-1].get_color(), ms=4)
+    rest = [n for n in items if n not in named]
+    if rest:  # many bodies: one collection in thin grey, a legend entry for all
+        paths = [np.column_stack([series[f"pos_x/{n}"], series[f"pos_y/{n}"]]) for n in rest]
+        ax.add_collection(LineCollection(paths, colors="0.55", linewidths=0.5,
+                                         label=f"{len(rest)} bodies"))
+        ax.plot([p[0, 0] for p in paths], [p[0, 1] for p in paths], "o", color="0.55", ms=2)
+        ax.autoscale_view()
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_aspect("equal", adjustable="datalim")
