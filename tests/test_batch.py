@@ -175,7 +175,7 @@ def test_the_rollout_benchmark_replays_exactly_the_batch_trials():
     import mujoco
     from mujoco import rollout
 
-    from tensim.bench_batch import _problem, rollout_inputs
+    from tensim.benchmarks.batch import _problem, rollout_inputs
 
     problem = _problem(0.3)
     points = np.random.default_rng(5).random((3, problem.dimension))
