@@ -106,7 +106,7 @@ class Simulation:
         self.limits = limits or StabilityLimits()
         self.drive = CableDrive(compiled, self.model, data=self.data)
         self._loads = tuple(loads)
-        self._qvel = self.data.qvel
+        self._qvel, self._ctrl = self.data.qvel, self.data.ctrl  # views, looked up once
         self._bad_acc = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
         self._contact = ContactCheck(compiled) \
             if any(c.contact for c in compiled.structure.cables) else None
@@ -271,12 +271,12 @@ class _Segments:
 
     def run(self, sim: Simulation, start: int, stop: int) -> None:
         """Takes steps start .. stop - 1 of the block (in order, without gaps)."""
-        m, d, cuts = sim.model, sim.data, self.cuts
+        m, d, cuts, ctrl = sim.model, sim.data, self.cuts, sim._ctrl
         while start < stop:
             while cuts[self._i] <= start:
                 self._i += 1
             end = min(cuts[self._i], stop)
-            d.ctrl[:] = self.control[start]
+            ctrl[:] = self.control[start]
             mujoco.mj_step(m, d, nstep=end - start)
             start = end
 
