@@ -8,6 +8,8 @@
   --learning``);
 - :mod:`~tensim.benchmarks.process`: whole commands as processes, with and without figures
   (``tensim bench --process``);
+- :mod:`~tensim.benchmarks.warp`: batches of worlds on MuJoCo Warp beside the CPU engine
+  (``tensim bench --backend warp``);
 - :mod:`~tensim.benchmarks._machine`: how busy the machine was, and a busy mode.
 
 Nothing in the library imports this package; it imports whatever it measures.
