@@ -371,7 +371,9 @@ class _Block:
         """Steps trials ``live`` (a subset of the block's) by nstep; returns the trials that
         ran and their fields after the last step."""
         run, a = self.run, self.at
-        rows = self.control[np.searchsorted(self.ids, live), a:a + nstep]
+        every = live.size == self.ids.size  # live is a subset of ids: then equal to them
+        rows = self.control[:, a:a + nstep] if every else \
+            self.control[np.searchsorted(self.ids, live), a:a + nstep]
         self.at += nstep
         cuts = [0, *(np.flatnonzero(self.change[a:a + nstep - 1]) + 1).tolist(), nstep]
         try:
@@ -387,12 +389,11 @@ class _Block:
                 # call refreshes them)
                 fields = run._bound if live.size == len(run.trials) else \
                     {name: field[live] for name, field in run._bound.items()}
-        except mjbatch.SimulationError as exc:
+        except mjbatch.SimulationError as exc:  # the only way a live trial fails here
             run._fail(exc.ids)
             fields = {name: field[live] for name, field in run._bound.items()}
-        ran = np.array([run.error[int(i)] is None for i in live])
-        if ran.all():
-            return live, fields
-        return live[ran], {name: v[ran] for name, v in fields.items()}
+            ran = np.array([run.error[int(i)] is None for i in live])
+            return live[ran], {name: v[ran] for name, v in fields.items()}
+        return live, fields
 
 
