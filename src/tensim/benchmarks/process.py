@@ -4,8 +4,8 @@ Each command runs in a fresh interpreter, with its figures and with ``--no-figur
 taking turns (A B A B ...), so a load on a shared machine falls on both alike. A run's CPU time
 and peak resident memory are the kernel's account of the process and every process it waited
 for (its figure-drawing and OpenGL-trial children), read by ``os.wait4`` as ``/usr/bin/time``
-does. The figures' share of a command is 1 - (CPU without figures) / (CPU with figures), from
-the best runs.
+does, in a small launcher process (so the peak is not this process's). The figures' share of
+a command is 1 - (CPU without figures) / (CPU with figures), from the best runs.
 """
 
 from __future__ import annotations
@@ -26,6 +26,17 @@ COMMANDS = (("experiment", "disturbance"), ("experiment", "cpg"))
 _MAIN = "import sys; from tensim.cli import main; sys.exit(main(sys.argv[1:]))"
 
 
+# A small launcher runs the command and reports its child's account. The kernel carries a
+# process's peak memory across exec, and a child started from this process (whose libraries
+# are loaded) would start from this process's peak; the launcher's own is a few MiB.
+_LAUNCHER = """
+import os, subprocess, sys
+child = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL)
+_, status, usage = os.wait4(child.pid, 0)
+print(usage.ru_utime + usage.ru_stime, usage.ru_maxrss, os.waitstatus_to_exitcode(status))
+"""
+
+
 def run_process(args: list[str]) -> tuple[float, float, float]:
     """Runs ``tensim ARGS`` in a fresh interpreter (this process's tensim).
 
@@ -39,18 +50,14 @@ def run_process(args: list[str]) -> tuple[float, float, float]:
     here = str(Path(__file__).resolve().parents[2])
     path = os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p)
     start = time.perf_counter()
-    process = subprocess.Popen([sys.executable, "-c", _MAIN, *args], stdout=subprocess.DEVNULL,
-                               stderr=subprocess.PIPE, env={**os.environ, "PYTHONPATH": path})
-    assert process.stderr is not None
-    error = process.stderr.read()
-    _, status, usage = os.wait4(process.pid, 0)
+    done = subprocess.run([sys.executable, "-c", _LAUNCHER, sys.executable, "-c", _MAIN, *args],
+                          capture_output=True, text=True, check=False,
+                          env={**os.environ, "PYTHONPATH": path})
     wall = time.perf_counter() - start
-    process.returncode = os.waitstatus_to_exitcode(status)
-    process.stderr.close()
-    if process.returncode:
-        raise RuntimeError(f"tensim {' '.join(args)} failed ({process.returncode}):\n"
-                           + error.decode(errors="replace")[-2000:])
-    return usage.ru_utime + usage.ru_stime, wall, usage.ru_maxrss / 1024
+    fields = done.stdout.split()
+    if done.returncode or len(fields) != 3 or fields[2] != "0":
+        raise RuntimeError(f"tensim {' '.join(args)} failed:\n{done.stderr[-2000:]}")
+    return float(fields[0]), wall, int(fields[1]) / 1024
 
 
 def bench_process(repeats: int = 3, commands: tuple[tuple[str, ...], ...] = COMMANDS
