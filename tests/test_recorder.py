@@ -44,11 +44,12 @@ def _robots():
     beads = dataclasses.replace(s, cables=tuple(
         dataclasses.replace(c, contact=CableContact(spacing=0.03)) if k < 2 else c
         for k, c in enumerate(s.cables)))
+    bare = dataclasses.replace(preset("six_bar").build(), cables=())  # empty cable fields
     return {"impedance": (s, p.controller()), "dc motors": (dc, p.controller()),
-            "contact beads": (beads, None)}
+            "contact beads": (beads, None), "no cables": (bare, None)}
 
 
-@pytest.mark.parametrize("robot", ["impedance", "dc motors", "contact beads"])
+@pytest.mark.parametrize("robot", ["impedance", "dc motors", "contact beads", "no cables"])
 def test_recorder_equals_field_by_field_reads_bit_for_bit(robot):
     structure, controller = _robots()[robot]
     compiled = compile_structure(structure)

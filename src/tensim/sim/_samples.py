@@ -154,16 +154,17 @@ def _flat_view(fields: list[np.ndarray]) -> tuple[np.ndarray, list[int]]:
         ValueError: a field is not a C-contiguous float64 array on an 8-byte offset from the
             first (MuJoCo built with another ``mjtNum``).
     """
-    first = min(fields, key=lambda f: f.ctypes.data)
+    held = [f for f in fields if f.size] or [np.zeros(1)]  # an empty field has no place
+    first = min(held, key=lambda f: f.ctypes.data)
     base = first.ctypes.data
-    end = max(f.ctypes.data + f.nbytes for f in fields)
-    for f in fields:
+    end = max(f.ctypes.data + f.nbytes for f in held)
+    for f in held:
         if f.dtype != np.float64 or not f.flags.c_contiguous or (f.ctypes.data - base) % 8:
             raise ValueError("MjData's sampled fields must be contiguous float64 arrays in one "
                              "buffer")
     flat = np.lib.stride_tricks.as_strided(first.reshape(-1), shape=((end - base) // 8,),
                                            strides=(8,), writeable=False)
-    return flat, [(f.ctypes.data - base) // 8 for f in fields]
+    return flat, [(f.ctypes.data - base) // 8 if f.size else 0 for f in fields]
 
 
 def sample_channels(samples: SampleBuffers, index: ModelIndex, dynprm: np.ndarray,
