@@ -36,7 +36,7 @@ from tensim.sim._simulation import diagnose
 from tensim.sim._trials import PhysicsScale, Trial, TrialResult, setup_trial, trial_results
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
-_PER_WORLD = ("actuator_dynprm", "actuator_biasprm", "geom_friction")
+_PER_WORLD = ("actuator_dynprm", "actuator_gainprm", "actuator_biasprm", "geom_friction")
 
 
 def warp_available() -> bool:
