@@ -160,12 +160,12 @@ def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None
                         help="the robot's bodies collide only with the ground, not with each "
                              "other: faster, but wrong wherever its parts touch (see "
                              "docs/speed.md)")
-    parser.add_argument("--cable-law", choices=("explicit", "implicit", "discrete"),
+    parser.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
                         default="explicit",
                         help="explicit (default: the paper's law under MuJoCo's Euler step), "
-                             "implicit (MuJoCo's implicitfast sees each taut cable's damping: "
-                             "stiff, damped cables at 1-10 ms) or discrete (MuJoCo's discrete "
-                             "integrator: damping and stiffness; see docs/speed.md)")
+                             "implicit (MuJoCo's discrete integrator takes each taut cable's "
+                             "stiffness and damping: stiff, damped cables at 1-10 ms) or "
+                             "implicitfast (cheaper, damping only; see docs/speed.md)")
     parser.add_argument("--contact", default=None, metavar="KEY=VALUE,...",
                         help="robot-ground friction model: cone=pyramidal|elliptic, "
                              "noslip=ITERATIONS, condim=3|4|6, torsional=COEFF [m], "

@@ -25,9 +25,9 @@ from tensim.model._law_layout import (
     DC_ACTDIM,
     GAIN,
     IMPLICIT_EXTRA,
-    LAW_DISCRETE,
     LAW_EXPLICIT,
     LAW_IMPLICIT,
+    LAW_IMPLICITFAST,
     MODE_REST,
     LawParameters,
     biasprm,
@@ -45,11 +45,11 @@ _ROBOT_PRIORITY = 1
 BUILD_KEY = "build"  # the keyframe of the build pose: rest lengths in act, commands in ctrl
 WORLD_FRAME_SITE = "world_frame"  # reference frame of the node-load inputs
 _CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
-# each cable law's MuJoCo integrator: the implicit laws' native gain term is what implicitfast
-# (damping) and discrete (damping and stiffness) integrate implicitly (docs/architecture.md)
+# each cable law's MuJoCo integrator: the implicit laws' native gain term is what discrete
+# (stiffness and damping) and implicitfast (damping) integrate implicitly (docs/architecture.md)
 INTEGRATORS = {LAW_EXPLICIT: mujoco.mjtIntegrator.mjINT_EULER,
-               LAW_IMPLICIT: mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-               LAW_DISCRETE: mujoco.mjtIntegrator.mjINT_DISCRETE}
+               LAW_IMPLICIT: mujoco.mjtIntegrator.mjINT_DISCRETE,
+               LAW_IMPLICITFAST: mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
 
 
 class ModelError(ValueError):
@@ -88,13 +88,13 @@ class WorldOptions:
         torsional_friction: torsional friction coefficient [m] (condim 4 and 6).
         rolling_friction: rolling friction coefficient [m] (condim 6).
         cable_law: ``"explicit"`` (the default: the law computes each cable's force and MuJoCo
-            integrates it with its semi-implicit Euler step, as the paper's figures were made)
-            or ``"implicit"`` (MuJoCo's ``implicitfast`` integrator sees each taut cable's
-            damping through a native actuator term, so stiff, strongly damped cables run at
-            1-10 ms steps) or ``"discrete"`` (the same term under MuJoCo's ``discrete``
-            integrator, which also takes each taut cable's stiffness implicitly and solves the
-            contacts in the same metric: the most accurate at long steps, and the dearest per
-            step); docs/architecture.md, docs/speed.md.
+            integrates it with its semi-implicit Euler step, as the paper's figures were made),
+            ``"implicit"`` (MuJoCo's ``discrete`` integrator takes each taut cable's stiffness
+            and damping implicitly through a native actuator term, and solves the contacts in
+            the same metric: stiff, strongly damped cables at 1-10 ms steps) or
+            ``"implicitfast"`` (the same term under MuJoCo's cheaper ``implicitfast``, which
+            takes only the damping, and only each body's own share of it: right for cables
+            anchored to the world, poor for cables between free bodies); docs/speed.md.
     """
 
     timestep: float = 1e-3

@@ -3,11 +3,11 @@
 A tensim cable is one MuJoCo actuator whose law parameters live in the ``MjModel``
 (``actuator_dynprm``, ``actuator_gainprm``, ``actuator_biasprm``) and whose state lives in
 ``act``. Under the explicit law (``LAW_EXPLICIT``) the gain is fixed at zero and the law writes
-the whole force as bias; under the implicit law (``LAW_IMPLICIT``) the gain is MuJoCo's affine
-one, ``k x + b xdot`` from ``gainprm``'s stiffness and damping, times the last activation
-(``pull``: -1 while the cable is taut, else 0), so MuJoCo's implicit integrators see the
-cable's damping (and, under ``discrete``, its stiffness); the bias then makes the force
-exactly the law's (docs/architecture.md). This module names each slot once. The
+the whole force as bias; under the implicit laws (``LAW_IMPLICIT``, ``LAW_IMPLICITFAST``) the
+gain is MuJoCo's affine one, ``k x + b xdot`` from ``gainprm``'s stiffness and damping, times
+the last activation (``pull``: -1 while the cable is taut, else 0), so MuJoCo's implicit
+integrators see the cable's stiffness and damping (``discrete``) or damping (``implicitfast``);
+the bias then makes the force exactly the law's (docs/architecture.md). This module names each slot once. The
 compiler writes the parameters through these names, the Python reference law and the MuJoCo
 Warp kernel read them through these names, and the compiled law reads them from
 ``_cable_layout.h``, which :func:`c_header` generates from this module (``python
@@ -71,9 +71,9 @@ GAIN = 0.0  # actuator_gainprm[0]
 
 # the cable laws, each with its MuJoCo integrator (tensim.model.INTEGRATORS)
 LAW_EXPLICIT = "explicit"  # the law writes the whole force (Euler)
-LAW_IMPLICIT = "implicit"  # MuJoCo's affine gain carries the law's damping (implicitfast)
-LAW_DISCRETE = "discrete"  # the same law; MuJoCo's discrete integrator also takes its stiffness
-CABLE_LAWS = (LAW_EXPLICIT, LAW_IMPLICIT, LAW_DISCRETE)
+LAW_IMPLICIT = "implicit"  # MuJoCo's affine gain carries the law's stiffness and damping (discrete)
+LAW_IMPLICITFAST = "implicitfast"  # the same law; implicitfast takes the damping, per body
+CABLE_LAWS = (LAW_EXPLICIT, LAW_IMPLICIT, LAW_IMPLICITFAST)
 
 MODE_REST = 0  # the motor follows a commanded rest length (ctrl: the rest length [m])
 MODE_IMPEDANCE = 1  # the motor realises the impedance law's setpoint (ctrl: V* [m/s])
@@ -152,8 +152,8 @@ def law_of(model: mujoco.MjModel, n: int) -> str:
     model without cables counts as explicit)."""
     if not (n and bool(implicit(model)[:n].all())):
         return LAW_EXPLICIT
-    discrete = model.opt.integrator == mujoco.mjtIntegrator.mjINT_DISCRETE
-    return LAW_DISCRETE if discrete else LAW_IMPLICIT
+    fast = model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    return LAW_IMPLICITFAST if fast else LAW_IMPLICIT
 
 
 class LawParameters:
