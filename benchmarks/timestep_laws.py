@@ -14,10 +14,11 @@ Each case runs under each law (``explicit``, ``implicit``, ``implicitfast``; see
 docs/architecture.md) at each step; a line gives the worst cable's change of maximum tension
 against the reference (per cent of that cable's reference peak), the largest distance of the
 centre of mass from the reference's at the same time (mm, and per cent of the distance the
-reference's centre of mass travels), and the CPU time per step. A run that fails its
+reference's centre of mass travels), and with ``--cpu`` the CPU time per step of the whole
+run (it varies with the machine and its load; the other figures do not). A run that fails its
 stability check is reported as unstable.
 
-Usage: python benchmarks/timestep_laws.py [--cases NAME,...] [--ntrt NTRTSIM_DIR]
+Usage: python benchmarks/timestep_laws.py [--cases NAME,...] [--ntrt NTRTSIM_DIR] [--cpu]
 """
 
 from __future__ import annotations
@@ -151,8 +152,9 @@ def timed(run: Run, world: WorldOptions) -> tuple[SimulationResult | None, float
     return result, (time.process_time() - start) / steps * 1e6, None
 
 
-def study(name: str, run: Run) -> list[str]:
-    """The case's lines: its reference, then one per law and step."""
+def study(name: str, run: Run, cpu: bool = False) -> list[str]:
+    """The case's lines: its reference, then one per law and step (``cpu``: with the CPU time
+    per step)."""
     reference, _, error = timed(run, WorldOptions(timestep=REFERENCE_MS / 1e3))
     if reference is None:
         return [f"{name}: the reference failed: {error}"]
@@ -162,14 +164,14 @@ def study(name: str, run: Run) -> list[str]:
     for law in LAWS:
         for ms in STEPS_MS:
             result, us, error = timed(run, WorldOptions(timestep=ms / 1e3, cable_law=law))
-            head = f"  {law:<8} {ms:>4g} ms:"
+            head = f"  {law:<12} {ms:>4g} ms:"
             if result is None:
                 lines.append(f"{head} {error}")
                 continue
             tension, path = compare(result, reference)
             lines.append(f"{head} max tension {tension:+7.2f} %, centre of mass "
-                         f"{path * 1e3:7.1f} mm ({100 * path / moved:5.1f} % of its travel), "
-                         f"{us:6.1f} us/step")
+                         f"{path * 1e3:7.1f} mm ({100 * path / moved:5.1f} % of its travel)"
+                         + (f", {us:6.1f} us/step" if cpu else ""))
     return lines
 
 
@@ -179,6 +181,7 @@ def main() -> None:
                         help="comma-separated cases (twelve_bar needs --ntrt)")
     parser.add_argument("--ntrt", type=Path, default=None, metavar="NTRTSIM_DIR",
                         help="a checkout of the original toolkit: adds the twelve_bar case")
+    parser.add_argument("--cpu", action="store_true", help="also the CPU time per step")
     args = parser.parse_args()
     cases: dict[str, Run] = {"tetraspine3": _tetraspine3, "superball": _superball,
                              "three_bar": _three_bar}
@@ -189,7 +192,7 @@ def main() -> None:
     for name in names:
         if name not in cases:
             parser.error(f"unknown case {name!r}; cases: {', '.join(cases)}")
-        print("\n".join(study(name, cases[name])), flush=True)
+        print("\n".join(study(name, cases[name], args.cpu)), flush=True)
 
 
 if __name__ == "__main__":

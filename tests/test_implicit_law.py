@@ -3,9 +3,10 @@
 Under ``cable_law="implicitfast"`` MuJoCo's ``implicitfast`` integrator takes each taut cable's
 damping implicitly: with the cable's force f(y, v) = -k y - b v about the static stretch, one
 step is (m + h b) (v' - v) = h f(y, v), y' = y + h v'. Under ``"implicit"`` MuJoCo's
-``discrete`` integrator takes its stiffness too, a linearised backward Euler step: (m + h b + h^2 k) (v' - v) = h (f(y, v) - h k v). Both maps
-are linear, so their period, decay and fixed point follow from a 2 x 2 matrix; the runs must
-follow them to rounding, and the maps approach the continuous oscillator as h shrinks.
+``discrete`` integrator takes its stiffness too, a linearised backward Euler step: (m + h b +
+h^2 k) (v' - v) = h (f(y, v) - h k v). Both maps are linear, so their period, decay and fixed
+point follow from a 2 x 2 matrix; the runs must follow them to rounding, and the maps approach
+the continuous oscillator as h shrinks.
 """
 
 from __future__ import annotations

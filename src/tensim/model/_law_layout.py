@@ -7,11 +7,12 @@ the whole force as bias; under the implicit laws (``LAW_IMPLICIT``, ``LAW_IMPLIC
 gain is MuJoCo's affine one, ``k x + b xdot`` from ``gainprm``'s stiffness and damping, times
 the last activation (``pull``: -1 while the cable is taut, else 0), so MuJoCo's implicit
 integrators see the cable's stiffness and damping (``discrete``) or damping (``implicitfast``);
-the bias then makes the force exactly the law's (docs/architecture.md). This module names each slot once. The
-compiler writes the parameters through these names, the Python reference law and the MuJoCo
-Warp kernel read them through these names, and the compiled law reads them from
+the bias then makes the force exactly the law's (docs/architecture.md). This module names each
+slot once. The compiler writes the parameters through these names, the Python reference law and
+the MuJoCo Warp kernel read them through these names, and the compiled law reads them from
 ``_cable_layout.h``, which :func:`c_header` generates from this module (``python
 tools/law_header.py`` rewrites it; a test checks the committed header equals its output).
+
 
 :class:`LawParameters` gives every per-cable parameter as a live view of a model's arrays, so
 readers derive the values from the model the physics steps (nothing goes stale when a
