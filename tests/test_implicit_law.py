@@ -199,3 +199,25 @@ def _scaled(structure: Structure, stiffness: float, damping: float) -> Structure
         dataclasses.replace(c, stiffness=c.stiffness * stiffness, damping=c.damping * damping,
                             pretension=None, rest_length=structure.rest_length(c))
         for c in structure.cables))
+
+
+def test_the_cable_law_is_chosen_on_the_command_line_and_kept_by_the_run_folder(tmp_path):
+    import json
+
+    import mujoco
+
+    from tensim.cli import main
+    from tensim.model._law_layout import law_of
+    from tensim.viz.replay import load_run
+
+    out = tmp_path / "run"
+    assert main(["--quiet", "simulate", "prism3", "--cable-law", "implicit", "--dt", "0.004",
+                 "--duration", "0.2", "--record-dt", "0.02", "--no-figures",
+                 "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["cable_law"] == "implicit" and summary["dt_s"] == 0.004
+    model = load_run(out).compiled.model
+    assert law_of(model, 9) == "implicit"
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_DISCRETE
+    with pytest.raises(ValueError, match="cable_law must be one of"):
+        WorldOptions(cable_law="backward")

@@ -13,7 +13,6 @@ the MuJoCo Warp kernel read them through these names, and the compiled law reads
 ``_cable_layout.h``, which :func:`c_header` generates from this module (``python
 tools/law_header.py`` rewrites it; a test checks the committed header equals its output).
 
-
 :class:`LawParameters` gives every per-cable parameter as a live view of a model's arrays, so
 readers derive the values from the model the physics steps (nothing goes stale when a
 controller or a physics scale edits that model).
