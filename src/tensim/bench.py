@@ -258,7 +258,7 @@ def format_laws(report: dict[str, Any]) -> str:
              f"{report['repeats']} runs each taking turns: us per step (CPU best / median, "
              "wall best), ratio to the explicit law from the best CPU times"]
     for law, f in report["laws"].items():
-        lines.append(f"  {law:<9} {f['cpu_us_per_step_best']:7.1f} / "
+        lines.append(f"  {law:<12} {f['cpu_us_per_step_best']:7.1f} / "
                      f"{f['cpu_us_per_step_median']:<7.1f} {f['wall_us_per_step_best']:7.1f}"
                      f" {f['ratio_to_explicit']:6.2f}x")
     return "\n".join(lines)
