@@ -1,5 +1,6 @@
-"""Time-step study of the cable laws: max tensions and paths at 0.5-10 ms steps against a
-0.05 ms run of the explicit law, for robots with soft and with stiff cables.
+"""The cable laws' time-step study: max tensions and paths at 0.5-10 ms steps against a
+0.05 ms run of the explicit law, for robots with soft and with stiff cables
+(``tensim experiment laws``).
 
 Cases:
 - ``tetraspine3``: the paper's 60 s disturbance test (``tensim experiment disturbance``);
@@ -7,41 +8,40 @@ Cases:
   node for 1 s of its 3 s;
 - ``three_bar``: a lab's 3-bar prism, built here: 1.376 m, 4 kg bars, cables of 10 kN/m and
   1000 N s/m, two of them wound in by a quarter of their length over 4 s;
-- ``twelve_bar`` (with ``--ntrt NTRTSIM_DIR``, a checkout of the original toolkit): its 12-bar
-  cube, ``src/dev/mcdaly/12BarTensegrity/12BarCube.yaml``, dropped for 3 s.
+- ``twelve_bar`` (given ``ntrt``, a checkout of the original toolkit): its 12-bar cube,
+  ``src/dev/mcdaly/12BarTensegrity/12BarCube.yaml``, dropped for 3 s.
 
 Each case runs under each law (``explicit``, ``implicit``, ``implicitfast``; see
 docs/architecture.md) at each step; a line gives the worst cable's change of maximum tension
 against the reference (per cent of that cable's reference peak), the largest distance of the
 centre of mass from the reference's at the same time (mm, and per cent of the distance the
-reference's centre of mass travels), and with ``--cpu`` the CPU time per step of the whole
-run (it varies with the machine and its load; the other figures do not). A run that fails its
-stability check is reported as unstable.
-
-Usage: python benchmarks/timestep_laws.py [--cases NAME,...] [--ntrt NTRTSIM_DIR] [--cpu]
+reference's centre of mass travels), and the CPU time per step of the whole run (it varies
+with the machine and its load; the other figures do not). A run that fails its stability check
+is reported as unstable.
 """
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import math
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from tensim.control.rest import RestCommand
 from tensim.experiments.disturbance import run_disturbance
 from tensim.model import WorldOptions, compile_structure
+from tensim.model._law_layout import CABLE_LAWS
 from tensim.models import preset
 from tensim.sim import COM, SimulationError, SimulationResult, ramp_hold_release, simulate
 from tensim.structure import Cable, Motor, Node, Rod, Structure
 
 STEPS_MS = (0.5, 1.0, 2.0, 4.0, 10.0)
 REFERENCE_MS = 0.05
-LAWS = ("explicit", "implicit", "implicitfast")
+LAWS = CABLE_LAWS
+CASES = ("tetraspine3", "superball", "three_bar")  # twelve_bar: with a checkout of the toolkit
 RECORD_DT = 0.02  # s: a whole number of every step above
 
 
@@ -114,17 +114,6 @@ def _com(result: SimulationResult) -> tuple[np.ndarray, np.ndarray]:
     return ts.time, np.stack([ts[f"pos_{a}/{COM}"] for a in "xyz"], axis=1)
 
 
-@dataclasses.dataclass(frozen=True)
-class Outcome:
-    """One run against the reference: worst max-tension change [%], largest distance of the
-    centre of mass [m], CPU time per step [us]; ``error`` says why a run did not finish."""
-
-    tension_percent: float = math.nan
-    path_m: float = math.nan
-    us_per_step: float = math.nan
-    error: str | None = None
-
-
 def compare(result: SimulationResult, reference: SimulationResult) -> tuple[float, float]:
     """(worst cable's max-tension change [%], largest distance of the centre of mass from the
     reference's at the same time [m])."""
@@ -152,48 +141,76 @@ def timed(run: Run, world: WorldOptions) -> tuple[SimulationResult | None, float
     return result, (time.process_time() - start) / steps * 1e6, None
 
 
-def study(name: str, run: Run, cpu: bool = False) -> list[str]:
-    """The case's lines: its reference, then one per law and step (``cpu``: with the CPU time
-    per step)."""
+def study(name: str, run: Run, announce: Callable[[str], None] | None = None
+          ) -> dict[str, Any]:
+    """One case under each law and step, against its reference (JSON-ready).
+
+    Returns:
+        ``reference`` (max tension [N], the centre of mass's travel [m]) and ``runs``: per law
+        and step [ms], the worst cable's max-tension change [%], the largest distance of the
+        centre of mass [m] and the CPU time per step [us], or the run's ``error``.
+    """
+    if announce:
+        announce(f"{name}: the {REFERENCE_MS} ms reference")
     reference, _, error = timed(run, WorldOptions(timestep=REFERENCE_MS / 1e3))
     if reference is None:
-        return [f"{name}: the reference failed: {error}"]
+        raise SimulationError(f"{name}: the reference failed: {error}")
     moved = travel(reference)
-    lines = [f"{name}: reference {REFERENCE_MS} ms explicit: max tension "
-             f"{reference.peak_tension.max():.1f} N, centre of mass travels {moved * 1e3:.0f} mm"]
+    runs: dict[str, dict[str, dict[str, Any]]] = {}
     for law in LAWS:
         for ms in STEPS_MS:
+            if announce:
+                announce(f"{name}: {law} at {ms:g} ms")
             result, us, error = timed(run, WorldOptions(timestep=ms / 1e3, cable_law=law))
-            head = f"  {law:<12} {ms:>4g} ms:"
             if result is None:
-                lines.append(f"{head} {error}")
+                runs.setdefault(law, {})[f"{ms:g}"] = {"error": error}
                 continue
             tension, path = compare(result, reference)
-            lines.append(f"{head} max tension {tension:+7.2f} %, centre of mass "
-                         f"{path * 1e3:7.1f} mm ({100 * path / moved:5.1f} % of its travel)"
-                         + (f", {us:6.1f} us/step" if cpu else ""))
+            runs.setdefault(law, {})[f"{ms:g}"] = {
+                "max_tension_change_percent": round(tension, 4), "com_distance_m": round(path, 6),
+                "cpu_us_per_step": round(us, 2)}
+    return {"reference": {"max_tension_N": round(float(reference.peak_tension.max()), 4),
+                          "com_travel_m": round(moved, 6)}, "runs": runs}
+
+
+def run_law_study(cases: tuple[str, ...] = CASES, ntrt: Path | None = None,
+                  announce: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """The study over ``cases`` (``twelve_bar`` needs ``ntrt``); its summary, JSON-ready.
+
+    Raises:
+        ValueError: an unknown case, or twelve_bar without ``ntrt``.
+    """
+    runners: dict[str, Run] = {"tetraspine3": _tetraspine3, "superball": _superball,
+                               "three_bar": _three_bar}
+    if ntrt is not None:
+        runners["twelve_bar"] = _twelve_bar(ntrt)
+    for name in cases:
+        if name not in runners:
+            raise ValueError(f"unknown case {name!r}; cases: {', '.join(runners)}"
+                             + ("" if ntrt else " (twelve_bar with a checkout of the toolkit)"))
+    return {"experiment": "laws", "reference_ms": REFERENCE_MS, "steps_ms": list(STEPS_MS),
+            "laws": list(LAWS), "cases": {name: study(name, runners[name], announce)
+                                          for name in cases}}
+
+
+def format_law_study(summary: dict[str, Any], cpu: bool = False) -> list[str]:
+    """The study's lines: per case its reference, then one per law and step (``cpu``: with
+    the CPU time per step)."""
+    lines = []
+    for name, case in summary["cases"].items():
+        moved = case["reference"]["com_travel_m"]
+        lines.append(f"{name}: reference {summary['reference_ms']} ms explicit: max tension "
+                     f"{case['reference']['max_tension_N']:.1f} N, centre of mass travels "
+                     f"{moved * 1e3:.0f} mm")
+        for law, steps in case["runs"].items():
+            for ms, run in steps.items():
+                head = f"  {law:<12} {float(ms):>4g} ms:"
+                if "error" in run:
+                    lines.append(f"{head} {run['error']}")
+                    continue
+                path = run["com_distance_m"]
+                lines.append(f"{head} max tension {run['max_tension_change_percent']:+7.2f} %, "
+                             f"centre of mass {path * 1e3:7.1f} mm "
+                             f"({100 * path / moved:5.1f} % of its travel)"
+                             + (f", {run['cpu_us_per_step']:6.1f} us/step" if cpu else ""))
     return lines
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--cases", default="tetraspine3,superball,three_bar",
-                        help="comma-separated cases (twelve_bar needs --ntrt)")
-    parser.add_argument("--ntrt", type=Path, default=None, metavar="NTRTSIM_DIR",
-                        help="a checkout of the original toolkit: adds the twelve_bar case")
-    parser.add_argument("--cpu", action="store_true", help="also the CPU time per step")
-    args = parser.parse_args()
-    cases: dict[str, Run] = {"tetraspine3": _tetraspine3, "superball": _superball,
-                             "three_bar": _three_bar}
-    names = [c.strip() for c in args.cases.split(",") if c.strip()]
-    if args.ntrt is not None:
-        cases["twelve_bar"] = _twelve_bar(args.ntrt)
-        names += [] if "twelve_bar" in names else ["twelve_bar"]
-    for name in names:
-        if name not in cases:
-            parser.error(f"unknown case {name!r}; cases: {', '.join(cases)}")
-        print("\n".join(study(name, cases[name], args.cpu)), flush=True)
-
-
-if __name__ == "__main__":
-    main()
