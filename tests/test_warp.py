@@ -237,3 +237,22 @@ def test_a_world_out_of_room_for_contacts_fails_with_a_message(monkeypatch):
     compiled = compile_structure(p.build())  # stands on several feet: more than one contact
     result = run_batch(compiled, [Trial(p.controller())], 0.02, backend="warp", device="cpu")[0]
     assert not result.ok and "ran out of room for contacts" in result.error
+
+
+def test_warp_runs_a_lagged_motor_as_the_cpu_engine():
+    """A held cable let out under a first-order lag (Motor.lag_time): the kernel's lag against
+    the compiled law; float32 rounding of rest lengths near 0.5 m is ~3e-8 m a step."""
+    from tensim.control.rest import RestCommand
+    from tensim.model import WorldOptions
+    from tensim.structure import Cable, Motor, Node, Structure
+
+    s = Structure("held", (Node("a", (0.0, 0.0, 1.0), fixed=True),
+                           Node("b", (0.5, 0.0, 1.0), fixed=True)),
+                  cables=(Cable("c", ("a", "b"), 100.0, rest_length=0.45,
+                                motor=Motor(max_speed=10.0, lag_time=0.1)),))
+    compiled = compile_structure(s, WorldOptions(ground=False))
+    trial = [Trial(RestCommand(("c",), (0.55,)))]
+    (w,), (c,) = (run_batch(compiled, trial, 0.3, backend="warp", device="cpu"),
+                  run_batch(compiled, trial, 0.3))
+    a, b = c.result.trajectory["rest_length/c"], w.result.trajectory["rest_length/c"]
+    assert a[-1] > 0.5 and np.abs(a - b).max() < 1e-5

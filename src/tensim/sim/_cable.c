@@ -147,8 +147,10 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
     next = dc_step(m, d, i, p, g, b, target, x, v, rest, dt);
   } else {
     /* motor: at most max_speed, never reeling in past max_tension or below the floors */
+    /* lag: a share 1 - exp(-dt / lag_time) of the way to the target (all of it: no lag) */
+    double share = B(LAG_TIME) > 0.0 ? 1.0 - exp(-dt / B(LAG_TIME)) : 1.0;
     double reach = P(MAX_SPEED) * dt;
-    double step = fmin(fmax(target - rest, -reach), reach);
+    double step = fmin(fmax((target - rest) * share, -reach), reach);
     next = rest + step;
     if (step < 0.0) {
       double force_floor = fmin(rest, x - P(MAX_TENSION) / k);

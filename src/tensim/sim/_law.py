@@ -31,6 +31,7 @@ from tensim.model._law_layout import (
     A_SPEED,
     B_BACK_DRIVABLE,
     B_COULOMB,
+    B_LAG_TIME,
     B_MASS,
     B_NO_LOAD_SPEED,
     B_POSITION_TIME,
@@ -157,7 +158,8 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     target = np.where(impedance, _laws.impedance_rest_target(rest, setpoint, measured, k),
                       command)
     new = _laws.motor_step(rest, target, x, k, p[:, P_MAX_SPEED], p[:, P_MAX_TENSION],
-                           p[:, P_MIN_REST], p[:, P_MIN_LENGTH], dt)
+                           p[:, P_MIN_REST], p[:, P_MIN_LENGTH], dt,
+                           _laws.lag_share(b[:, B_LAG_TIME], dt))
     speed_rate = np.zeros(len(ids))
     dc = motor_actdim(m)[ids] == DC_ACTDIM
     if dc.any():

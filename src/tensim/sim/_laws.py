@@ -61,11 +61,20 @@ def impedance_rest_target(rest_length: np.ndarray, setpoint: np.ndarray, measure
     return rest_length - (setpoint - measured) / stiffness
 
 
+def lag_share(lag_time: np.ndarray, dt: float) -> np.ndarray:
+    """The share of the way to its target that a motor's rest length moves in one step:
+    1 - exp(-dt / lag_time) under a first-order lag, 1.0 without one (lag_time 0)."""
+    lagged = lag_time > 0.0
+    return np.where(lagged, 1.0 - np.exp(-dt / np.where(lagged, lag_time, 1.0)), 1.0)
+
+
 def motor_step(rest_length: np.ndarray, target: np.ndarray, length: np.ndarray,
                stiffness: np.ndarray, max_speed: np.ndarray, max_tension: np.ndarray,
-               min_rest_length: np.ndarray, min_length: np.ndarray, dt: float) -> np.ndarray:
+               min_rest_length: np.ndarray, min_length: np.ndarray, dt: float,
+               share: np.ndarray | float = 1.0) -> np.ndarray:
     """One motor update: the rest length moves toward ``target`` under the motor's limits.
 
+    - lag: it moves ``share`` of the way (:func:`lag_share`; 1: all of it);
     - speed: it changes by at most max_speed * dt;
     - force: it does not reel in past the rest length x - max_tension/k at which the static
       tension k (x - l) reaches max_tension (and never lets out because of this rule);
@@ -75,7 +84,7 @@ def motor_step(rest_length: np.ndarray, target: np.ndarray, length: np.ndarray,
         (n,) the new rest lengths [m].
     """
     reach = max_speed * dt
-    step = np.minimum(np.maximum(target - rest_length, -reach), reach)
+    step = np.minimum(np.maximum((target - rest_length) * share, -reach), reach)
     new = rest_length + step
     reel = step < 0.0
     force_floor = np.minimum(rest_length, length - max_tension / stiffness)

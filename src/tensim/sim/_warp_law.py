@@ -43,6 +43,7 @@ _B_STALL, _B_V0 = wp.constant(layout.B_STALL_FORCE), wp.constant(layout.B_NO_LOA
 _B_MASS, _B_VISCOUS = wp.constant(layout.B_MASS), wp.constant(layout.B_VISCOUS)
 _B_COULOMB, _B_TP = wp.constant(layout.B_COULOMB), wp.constant(layout.B_POSITION_TIME)
 _B_BACK_DRIVABLE = wp.constant(layout.B_BACK_DRIVABLE)
+_B_LAG = wp.constant(layout.B_LAG_TIME)
 _A_REST, _A_PEAK = wp.constant(layout.A_REST), wp.constant(layout.A_PEAK)
 _A_SPEED = wp.constant(layout.A_SPEED)
 
@@ -139,8 +140,11 @@ def cable_law(
         new = dc[0]
     else:
         # motor: at most max_speed, never reeling in past max_tension or below the floors
+        share = 1.0
+        if b[_B_LAG] > 0.0:  # lag: a share 1 - exp(-dt / lag_time) of the way to the target
+            share = 1.0 - wp.exp(-dt / b[_B_LAG])
         reach = p[_P_MAX_SPEED] * dt
-        step = wp.min(wp.max(target - rest, -reach), reach)
+        step = wp.min(wp.max((target - rest) * share, -reach), reach)
         new = rest + step
         if step < 0.0:
             new = wp.max(new, wp.min(rest, x - p[_P_MAX_TENSION] / k))
