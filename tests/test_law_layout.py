@@ -75,7 +75,7 @@ def test_compiler_writes_each_parameter_into_its_named_slot():
     assert b[layout.B_COULOMB] == line["coulomb"]
     assert b[layout.B_POSITION_TIME] == motor.dc.position_time  # type: ignore[union-attr]
     assert b[layout.B_BACK_DRIVABLE] == 0.0 and b[2] == 0.0
-    assert b[layout.B_LAG_TIME] == 0.0  # no lag
+    assert b[layout.B_LAG_TIME] == 0.0 and b[layout.B_SATURATE] == 0.0  # no lag, no cap
     assert compiled.model.actuator_actnum[0] == layout.DC_ACTDIM
     assert compiled.model.actuator_gainprm[0, 0] == layout.GAIN
 

@@ -526,7 +526,8 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float,
                  "mass": line["mass"], "viscous": line["viscous"], "coulomb": line["coulomb"],
                  "position_time": dc.position_time,
                  "back_drivable": 1.0 if dc.back_drivable else 0.0}
-    actuator.biasprm[:] = biasprm({**(slots or {}), "lag_time": motor.lag_time})
+    actuator.biasprm[:] = biasprm({**(slots or {}), "lag_time": motor.lag_time,
+                                   "saturate": 1.0 if motor.saturate else 0.0})
 
 
 def _add_bead_springs(spec: mujoco.MjSpec, structure: Structure, world: WorldOptions,

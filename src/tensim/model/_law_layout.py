@@ -49,7 +49,7 @@ GAINPRM = (
 )
 BIASPRM = (
     ("lag_time", "kinematic motor's first-order lag [s] (0: none)"),
-    ("unused1", "stays 0"),
+    ("saturate", "1.0: max_tension back-drives the kinematic motor (a force cap), 0.0: stops it"),
     ("reserved", "stays 0: MuJoCo's compiler reads a positive one as a damping ratio"),
     # DC motors only (actdim 3), in cable coordinates (tensim.structure.DCMotor.line)
     ("stall_force", "DC motor stall force F_s [N]"),
@@ -96,7 +96,7 @@ B_STALL_FORCE, B_NO_LOAD_SPEED = _slot(BIASPRM, "stall_force"), _slot(BIASPRM, "
 B_MASS, B_VISCOUS, B_COULOMB = (_slot(BIASPRM, n) for n in ("mass", "viscous", "coulomb"))
 B_POSITION_TIME = _slot(BIASPRM, "position_time")
 B_BACK_DRIVABLE = _slot(BIASPRM, "back_drivable")
-B_LAG_TIME = _slot(BIASPRM, "lag_time")
+B_LAG_TIME, B_SATURATE = _slot(BIASPRM, "lag_time"), _slot(BIASPRM, "saturate")
 A_REST, A_PEAK, A_SPEED = (_slot(ACT, n) for n in ("rest", "peak", "speed"))
 # the pull is the last activation (MuJoCo's gain reads the last): slot actdim - 1, not A_PULL
 A_PULL = _slot(ACT, "pull")

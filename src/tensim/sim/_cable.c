@@ -157,6 +157,8 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
       next = fmax(next, force_floor);
       if (x <= P(MIN_LENGTH)) next = rest;
     }
+    /* a saturating force cap: pay out to where the static tension is max_tension */
+    if (B(SATURATE) != 0.0) next = fmax(next, x - P(MAX_TENSION) / k);
     next = fmax(next, P(MIN_REST));
   }
   mjtNum* act_dot = (mjtNum*)d->act_dot; /* multi-activation user dynamics write act_dot */

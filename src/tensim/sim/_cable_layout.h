@@ -26,7 +26,7 @@
 #define TENSIM_G_DAMPING 2 /* cable b [N s/m]: the implicit law's gain per m/s of lengthening */
 
 #define TENSIM_B_LAG_TIME 0 /* kinematic motor's first-order lag [s] (0: none) */
-#define TENSIM_B_UNUSED1 1 /* stays 0 */
+#define TENSIM_B_SATURATE 1 /* 1.0: max_tension back-drives the kinematic motor (a force cap), 0.0: stops it */
 #define TENSIM_B_RESERVED 2 /* stays 0: MuJoCo's compiler reads a positive one as a damping ratio */
 #define TENSIM_B_STALL_FORCE 3 /* DC motor stall force F_s [N] */
 #define TENSIM_B_NO_LOAD_SPEED 4 /* DC motor no-load line speed v0 [m/s] */
@@ -41,6 +41,6 @@
 #define TENSIM_A_SPEED 2 /* DC motors only: the spool's line speed dl/dt [m/s] */
 #define TENSIM_A_PULL 3 /* implicit law only, always the last: -1.0 while the cable is taut after this step's motor update, else 0.0 (the gain's input) */
 
-#define TENSIM_LAYOUT_ID 1961351399u
+#define TENSIM_LAYOUT_ID 2735707902u
 
 #endif

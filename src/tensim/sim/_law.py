@@ -35,6 +35,7 @@ from tensim.model._law_layout import (
     B_MASS,
     B_NO_LOAD_SPEED,
     B_POSITION_TIME,
+    B_SATURATE,
     B_STALL_FORCE,
     B_VISCOUS,
     CABLE_MARKER,
@@ -159,7 +160,7 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
                       command)
     new = _laws.motor_step(rest, target, x, k, p[:, P_MAX_SPEED], p[:, P_MAX_TENSION],
                            p[:, P_MIN_REST], p[:, P_MIN_LENGTH], dt,
-                           _laws.lag_share(b[:, B_LAG_TIME], dt))
+                           _laws.lag_share(b[:, B_LAG_TIME], dt), b[:, B_SATURATE])
     speed_rate = np.zeros(len(ids))
     dc = motor_actdim(m)[ids] == DC_ACTDIM
     if dc.any():

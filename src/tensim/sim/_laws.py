@@ -71,14 +71,17 @@ def lag_share(lag_time: np.ndarray, dt: float) -> np.ndarray:
 def motor_step(rest_length: np.ndarray, target: np.ndarray, length: np.ndarray,
                stiffness: np.ndarray, max_speed: np.ndarray, max_tension: np.ndarray,
                min_rest_length: np.ndarray, min_length: np.ndarray, dt: float,
-               share: np.ndarray | float = 1.0) -> np.ndarray:
+               share: np.ndarray | float = 1.0,
+               saturate: np.ndarray | float = 0.0) -> np.ndarray:
     """One motor update: the rest length moves toward ``target`` under the motor's limits.
 
     - lag: it moves ``share`` of the way (:func:`lag_share`; 1: all of it);
     - speed: it changes by at most max_speed * dt;
     - force: it does not reel in past the rest length x - max_tension/k at which the static
       tension k (x - l) reaches max_tension (and never lets out because of this rule);
-    - floors: it does not reel in while x <= min_length, and stays >= min_rest_length.
+    - floors: it does not reel in while x <= min_length, and stays >= min_rest_length;
+    - a saturating force cap (``saturate`` 1.0): it pays out, at any speed, to no shorter than
+      x - max_tension/k, where the static tension is max_tension.
 
     Returns:
         (n,) the new rest lengths [m].
@@ -90,6 +93,7 @@ def motor_step(rest_length: np.ndarray, target: np.ndarray, length: np.ndarray,
     force_floor = np.minimum(rest_length, length - max_tension / stiffness)
     new = np.where(reel, np.maximum(new, force_floor), new)
     new = np.where(reel & (length <= min_length), rest_length, new)
+    new = np.where(saturate != 0.0, np.maximum(new, length - max_tension / stiffness), new)
     return np.maximum(new, min_rest_length)
 
 

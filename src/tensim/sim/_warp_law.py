@@ -44,6 +44,7 @@ _B_MASS, _B_VISCOUS = wp.constant(layout.B_MASS), wp.constant(layout.B_VISCOUS)
 _B_COULOMB, _B_TP = wp.constant(layout.B_COULOMB), wp.constant(layout.B_POSITION_TIME)
 _B_BACK_DRIVABLE = wp.constant(layout.B_BACK_DRIVABLE)
 _B_LAG = wp.constant(layout.B_LAG_TIME)
+_B_SATURATE = wp.constant(layout.B_SATURATE)
 _A_REST, _A_PEAK = wp.constant(layout.A_REST), wp.constant(layout.A_PEAK)
 _A_SPEED = wp.constant(layout.A_SPEED)
 
@@ -150,6 +151,8 @@ def cable_law(
             new = wp.max(new, wp.min(rest, x - p[_P_MAX_TENSION] / k))
             if x <= p[_P_MIN_LENGTH]:
                 new = rest
+        if b[_B_SATURATE] != 0.0:  # a saturating force cap: pay out to the static max_tension
+            new = wp.max(new, x - p[_P_MAX_TENSION] / k)
         new = wp.max(new, p[_P_MIN_REST])
     rate = (new - rest) / dt
     act_dot[world, adr + _A_REST] = rate

@@ -283,6 +283,10 @@ class Motor:
         lag_time: the kinematic motor's first-order lag [s]: each step its rest length moves
             1 - exp(-dt / lag_time) of the way to its target (still at most max_speed dt), as
             an actuator filter; 0 (the default): all the way.
+        saturate: the kinematic motor's max_tension is a force cap that saturates: where the
+            static tension k(x - l) would exceed it, the cable back-drives the motor, which
+            pays out (at any speed) so that it holds max_tension. False (the default): the
+            motor only stops reeling in there.
     """
 
     max_speed: float = 0.07
@@ -292,6 +296,7 @@ class Motor:
     dc: DCMotor | None = None
     passive: bool = False
     lag_time: float = 0.0
+    saturate: bool = False
 
     def __post_init__(self) -> None:
         _check(isinstance(self.passive, bool), "motor",
@@ -304,6 +309,8 @@ class Motor:
                             ("min_rest_length", "m"), ("min_length", "m"), ("lag_time", "s")):
             _real(self, "motor", field, unit)
         _check(self.lag_time >= 0, "motor", f"lag_time must be >= 0 s, got {self.lag_time}")
+        _check(isinstance(self.saturate, bool), "motor",
+               f"saturate must be true or false, got {describe(self.saturate)}")
         for field in ("max_speed", "max_tension"):
             value = getattr(self, field)
             _check(value > 0, "motor", f"{field} must be > 0, got {value}")

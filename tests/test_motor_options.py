@@ -1,4 +1,5 @@
-"""A motor's first-order lag (``Motor.lag_time``) against its closed form, on a held cable."""
+"""The motor options labs use, against closed forms: a first-order lag (``Motor.lag_time``) on
+a held cable, a saturating force cap (``Motor.saturate``) on a hanging mass."""
 
 from __future__ import annotations
 
@@ -67,11 +68,50 @@ def test_no_lag_is_the_motor_as_before_and_a_negative_lag_is_refused():
         Motor(lag_time=-0.1)
 
 
-def test_a_lag_survives_the_structure_file_and_no_lag_is_not_written(tmp_path):
+def test_lag_and_saturation_survive_the_structure_file_and_are_not_written_when_off(tmp_path):
     from tensim.structure import load_structure, save_structure
 
     for lag, written in ((0.2, True), (0.0, False)):
-        s = _held(Motor(lag_time=lag)).structure
+        s = _held(Motor(lag_time=lag, saturate=written)).structure
         save_structure(s, tmp_path / "s.yaml")
-        assert ("lag_time" in (tmp_path / "s.yaml").read_text()) is written
+        text = (tmp_path / "s.yaml").read_text()
+        assert ("lag_time" in text) is written and ("saturate" in text) is written
         assert load_structure(tmp_path / "s.yaml") == s
+
+
+# -- a saturating force cap (Motor.saturate) ---------------------------------------------------
+
+G, MASS, CAP = 9.81, 2.0, 12.0  # m/s^2, kg, N: the bob weighs 19.6 N, more than the cap
+
+
+def _hanging(law: str, saturate: bool):
+    from tensim.structure import PointMass
+
+    s = Structure("bob", (Node("top", (0.0, 0.0, 2.0), fixed=True),
+                          Node("bob", (0.0, 0.0, 1.5))),
+                  cables=(Cable("c", ("top", "bob"), 1000.0, rest_length=0.48,
+                                motor=Motor(max_tension=CAP, saturate=saturate)),),
+                  point_masses=(PointMass("bob", MASS),))
+    return compile_structure(s, WorldOptions(timestep=DT, ground=False, cable_law=law))
+
+
+@pytest.mark.parametrize("law", ["explicit", "implicitfast"])
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_saturating_motor_holds_max_tension_and_lets_the_load_descend(backend, law):
+    """A 2 kg bob on an undamped cable whose motor saturates at 12 N: each step the motor pays
+    out to where the static tension is 12 N, so the bob falls at g - 12 N / m exactly; the
+    discrete (semi-implicit Euler) fall is z_n = z_0 - a dt^2 n (n + 1) / 2."""
+    z0 = 1.5  # built at rest, 2 cm over its rest length: 20 N, over the cap
+    with Simulation(_hanging(law, True), backend=backend, record_dt=DT) as sim:
+        for _ in range(200):
+            sim.step(1)
+            # the load cell, from the step's length and rest length, reads the cap
+            assert sim.drive.tension[0] == pytest.approx(CAP, abs=1e-9)
+        n, a = round(sim.data.time / DT), G - CAP / MASS  # steps taken from the build pose
+        # rounding of ~200 steps' positions near 1.5 m
+        assert sim.data.qpos[2] == pytest.approx(z0 - a * DT * DT * n * (n + 1) / 2, abs=1e-12)
+        assert z0 - sim.data.qpos[2] > 0.07  # it did descend
+    # without saturation the motor only stops reeling in: the bob hangs at 19.6 N
+    with Simulation(_hanging(law, False), backend=backend, record_dt=DT) as sim:
+        sim.run(1.0)
+        assert sim.drive.tension[0] > CAP
