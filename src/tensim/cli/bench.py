@@ -24,6 +24,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--batch", type=natural, default=0, metavar="N",
                    help="also N Tetraspine3 CPG trials per batch on 1 and 2 threads, against "
                    "mujoco.rollout (e.g. 64)")
+    p.add_argument("--cable-laws", action="store_true",
+                   help="instead of the cases: the cost of a step under each cable law "
+                   "(explicit, implicit, implicitfast), Tetraspine3 under impedance control at "
+                   "1 ms, the laws taking turns")
     p.add_argument("--backend", choices=("cpu", "warp"), default="cpu",
                    help="warp: aggregate steps/s of batches of worlds on MuJoCo Warp (a GPU "
                    "where there is one) beside the CPU batch engine on every core")
@@ -79,6 +83,16 @@ def run(args: argparse.Namespace) -> int:
     from tensim.limits import check_run
 
     check_run(args.duration, 1e-3, 0.01, force=args.force)  # the cases' step and recording
+    if args.cable_laws:
+        from tensim.bench import bench_laws, format_laws, load_average
+
+        load = load_average()
+        laws = bench_laws(args.duration, args.repeats)
+        print(format_laws(laws))
+        print(machine_note({"cable laws": laws["core_share"]}, load))
+        if args.json:
+            write_json(Path(args.json), {"cable_laws": laws})
+        return 0
     report = run_benchmarks(args.duration, args.repeats)
     print(format_table(report["cases"], args.repeats))
     print(machine_note(report["core_share"], report["load_average_before"]))
