@@ -31,6 +31,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--busy", action="store_true",
                    help="run a busy loop on every core beside the benchmark, so that its "
                    "figures are taken on a loaded machine")
+    p.add_argument("--cable-laws", action="store_true",
+                   help="instead of the cases: the cost of a step under each cable law "
+                   "(explicit, implicit, implicitfast), Tetraspine3 under impedance control at "
+                   "1 ms, the laws taking turns")
     p.add_argument("--backend", choices=("cpu", "warp"), default="cpu",
                    help="warp: aggregate steps/s of batches of worlds on MuJoCo Warp (a GPU "
                    "where there is one) beside the CPU batch engine on every core")
@@ -86,6 +90,17 @@ def run(args: argparse.Namespace) -> int:
     from tensim.limits import check_run
 
     check_run(args.duration, 1e-3, 0.01, force=args.force)  # the cases' step and recording
+    if args.cable_laws:
+        from tensim.benchmarks._machine import load_average, machine_note
+        from tensim.benchmarks.engine import bench_laws, format_laws
+
+        load = load_average()
+        laws = bench_laws(args.duration, args.repeats)
+        print(format_laws(laws))
+        print(machine_note({"cable laws": laws["core_share"]}, load))
+        if args.json:
+            write_json(Path(args.json), {"cable_laws": laws})
+        return 0
     with contextlib.ExitStack() as stack:
         loops = stack.enter_context(busy()) if args.busy else 0
         if loops:

@@ -132,8 +132,11 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
             if key == "motor" and value.get("passive"):
                 continue  # a passive cable is one without a motor
             if isinstance(value, dict):  # a nested record (motor, contact): drop its Nones
+                # (and the options that are off, so files without them stay as they were)
                 value = {k: v for k, v in value.items()
-                         if v is not None and not (k == "passive" and v is False)}
+                         if v is not None and not (k == "passive" and v is False)
+                         and not (k == "lag_time" and v == 0.0)
+                         and not (k == "saturate" and v is False)}
             out[key] = [list(v) if isinstance(v, tuple) else v for v in value] \
                 if isinstance(value, tuple) else value
         return out
