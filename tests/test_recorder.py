@@ -32,7 +32,7 @@ def _reference(sim: Simulation, records: int):
         buffers.put(one, np.array([k]), np.array([sim.time]), fields, sim.index)
     n = sim.compiled.n_cables
     return sample_channels(buffers.trial(0), sim.index, sim.model.actuator_dynprm[:n],
-                           sim.model.actuator_biasprm[:n])
+                           sim.model.actuator_gainprm[:n])
 
 
 def _robots():
