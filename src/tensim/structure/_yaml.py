@@ -193,5 +193,10 @@ def save_structure(structure: Structure, path: str | os.PathLike[str],
         header: lines written first as YAML comments (where the structure came from).
     """
     comments = "".join(f"# {line}\n" for text in header for line in str(text).splitlines())
-    write_text(Path(path), comments + yaml.safe_dump(structure_to_dict(structure),
-                                                     sort_keys=False))
+    text = yaml.dump(structure_to_dict(structure), Dumper=_SafeDumper, sort_keys=False)
+    write_text(Path(path), comments + text)
+
+
+# libyaml's emitter where PyYAML has it: the same text as yaml.safe_dump, 4x faster (a robot of
+# hundreds of cables writes half a megabyte)
+_SafeDumper: type[yaml.SafeDumper] = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
