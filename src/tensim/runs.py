@@ -31,7 +31,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from tensim import __version__
-from tensim._files import check_writable, pid_alive, write_json, write_text
+from tensim._files import (
+    CONTROLLER_FILE,
+    STRUCTURE_FILE,
+    check_writable,
+    pid_alive,
+    write_json,
+    write_text,
+)
 from tensim._input import InputError
 from tensim.sim import SimulationResult, TimeSeries
 from tensim.viz.report import figure_names, write_report
@@ -42,8 +49,6 @@ if TYPE_CHECKING:
     from tensim.structure import Structure
     from tensim.viz.drawing import FigureDrawer
 
-STRUCTURE_FILE = "structure.yaml"  # the robot as it ran, in every simulation's folder
-CONTROLLER_FILE = "controller.yaml"  # its controller, where it had one
 
 PROGRESS_LOGGER = "tensim.progress"  # progress lines: to the run log only, never the console
 _MAX_LINES = 20_000
@@ -152,7 +157,7 @@ def world_record(world: WorldOptions) -> dict[str, Any]:
             "self_collision": world.self_collision, "cone": world.cone,
             "noslip_iterations": world.noslip_iterations, "condim": world.condim,
             "torsional_friction_m": world.torsional_friction,
-            "rolling_friction_m": world.rolling_friction}
+            "rolling_friction_m": world.rolling_friction, "cable_law": world.cable_law}
 
 
 def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,

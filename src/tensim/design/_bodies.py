@@ -232,6 +232,30 @@ def _span(body_set: Bodies, body_a: int, a: np.ndarray, body_b: int, b: np.ndarr
     return index, unit @ jac, hess, length, unit
 
 
+@dataclasses.dataclass(frozen=True)
+class BuildPose:
+    """A structure's free rigid bodies and cable geometry at its build pose, computed once per
+    analysis and handed to each of its parts.
+
+    Attributes:
+        bodies: the free rigid bodies.
+        geometry: the cables' lengths and derivatives on those bodies' coordinates.
+    """
+
+    bodies: Bodies
+    geometry: CableGeometry
+
+
+def build_pose(structure: Structure) -> BuildPose:
+    """The rigid bodies and cable geometry of ``structure`` at its build pose.
+
+    Raises:
+        StructureError: a cable wraps around rods (see :func:`bodies`).
+    """
+    body_set = bodies(structure)
+    return BuildPose(body_set, cable_geometry(structure, body_set))
+
+
 def cable_tensions(structure: Structure, lengths: np.ndarray | None = None) -> np.ndarray:
     """(n_cables,) static tensions k max(0, L - l0) [N] (the cable law at rest, paper eq. 1-2),
     at the given lengths [m] or the build pose's."""

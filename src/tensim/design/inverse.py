@@ -31,6 +31,7 @@ from scipy.optimize import linprog
 from scipy.spatial.transform import Rotation
 
 from tensim.control.rest import RestCommand
+from tensim.design._blas import one_blas_thread
 from tensim.design._bodies import GRAVITY, Bodies, bodies, cable_geometry, cable_tensions
 from tensim.design._errors import DesignError
 from tensim.structure import Structure
@@ -155,6 +156,7 @@ def _linearise(pose: Structure, anchors: dict[str, np.ndarray], gravity: float) 
     return _Linear(pose, body_set, stiffness, grads, tensions, taut, force, anchors)
 
 
+@one_blas_thread
 def settle(structure: Structure, pinned: tuple[str, ...], gravity: float = GRAVITY,
            iterations: int = 100) -> _Linear:
     """The static pose of ``structure`` (explicit rest lengths) with ``pinned`` nodes held.
@@ -264,6 +266,7 @@ def _solve(structure: Structure, targets: dict[str, np.ndarray], pinned: tuple[s
     return rest, lin
 
 
+@one_blas_thread
 def inverse_statics(structure: Structure, displacements: dict[str, tuple[float, float, float]],
                     *, min_tension: float = 1.0, tolerance: float = TOLERANCE,
                     gravity: float = GRAVITY) -> InverseStatics:
