@@ -52,7 +52,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     x.set_defaults(run=export)
 
 
+def _need_rl_extra() -> None:
+    """Refuses clearly where the rl extra is missing."""
+    import importlib.util
+
+    from tensim import InputError
+
+    missing = [m for m in ("gymnasium", "stable_baselines3", "torch")
+               if importlib.util.find_spec(m) is None]
+    if missing:
+        raise InputError(f"tensim rl needs {', '.join(missing)}: pip install 'tensim[rl]'")
+
+
 def train(args: argparse.Namespace) -> int:
+    _need_rl_extra()
     from tensim.cli._common import Progress
     from tensim.rl.train import TrainSettings
     from tensim.rl.train import train as run_training
@@ -77,6 +90,7 @@ def train(args: argparse.Namespace) -> int:
 
 
 def evaluate(args: argparse.Namespace) -> int:
+    _need_rl_extra()
     from tensim.rl.evaluate import evaluate as run_evaluation
 
     out = Path(args.out) if args.out else Path(args.run_dir) / "evaluation"
@@ -89,6 +103,14 @@ def evaluate(args: argparse.Namespace) -> int:
 
 
 def export(args: argparse.Namespace) -> int:
+    _need_rl_extra()
+    import importlib.util
+
+    from tensim import InputError
+
+    if args.onnx and importlib.util.find_spec("onnx") is None:
+        raise InputError("--onnx needs the onnx package: pip install 'tensim[rl]' (without "
+                         "--onnx, policy.json and policy.npz are written all the same)")
     from tensim.rl.export import export as run_export
 
     meta = run_export(Path(args.run_dir), Path(args.onnx) if args.onnx else None)
