@@ -195,13 +195,13 @@ def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, cap
     from tensim.cli import main
 
     out = tmp_path / algo
-    assert _train(robot_file, out, algo, 512 if algo == "ppo" else 200) == 0  # seconds
+    assert _train(robot_file, out, algo, 512 if algo == "ppo" else 100) == 0  # seconds
     progress = json.loads((out / "progress.json").read_text())
-    assert progress["steps_done"] >= (512 if algo == "ppo" else 200)
+    assert progress["steps_done"] >= (512 if algo == "ppo" else 100)
     assert (out / "learning_curve.png").is_file() and (out / "robot.yaml").is_file()
     assert _train(robot_file, out, algo, 1024) == 2  # no silent restart over a run
     assert "add --resume" in capsys.readouterr().err
-    budget = 1024 if algo == "ppo" else 400
+    budget = 1024 if algo == "ppo" else 200
     assert main(["--quiet", "rl", "train", robot_file, "--algo", algo, "--steps", str(budget),
                  "--envs", "2", "--episode", "1", "--out", str(out), "--resume"]) == 0
     resumed = json.loads((out / "progress.json").read_text())
