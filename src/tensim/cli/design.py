@@ -38,6 +38,50 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.set_defaults(run=run_stiffness)
     register_size(steps)
     register_pull(steps)
+    register_form(steps)
+
+
+def register_form(steps: argparse._SubParsersAction) -> None:
+    f = steps.add_parser("form", help="form finding: node positions and pretensions from a "
+                         "topology file (force density method)")
+    f.add_argument("topology", help="topology .yaml file (nodes, rods, cables, groups)")
+    f.add_argument("--min-tension", type=positive, default=None, metavar="N",
+                   help="smallest cable tension [N] (default: the file's min_tension, else "
+                        "the force densities as given, in N/m)")
+    f.add_argument("--out", required=True, metavar="FILE.yaml",
+                   help="write the formed structure here")
+    f.set_defaults(run=run_form)
+
+
+def run_form(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from tensim.design.form import form
+    from tensim.design.report import table
+    from tensim.design.topology import load_topology
+    from tensim.structure import save_structure
+
+    if Path(args.out).resolve() == Path(args.topology).resolve():
+        raise ValueError(f"--out {args.out}: is the topology file this command reads; "
+                         "give another path")
+    topology = load_topology(args.topology)
+    if args.min_tension is not None:
+        topology = dataclasses.replace(topology, min_tension=args.min_tension)
+    result = form(topology)
+    structure = result.structure
+    print(f"{structure.name}: {result.nodes} nodes, {len(structure.rods)} rods, "
+          f"{len(structure.cables)} cables; force density matrix of rank {result.rank} (a 3D "
+          f"form needs <= {result.nodes - 4}), "
+          f"{'super-stable' if result.super_stable else 'not super-stable'}")
+    counts = {g: 0 for g in result.force_densities}
+    for member in topology.members:
+        counts[member.group] += 1
+    print(table([(g, counts[g], q, *result.lengths[g], q * result.lengths[g][1])
+                 for g, q in result.force_densities.items()],
+                ("group", "members", "q [N/m]", "shortest [m]", "longest [m]", "force [N]")))
+    save_structure(structure, Path(args.out))
+    print(f"wrote {args.out}")
+    return 0
 
 
 def run_prestress(args: argparse.Namespace) -> int:

@@ -117,15 +117,15 @@ def _problem(topology: Topology) -> _Problem:
     return _Problem(ends.reshape(-1, 2), group, q, length, rod, groups, len(topology.nodes))
 
 
-def _null_space(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """D's eigenvalues (ascending) and an orthonormal basis of its null space with the
-    all-ones direction (a translation) taken out."""
+def _null_space(d: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of D's null space with the all-ones direction (a translation)
+    taken out."""
     values, vectors = np.linalg.eigh(d)
     zero = np.abs(values) <= RANK_TOLERANCE * max(np.abs(values).max(), 1e-300)
     null = vectors[:, zero]
     null = null - null.mean(axis=0)  # project out the translation
     u, sv, _ = np.linalg.svd(null, full_matrices=False)
-    return values, u[:, sv > 1e-6]
+    return u[:, sv > 1e-6]
 
 
 def _size_residual(x: np.ndarray, rough: np.ndarray | None) -> np.ndarray:
@@ -141,7 +141,7 @@ def _given_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nd
     """Every group's q given: the affine image of D's null space that best meets the groups'
     lengths. Returns (coordinates (n, 3) [m], q (n_groups,))."""
     q = problem.q_given
-    values, null = _null_space(problem.density_matrix(q))
+    null = _null_space(problem.density_matrix(q))
     if null.shape[1] < 3:
         rank = problem.n - 1 - null.shape[1]
         raise DesignError(
@@ -210,8 +210,9 @@ def _free_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nda
 
 def _orient(x: np.ndarray, topology: Topology) -> np.ndarray:
     """Places the form: onto the rough positions where three or more are given (best proper
-    rotation and translation), else symmetric axis (the principal axis unlike the other two)
-    along z, centred on the z axis, the lowest node at the topology's elevation."""
+    rotation and translation), else its symmetric axis (the principal axis unlike the other
+    two) along z, centred on the z axis, the file's first node on the lower side and the
+    lowest node at the topology's elevation."""
     given = [i for i, n in enumerate(topology.nodes) if n in topology.positions]
     if len(given) >= 3:
         target = np.array([topology.positions[topology.nodes[i]] for i in given])
@@ -227,6 +228,8 @@ def _orient(x: np.ndarray, topology: Topology) -> np.ndarray:
         axes = axes[:, [1, 2, 0]]
     axes[:, 2] *= np.sign(np.linalg.det(axes))  # a proper rotation keeps the handedness
     placed = centred @ axes
+    if placed[0, 2] > 0:  # the file's first node on the lower side: half a turn about x
+        placed[:, 1:] *= -1.0
     placed[:, 2] += topology.elevation - placed[:, 2].min()
     return placed
 
@@ -266,9 +269,13 @@ def form(topology: Topology) -> Form:
     imbalance = float(np.abs(problem.density_matrix(q) @ x).max() / np.abs(forces).max())
     centred = x - x.mean(axis=0)
     spread = np.linalg.svd(centred, compute_uv=False)
-    if imbalance > EQUILIBRIUM_TOLERANCE or spread[2] < 1e-6 * spread[0]:
-        worst = "is flat" if spread[2] < 1e-6 * spread[0] else \
-            f"leaves {imbalance:.2g} of the largest member force unbalanced"
+    idle = [g for k, g in enumerate(problem.names) if abs(q[k]) < 1e-6 * np.abs(q).max()]
+    worst = ("is flat" if spread[2] < 1e-6 * spread[0] else
+             f"leaves {imbalance:.2g} of the largest member force unbalanced"
+             if imbalance > EQUILIBRIUM_TOLERANCE else
+             f"needs no force in group {idle[0]!r}" if idle else
+             "collapses a member" if lengths.min() < 1e-6 * lengths.max() else None)
+    if worst is not None:
         raise DesignError(
             f"{topology.name}: no form in equilibrium found with these groups (the nearest "
             f"{worst}); give more groups a force_density, or fewer a length, or rough "

@@ -23,10 +23,9 @@ form: they share one force density and one length.
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from tensim._input import InputError, describe, is_real, load_yaml_file
 from tensim.structure import StructureError
@@ -94,7 +93,7 @@ class Topology:
     data: dict[str, Any]
 
 
-def _fail(message: str, item: str | None = None) -> None:
+def _fail(message: str, item: str | None = None) -> NoReturn:
     raise StructureError(message, item=item)
 
 
@@ -151,7 +150,7 @@ def _member(raw: Any, rod: bool, index: int, default_tags: Any,
     tags = raw.get("tags", default_tags) or []
     if isinstance(tags, str) or not isinstance(tags, list):
         _fail(f"tags must be a list of strings, got {describe(tags)}", item)
-    group = next((t for t in [*tags, raw["name"]] if t in groups), None)
+    group = next((str(t) for t in [*tags, raw["name"]] if t in groups), None)
     if group is None:
         _fail(f"belongs to no group: none of its tags {tags} nor its name is listed under "
               f"groups ({sorted(groups)})", item)
@@ -174,7 +173,8 @@ def topology_from_dict(data: Any) -> Topology:
     if unknown:
         _fail(f"unknown top-level field {unknown[0]!r}; expected {sorted(_TOP)}")
     groups = _groups(data.get("groups"))
-    nodes, positions = [], {}
+    nodes: list[str] = []
+    positions: dict[str, tuple[float, float, float]] = {}
     raw_nodes = data.get("nodes")
     if not isinstance(raw_nodes, list) or not raw_nodes:
         _fail(f"nodes must be a list of mappings, got {describe(raw_nodes)}", "nodes")
@@ -190,11 +190,16 @@ def topology_from_dict(data: Any) -> Topology:
                     and all(is_real(v) for v in position)):
                 _fail(f"position must be three finite numbers [m], got {describe(position)}",
                       item)
-            positions[raw["name"]] = tuple(float(v) for v in position)
+            positions[raw["name"]] = (float(position[0]), float(position[1]),
+                                      float(position[2]))
         nodes.append(raw["name"])
     defaults = data.get("defaults") or {}
     if not isinstance(defaults, dict):
         _fail(f"defaults must be a mapping, got {describe(defaults)}", "defaults")
+    for field in ("pretension", "rest_length"):
+        if field in (defaults.get("cable") or {}):
+            _fail(f"{field} is set by the form finding; leave it out of a topology file",
+                  "defaults cable")
     members = []
     for section, rod in (("rods", True), ("cables", False)):
         items = data.get(section) or []
