@@ -1,4 +1,4 @@
-"""Design analyses on structures: form finding, self-stress, stiffness, inverse statics, motor sizing, checks.
+"""Design analyses: form finding, self-stress, stiffness, inverse statics, motors, checks.
 
 Everything here works on plain :class:`tensim.structure.Structure` descriptions at their build
 pose (no MuJoCo), in SI units; figures and reports live in :mod:`tensim.design.report`, which
