@@ -39,6 +39,77 @@ def register(sub: argparse._SubParsersAction) -> None:
     register_size(steps)
     register_pull(steps)
     register_form(steps)
+    register_members(steps)
+
+
+def register_members(steps: argparse._SubParsersAction) -> None:
+    m = steps.add_parser("members", help="rods against Euler buckling and yield, cables "
+                         "against their breaking load, from the prestress or runs' peaks")
+    m.add_argument("model", help="preset name or structure .yaml file (rods with a section, "
+                   "cables with a breaking_load)")
+    m.add_argument("runs", nargs="*", metavar="RUN", help="run folders of this structure "
+                   "(trajectory.parquet): check the peaks of their forces instead of the "
+                   "prestress")
+    m.set_defaults(run=run_members)
+
+
+def _percent(value: float | None) -> str:
+    return "-" if value is None else f"{100 * value:.1f}"
+
+
+def run_members(args: argparse.Namespace) -> int:
+    """Prints the member checks; exits 1 when a member fails."""
+    import numpy as np
+
+    from tensim.design._bodies import cable_tensions
+    from tensim.design.members import (
+        bar_forces,
+        cable_checks,
+        rod_checks,
+        section_mass,
+        worst_margin,
+    )
+    from tensim.design.report import table
+    from tensim.sim import TimeSeries
+
+    structure = load_model(args.model)
+    if args.runs:
+        from tensim.design.member_peaks import run_peaks
+
+        tensions = np.zeros(len(structure.cables))
+        forces: dict[str, float | None] = {r.name: 0.0 for r in structure.rods}
+        for folder in map(Path, args.runs):
+            peak, peak_forces = run_peaks(structure, TimeSeries.from_parquet(
+                folder / "trajectory.parquet"))
+            tensions = np.maximum(tensions, peak)
+            for name, force in peak_forces.items():
+                held = forces[name]
+                forces[name] = None if force is None or held is None else \
+                    (force if abs(force) > abs(held) else held)
+        print(f"peak forces of {len(args.runs)} run(s)")
+    else:
+        tensions = cable_tensions(structure)
+        forces = bar_forces(structure, tensions)
+        print("forces of the prestress (build pose, gravity left out)")
+    rods = rod_checks(structure, forces)
+    cables = cable_checks(structure, tensions)
+    print(table([(r.rod, "-" if r.force is None else f"{r.force:.4g}", r.length,
+                  "-" if r.buckling_load is None else f"{r.buckling_load:.4g}",
+                  _percent(r.buckling_margin),
+                  "-" if r.yield_load is None else f"{r.yield_load:.4g}",
+                  _percent(r.yield_margin)) for r in rods],
+                ("rod", "force [N]", "length [m]", "buckling [N]", "margin [%]", "yield [N]",
+                 "margin [%]")))
+    print(table([(c.cable, c.tension, "-" if c.breaking_load is None else
+                  f"{c.breaking_load:.4g}", _percent(c.margin)) for c in cables],
+                ("cable", "tension [N]", "breaking [N]", "margin [%]")))
+    mass, modelled = section_mass(structure)
+    print(f"mass with the rods' sections {mass:.4g} kg (as modelled {modelled:.4g} kg)")
+    worst = worst_margin(rods, cables)
+    if worst < 0:
+        print(f"tensim: a member fails: the smallest margin is {100 * worst:.1f} %")
+        return 1
+    return 0
 
 
 def register_form(steps: argparse._SubParsersAction) -> None:

@@ -7,7 +7,8 @@ mappings whose keys are the record fields) and an optional ``defaults`` mapping 
 ``defaults``, is passive: no motor winds it), when routed a ``via`` list of the
 nodes they pass through, and a ``contact`` that is ``true`` or a mapping of
 :class:`CableContact` fields. Rods may give a ``section`` mapping (:class:`RodSection`) and
-cables a ``breaking_load``, for member checks. All values are SI units (the README lists every field).
+cables a ``breaking_load``, for member checks. All values are SI units (the README lists every
+field).
 """
 
 from __future__ import annotations
