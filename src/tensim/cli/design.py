@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -40,6 +41,68 @@ def register(sub: argparse._SubParsersAction) -> None:
     register_pull(steps)
     register_form(steps)
     register_members(steps)
+    register_loads(steps)
+
+
+def _load(text: str) -> tuple[str, tuple[float, float, float]]:
+    """``NODE:FX,FY,FZ`` as (node, force [N])."""
+    node, _, rest = text.partition(":")
+    try:
+        values = tuple(float(v) for v in rest.split(","))
+    except ValueError:
+        values = ()
+    if not node or len(values) != 3 or not all(map(math.isfinite, values)):
+        raise argparse.ArgumentTypeError(f"expected NODE:FX,FY,FZ in newtons, got {text!r}")
+    return node, values
+
+
+def register_loads(steps: argparse._SubParsersAction) -> None:
+    d = steps.add_parser("loads", help="static response to node loads; load factors at which "
+                         "the first cable slackens and the first rod buckles")
+    d.add_argument("model", help="preset name or structure .yaml file")
+    d.add_argument("--load", type=_load, action="append", required=True,
+                   metavar="NODE:FX,FY,FZ", help="world-frame force at NODE [N]; repeatable")
+    d.add_argument("--free", action="store_true", help="no feet: zero gravity, held only by "
+                   "the structure's fixed nodes (with none, the load must balance itself)")
+    d.set_defaults(run=run_loads)
+
+
+def run_loads(args: argparse.Namespace) -> int:
+    from tensim.design.loading import load_response
+    from tensim.design.report import table
+
+    structure = load_model(args.model)
+    loads = dict(args.load)
+    result = load_response(structure, loads, supports=not args.free)
+    where = (f"standing on {', '.join(result.supports)} (pinned), under gravity"
+             if result.supports else "free, at zero gravity")
+    print(f"{structure.name} {where}; load " + ", ".join(
+        f"{n} ({', '.join(f'{v:g}' for v in f)}) N" for n, f in loads.items()))
+    print(table([(n, *(1e3 * result.linear[n]), *(1e3 * result.exact[n]))
+                 for n in result.linear],
+                ("node", "dx [mm]", "dy [mm]", "dz [mm]", "exact dx", "exact dy", "exact dz")))
+    print(table([(c.name, t0, t1) for c, t0, t1 in zip(
+        structure.cables, result.tensions[0], result.tensions[1], strict=True)],
+        ("cable", "tension [N]", "loaded [N]")))
+    if result.lost_factor is not None:
+        print(f"no static pose past load factor {result.lost_factor:.4g} (it folds or falls) "
+              "while every cable is still taut")
+    elif result.slack_factor is None:
+        print("no cable slackens below a load factor of 1e4")
+    else:
+        print(f"first cable to slacken: {result.slack_cable} at load factor "
+              f"{result.slack_factor:.4g} (linear estimate {result.slack_linear:.4g})")
+    if result.buckle_rod is not None:
+        print(f"first rod to buckle: {result.buckle_rod} at load factor "
+              f"{result.buckle_factor:.4g}")
+    elif result.buckle_factor is not None:
+        print(f"no rod buckles before the static pose is lost (it folds or falls) at load "
+              f"factor {result.buckle_factor:.4g}")
+    elif any(r.section is not None for r in structure.rods):
+        print("no rod buckles below a load factor of 1e4")
+    else:
+        print("rods without a section: no buckling check")
+    return 0
 
 
 def register_members(steps: argparse._SubParsersAction) -> None:

@@ -82,20 +82,27 @@ class CableCheck:
 
 
 def bar_forces(structure: Structure, tensions: np.ndarray,
-               positions: Mapping[str, np.ndarray] | None = None) -> dict[str, float | None]:
+               positions: Mapping[str, np.ndarray] | None = None,
+               loads: Mapping[str, np.ndarray] | None = None,
+               supports: tuple[str, ...] = ()) -> dict[str, float | None]:
     """Each rod's axial force (negative in compression) [N] that balances the cables' pulls
-    at the nodes, with every rod a pin-ended bar.
+    and the external loads at the nodes, with every rod a pin-ended bar.
 
     Args:
         structure: the structure (its topology; its positions unless ``positions`` is given).
         tensions: (n_cables,) cable tensions [N].
         positions: node -> (3,) position [m]; default: the build pose.
+        loads: node -> (3,) external force on it [N] (weights included, if wanted).
+        supports: nodes held by the ground, which supplies whatever force they need.
     """
     where = {n.name: (np.asarray(positions[n.name]) if positions is not None
                       else structure.position(n.name)) for n in structure.nodes}
-    free = [n.name for n in structure.nodes if not n.fixed]
+    free = [n.name for n in structure.nodes if not n.fixed and n.name not in supports]
     row = {name: 3 * i for i, name in enumerate(free)}
     pull = np.zeros(3 * len(free))
+    for node, load in (loads or {}).items():
+        if node in row:
+            pull[row[node]:row[node] + 3] += load
     for cable, t in zip(structure.cables, tensions, strict=True):
         path = cable.path
         for a, b in itertools.pairwise(path):
@@ -111,7 +118,8 @@ def bar_forces(structure: Structure, tensions: np.ndarray,
             if node in row:
                 matrix[row[node]:row[node] + 3, k] = sign * unit
     forces, *_ = np.linalg.lstsq(matrix, -pull, rcond=None)
-    scale = max(float(np.abs(tensions).max()) if len(tensions) else 0.0, 1e-300)
+    scale = max(float(np.abs(tensions).max()) if len(tensions) else 0.0,
+                float(np.abs(pull).max()) if len(pull) else 0.0, 1e-300)
     unbalanced = np.abs(matrix @ forces + pull).reshape(-1, 3).max(axis=1) > \
         BALANCE_TOLERANCE * scale
     _, sv, vt = np.linalg.svd(matrix)
@@ -122,6 +130,19 @@ def bar_forces(structure: Structure, tensions: np.ndarray,
         undetermined = free_modes.size and np.abs(free_modes[:, k]).max() > 1e-9
         out[rod.name] = None if loose or undetermined else float(forces[k])
     return out
+
+
+def node_weights(structure: Structure, gravity: float) -> dict[str, np.ndarray]:
+    """Node -> (3,) weight carried there [N]: its point mass and half of each rod ending
+    there."""
+    weight = {n.name: np.zeros(3) for n in structure.nodes}
+    for mass in structure.point_masses:
+        weight[mass.node][2] -= mass.mass * gravity
+    for rod in structure.rods:
+        half = rod.mass_per_length() * structure.distance(*rod.nodes) * gravity / 2
+        for node in rod.nodes:
+            weight[node][2] -= half
+    return weight
 
 
 def rod_checks(structure: Structure, forces: Mapping[str, float | None]) -> list[RodCheck]:
