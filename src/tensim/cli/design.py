@@ -68,6 +68,8 @@ def register_loads(steps: argparse._SubParsersAction) -> None:
 
 
 def run_loads(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from tensim.design.loading import load_response
     from tensim.design.report import table
 
@@ -78,8 +80,10 @@ def run_loads(args: argparse.Namespace) -> int:
              if result.supports else "free, at zero gravity")
     print(f"{structure.name} {where}; load " + ", ".join(
         f"{n} ({', '.join(f'{v:g}' for v in f)}) N" for n, f in loads.items()))
-    print(table([(n, *(1e3 * result.linear[n]), *(1e3 * result.exact[n]))
-                 for n in result.linear],
+    def mm(values: np.ndarray) -> list[str]:  # to 0.01 mm: finer digits are round-off
+        return [f"{round(1e3 * float(v), 2) + 0.0:.2f}" for v in values]
+
+    print(table([(n, *mm(result.linear[n]), *mm(result.exact[n])) for n in result.linear],
                 ("node", "dx [mm]", "dy [mm]", "dz [mm]", "exact dx", "exact dy", "exact dz")))
     print(table([(c.name, t0, t1) for c, t0, t1 in zip(
         structure.cables, result.tensions[0], result.tensions[1], strict=True)],
