@@ -1,12 +1,13 @@
 """The member forces of a simulated run: each cable's peak tension and each rod's peak axial
-force, at every recorded instant (see :mod:`tensim.design.members` for the rod forces)."""
+force from the cables' pulls at its ends, at every recorded instant (see
+:func:`tensim.design.members.end_forces`; ground forces and inertia are left out)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from tensim.design._errors import DesignError
-from tensim.design.members import bar_forces
+from tensim.design.members import end_forces
 from tensim.hardware import node_positions
 from tensim.model import compile_structure
 from tensim.sim import TimeSeries
@@ -37,7 +38,7 @@ def run_peaks(structure: Structure, series: TimeSeries
     peaks: dict[str, float | None] = {r.name: 0.0 for r in structure.rods}
     for k in range(len(series.time)):
         at = {**fixed, **{n: p[k] for n, p in where.items()}}
-        for rod, force in bar_forces(structure, tensions[k], at).items():
+        for rod, force in end_forces(structure, tensions[k], at).items():
             held = peaks[rod]
             if force is None or held is None:
                 peaks[rod] = None

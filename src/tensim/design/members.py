@@ -132,6 +132,31 @@ def bar_forces(structure: Structure, tensions: np.ndarray,
     return out
 
 
+def end_forces(structure: Structure, tensions: np.ndarray,
+               positions: Mapping[str, np.ndarray]) -> dict[str, float | None]:
+    """Each rod's axial force from the cables' pulls at its ends alone, the more compressive
+    of its two ends [N]: for a moving robot whose ends also carry ground forces and inertia,
+    which the cables' pulls do not balance. Rods that share a node get their
+    :func:`bar_forces` figure."""
+    pulls = {n.name: np.zeros(3) for n in structure.nodes}
+    for cable, t in zip(structure.cables, tensions, strict=True):
+        for a, b in itertools.pairwise(cable.path):
+            unit = (positions[b] - positions[a]) / np.linalg.norm(positions[b] - positions[a])
+            pulls[a] += t * unit
+            pulls[b] -= t * unit
+    shared = {n for g in structure.rigid_groups() if len(g.rods) > 1 for n in g.nodes}
+    shared_forces = bar_forces(structure, tensions, positions) if shared else {}
+    out: dict[str, float | None] = {}
+    for rod in structure.rods:
+        a, b = rod.nodes
+        if a in shared:
+            out[rod.name] = shared_forces[rod.name]
+            continue
+        axis = (positions[b] - positions[a]) / np.linalg.norm(positions[b] - positions[a])
+        out[rod.name] = float(min(-pulls[a] @ axis, pulls[b] @ axis))
+    return out
+
+
 def node_weights(structure: Structure, gravity: float) -> dict[str, np.ndarray]:
     """Node -> (3,) weight carried there [N]: its point mass and half of each rod ending
     there."""
