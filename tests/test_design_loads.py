@@ -96,3 +96,24 @@ def test_loads_command_prints_the_factors(tmp_path: Path, capsys) -> None:
     assert "rods without a section: no buckling check" in out
     with pytest.raises(SystemExit):
         main(["design", "loads", str(path), "--load", "t0:0,x,0"])
+
+
+def test_ground_forces_carry_the_weight_and_the_load() -> None:
+    # the formed hopper (0.876 kg) standing on three feet: by symmetry each carries a third of
+    # its weight at rest; under 20 N down at t0 the normals carry weight + 20 N, and the foot
+    # that lifts first has zero normal force at the lift factor
+    from tensim.design.form import form
+    from tensim.design.topology import load_topology
+
+    structure = form(load_topology(HOPPER.with_name("hopper_topology.yaml"))).structure
+    structure = dataclasses.replace(structure, rods=tuple(  # no sections: no buckling search
+        dataclasses.replace(r, section=None) for r in structure.rods))
+    result = load_response(structure, {"t0": (0.0, 0.0, -20.0)})
+    weight = structure.total_mass() * 9.81
+    normals = np.array([f[:, 2] for f in result.ground.values()])
+    np.testing.assert_allclose(normals[:, 0], weight / 3, rtol=1e-6)  # the pins' compliance
+    assert normals[:, 1].sum() == pytest.approx(weight + 20.0, rel=1e-6)
+    tangential = np.array([f[:, :2].sum(axis=0) for f in result.ground.values()]).sum(axis=0)
+    np.testing.assert_allclose(tangential, 0.0, atol=1e-6)  # no net sideways force
+    assert result.lift_factor is not None and 0 < result.lift_factor < result.slack_factor
+    assert result.slip_factor is not None and 0 < result.slip_factor < result.lift_factor

@@ -88,6 +88,16 @@ def run_loads(args: argparse.Namespace) -> int:
     print(table([(c.name, t0, t1) for c, t0, t1 in zip(
         structure.cables, result.tensions[0], result.tensions[1], strict=True)],
         ("cable", "tension [N]", "loaded [N]")))
+    if result.supports:
+        print(table([(n, f[0, 2], np.hypot(*f[0, :2]) / f[0, 2], f[1, 2],
+                      np.hypot(*f[1, :2]) / f[1, 2] if f[1, 2] > 0 else "lifts",
+                      result.friction[n]) for n, f in result.ground.items()],
+                    ("foot", "normal [N]", "friction used", "loaded [N]", "loaded used",
+                     "friction")))
+        for what, factor in (("a foot lifts (the ground cannot pull)", result.lift_factor),
+                             ("a foot needs all its friction", result.slip_factor)):
+            print(f"{what}: at load factor {factor:.4g}" if factor is not None else
+                  f"{what}: not below a load factor of 1e4")
     if result.lost_factor is not None:
         print(f"no static pose past load factor {result.lost_factor:.4g} (it folds or falls) "
               "while every cable is still taut")

@@ -27,7 +27,15 @@ from scipy.optimize import brentq
 
 from tensim.design._bodies import GRAVITY
 from tensim.design._errors import DesignError
-from tensim.design.inverse import _Linear, feet, on_ground, settle, with_rest_lengths
+from tensim.design.inverse import (
+    PIN_STIFFNESS,
+    _friction,
+    _Linear,
+    feet,
+    on_ground,
+    settle,
+    with_rest_lengths,
+)
 from tensim.design.members import bar_forces, node_weights
 from tensim.structure import Structure
 
@@ -55,6 +63,11 @@ class LoadResponse:
             static poses end first (then ``buckle_rod`` is None); None: no section, or
             beyond :data:`MAX_FACTOR`.
         buckle_rod: that rod.
+        ground: foot -> (2, 3) ground force on it before and (row 1) under the load [N].
+        friction: foot -> the friction coefficient there (the least of its rods') [-].
+        lift_factor: load factor at which a foot's normal force reaches zero (the ground
+            cannot pull: the foot lifts), or None.
+        slip_factor: load factor at which a foot needs all its friction, or None.
     """
 
     supports: tuple[str, ...]
@@ -67,6 +80,10 @@ class LoadResponse:
     lost_factor: float | None
     buckle_factor: float | None
     buckle_rod: str | None
+    ground: dict[str, np.ndarray]
+    friction: dict[str, float]
+    lift_factor: float | None
+    slip_factor: float | None
 
 
 def _jacobian(lin: _Linear, node: str) -> np.ndarray:
@@ -185,9 +202,26 @@ def load_response(structure: Structure, loads: dict[str, tuple[float, float, flo
         if sections else (None, False)
     buckle_rod = None if buckle_factor is None or lost else max(
         buckling(buckle_factor).items(), key=lambda kv: kv[1])[0]
+    anchors = {n: explicit.position(n) for n in pinned}
+    mu = {n: _friction(explicit, n) for n in pinned}
+
+    def ground(lin: _Linear) -> dict[str, np.ndarray]:
+        return {n: -PIN_STIFFNESS * (lin.pose.position(n) - anchors[n]) for n in pinned}
+
+    def lift(factor: float) -> float:  # the smallest normal force [N]
+        return min(f[2] for f in ground(pose(factor)).values())
+
+    def slip(factor: float) -> float:  # the smallest friction reserve mu f_z - |f_t| [N]
+        return min(mu[n] * f[2] - np.hypot(f[0], f[1]) for n, f in ground(pose(factor)).items())
+
+    guess = slack_factor or lost_factor
+    lift_factor = _first(lift, guess)[0] if pinned else None
+    slip_factor = _first(slip, guess)[0] if pinned else None
+    before, after = ground(base), ground(loaded)
     return LoadResponse(pinned, linear, exact, np.vstack([base.tensions, loaded.tensions]),
                         slack_factor, slack_cable, slack_linear, lost_factor, buckle_factor,
-                        buckle_rod)
+                        buckle_rod, {n: np.vstack([before[n], after[n]]) for n in pinned},
+                        mu, lift_factor, slip_factor)
 
 
 def _first(margin: Callable[[float], float], guess: float | None
