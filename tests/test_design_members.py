@@ -100,3 +100,40 @@ def test_members_command_fails_a_weak_member(tmp_path: Path, capsys) -> None:
     force = -min(f for f in bar_forces(weak, cable_tensions(weak)).values() if f is not None)
     assert "44.2 " in out
     assert f"a member fails: the smallest margin is {100 * (p_cr / force - 1):.1f} %" in out
+
+
+def test_sections_and_breaking_loads_round_trip_and_are_validated(tmp_path: Path) -> None:
+    structure = _hopper()
+    path = tmp_path / "robot.yaml"
+    tensim.save_structure(structure, path)
+    again = tensim.load_structure(path)
+    assert again == structure
+    assert again.rods[0].section == RodSection(0.008, 6.9e10, 2.76e8, 0.006, 2700.0)
+    assert again.cables[0].breaking_load == 400.0
+    text = path.read_text()
+    cases = [("inner_diameter: 0.006", "inner_diameter: 0.009",
+              r"rods\[0\] 'rod_0' section: inner_diameter must be >= 0 m and below "
+              r"outer_diameter 0.008 m, got 0.009"),
+             ("modulus: 69000000000.0", "modulus: -1",
+              r"rods\[0\] 'rod_0' section: modulus must be > 0, got -1"),
+             ("modulus: 69000000000.0", "modulus: 6.9e10\n    colour: red",
+              r"rods\[0\] 'rod_0' section: unknown field 'colour'"),
+             ("breaking_load: 400.0", "breaking_load: stiff",
+              r"cable 'bottom_0': breaking_load must be a finite number \[N\]")]
+    for old, new, message in cases:
+        assert old in text
+        path.write_text(text.replace(old, new, 1))
+        with pytest.raises(tensim.StructureError, match=f"^{path}: {message}"):
+            tensim.load_structure(path)
+
+
+def test_members_command_reads_a_run(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "robot.yaml"
+    tensim.save_structure(_hopper(), path)
+    run = tmp_path / "run"
+    assert main(["--quiet", "simulate", str(path), "--duration", "0.3", "--out", str(run)]) == 0
+    capsys.readouterr()
+    assert main(["design", "members", str(path), str(run)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("peak forces of 1 run(s)")
+    assert "mass with the rods' sections 0.5584 kg" in out
