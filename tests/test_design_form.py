@@ -1,4 +1,4 @@
-"""Form finding (tensim.design.form) against closed and published forms, the independent
+"""Form finding (tensim.design.form_finding) against closed and published forms, the independent
 statics of tests/statics.py and simulation."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import statics
 import tensim
 from tensim.cli import main
 from tensim.design import DesignError, self_stress
-from tensim.design.form import form
+from tensim.design.form_finding import form
 from tensim.design.topology import load_topology, topology_from_dict
 from tensim.hardware import node_positions
 from tensim.model import WorldOptions
@@ -250,3 +250,18 @@ def test_form_command_writes_a_structure_that_reads_back(tmp_path: Path, capsys)
     assert main(["design", "form", str(out), "--out", str(out)]) != 0
     assert "is the topology file this command reads" in capsys.readouterr().err
     assert list(itertools.chain(tmp_path.iterdir())) == [out]
+
+
+def test_a_topology_whose_groups_cannot_all_carry_force_is_refused() -> None:
+    # the tower with its vertical cables joining b_i to v_i and u_i to t_i, and diagonals
+    # b_i-u_(i+1), v_i-t_(i+1): no form holds every group in tension (the nearest
+    # equilibria leave the vertical cables idle, q -> 0)
+    data = _tower(TOWER)
+    for cable in data["cables"]:
+        a, b = cable["nodes"]
+        if cable["tags"] == ["vertical"]:
+            cable["nodes"] = [a, b[0] + a[1]]
+        if cable["tags"] == ["diagonal"] and a.startswith("v"):
+            cable["nodes"] = [a, f"t{(int(a[1]) + 1) % 3}"]
+    with pytest.raises(DesignError, match="no form in equilibrium found with these groups"):
+        form(topology_from_dict(data))

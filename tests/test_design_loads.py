@@ -102,7 +102,7 @@ def test_ground_forces_carry_the_weight_and_the_load() -> None:
     # the formed hopper (0.876 kg) standing on three feet: by symmetry each carries a third of
     # its weight at rest; under 20 N down at t0 the normals carry weight + 20 N, and the foot
     # that lifts first has zero normal force at the lift factor
-    from tensim.design.form import form
+    from tensim.design.form_finding import form
     from tensim.design.topology import load_topology
 
     structure = form(load_topology(HOPPER.with_name("hopper_topology.yaml"))).structure

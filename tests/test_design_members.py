@@ -14,7 +14,7 @@ import tensim
 from tensim.cli import main
 from tensim.design import self_stress
 from tensim.design._bodies import cable_tensions
-from tensim.design.form import form
+from tensim.design.form_finding import form
 from tensim.design.member_peaks import run_peaks
 from tensim.design.members import bar_forces, cable_checks, rod_checks, section_mass
 from tensim.design.topology import load_topology

@@ -204,7 +204,7 @@ def register_form(steps: argparse._SubParsersAction) -> None:
 def run_form(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from tensim.design.form import form
+    from tensim.design.form_finding import form
     from tensim.design.report import table
     from tensim.design.topology import load_topology
     from tensim.structure import save_structure

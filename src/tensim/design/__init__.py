@@ -15,7 +15,7 @@ from tensim.design.equilibrium import (
     residuals,
     self_stress,
 )
-from tensim.design.form import Form, form
+from tensim.design.form_finding import Form, form
 from tensim.design.inverse import InverseStatics, RestCommand, inverse_statics
 from tensim.design.motors import CableDuty, DriveMotor, cable_duty, load_catalogue
 from tensim.design.stiffness import Stiffness, stable_timestep, stiffness

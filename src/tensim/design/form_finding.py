@@ -104,6 +104,34 @@ class _Problem:
                      (lengths - mean[self.group]) / scale]
 
 
+    def length_jacobian(self, x: np.ndarray, scale: float) -> np.ndarray:
+        """(rows of :meth:`length_residuals`, 3 n) their derivatives by the coordinates."""
+        diff = x[self.ends[:, 0]] - x[self.ends[:, 1]]
+        unit = diff / np.maximum(np.linalg.norm(diff, axis=1), 1e-300)[:, None]
+        m = len(self.ends)
+        per_node = np.zeros((m, self.n, 3))  # dL_i / dx
+        per_node[np.arange(m), self.ends[:, 0]] += unit
+        per_node[np.arange(m), self.ends[:, 1]] -= unit
+        d_length = per_node.reshape(m, -1)
+        sums = np.zeros((self.group.max() + 1, d_length.shape[1]))
+        np.add.at(sums, self.group, d_length)
+        d_mean = sums / np.bincount(self.group)[:, None]
+        target = self.length[self.group]
+        chosen = np.isfinite(target)
+        return np.vstack([d_length[chosen] / target[chosen, None],
+                          (d_length - d_mean[self.group]) / scale])
+
+
+def _size_jacobian(x: np.ndarray, rough: np.ndarray | None) -> np.ndarray:
+    """(0 or 1, 3 n) the derivative of :func:`_size_residual`."""
+    if rough is None:
+        return np.zeros((0, x.size))
+    size = np.sqrt(((rough - rough.mean(axis=0)) ** 2).sum(axis=1).mean())
+    centred = x - x.mean(axis=0)
+    spread = np.sqrt((centred**2).sum(axis=1).mean())
+    return (centred / (len(x) * spread * size)).reshape(1, -1)
+
+
 def _problem(topology: Topology) -> _Problem:
     index = {name: i for i, name in enumerate(topology.nodes)}
     groups = tuple(topology.groups)
@@ -199,12 +227,29 @@ def _free_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nda
         return np.r_[force.ravel(), problem.length_residuals(x, scale), _size_residual(
             x, rough), extra]
 
+    units = [problem.density_matrix(np.eye(len(guess))[g]) for g in np.flatnonzero(free)]
+
+    def jacobian(z: np.ndarray) -> np.ndarray:
+        x, q = unpack(z)
+        force_x = np.kron(problem.density_matrix(q), np.eye(3)) / (q_scale * scale)
+        force_q = np.array([(u @ x).ravel() for u in units]).T / (q_scale * scale)
+        n_free = len(units)
+        lengths = problem.length_jacobian(x, scale)
+        size = _size_jacobian(x, rough)
+        rows = [np.hstack([force_x, force_q.reshape(-1, n_free)]),
+                np.hstack([lengths, np.zeros((len(lengths), n_free))]),
+                np.hstack([size, np.zeros((len(size), n_free))])]
+        if normalise and cables.any():
+            rows.append(np.r_[np.zeros(3 * problem.n),
+                              cables[free] / (cables.sum() * q_scale)][None, :])
+        return np.vstack(rows)
+
     lower = np.r_[np.full(3 * problem.n, -np.inf), np.where(rods[free], -np.inf, 0.0)]
     upper = np.r_[np.full(3 * problem.n, np.inf), np.where(rods[free], 0.0, np.inf)]
     start = np.r_[x0.ravel(), np.clip(guess[free], lower[3 * problem.n:] + 1e-12,
                                       upper[3 * problem.n:] - 1e-12)]
-    fit = least_squares(residuals, start, bounds=(lower, upper), method="trf", xtol=1e-15,
-                        ftol=1e-15, gtol=1e-15, max_nfev=5000, x_scale="jac")
+    fit = least_squares(residuals, start, jac=jacobian, bounds=(lower, upper), method="trf",
+                        xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=2000, x_scale="jac")
     return unpack(fit.x)
 
 
