@@ -256,8 +256,8 @@ def _free_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nda
 def _orient(x: np.ndarray, topology: Topology) -> np.ndarray:
     """Places the form: onto the rough positions where three or more are given (best proper
     rotation and translation), else its symmetric axis (the principal axis unlike the other
-    two) along z, centred on the z axis, the file's first node on the lower side and the
-    lowest node at the topology's elevation."""
+    two) along z, centred on the z axis, the file's first node on the lower side in the
+    x-z half-plane of x > 0 and the lowest node at the topology's elevation."""
     given = [i for i, n in enumerate(topology.nodes) if n in topology.positions]
     if len(given) >= 3:
         target = np.array([topology.positions[topology.nodes[i]] for i in given])
@@ -275,6 +275,9 @@ def _orient(x: np.ndarray, topology: Topology) -> np.ndarray:
     placed = centred @ axes
     if placed[0, 2] > 0:  # the file's first node on the lower side: half a turn about x
         placed[:, 1:] *= -1.0
+    angle = np.arctan2(placed[0, 1], placed[0, 0])  # and on the +x side of the z axis
+    turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    placed[:, :2] = placed[:, :2] @ turn
     placed[:, 2] += topology.elevation - placed[:, 2].min()
     return placed
 
