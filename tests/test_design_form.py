@@ -265,3 +265,14 @@ def test_a_topology_whose_groups_cannot_all_carry_force_is_refused() -> None:
             cable["nodes"] = [a, f"t{(int(a[1]) + 1) % 3}"]
     with pytest.raises(DesignError, match="no form in equilibrium found with these groups"):
         form(topology_from_dict(data))
+
+
+def test_form_command_names_the_file_of_a_bad_member(tmp_path: Path, capsys) -> None:
+    data = _prism(3, {"rod": {"length": 0.44}, "top": {"length": 0.2},
+                      "bottom": {"length": 0.2}, "vertical": {}})
+    data["rods"][1]["radius"] = -0.01
+    path = tmp_path / "t.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["design", "form", str(path), "--out", str(tmp_path / "out.yaml")]) != 0
+    assert f"{path}: rod 'rod_1': radius must be > 0 m, got -0.01" in capsys.readouterr().err
+    assert not (tmp_path / "out.yaml").exists()

@@ -208,7 +208,7 @@ def run_form(args: argparse.Namespace) -> int:
     from tensim.design.form_finding import form
     from tensim.design.report import table
     from tensim.design.topology import load_topology
-    from tensim.structure import save_structure
+    from tensim.structure import StructureError, save_structure
 
     if Path(args.out).resolve() == Path(args.topology).resolve():
         raise ValueError(f"--out {args.out}: is the topology file this command reads; "
@@ -216,7 +216,10 @@ def run_form(args: argparse.Namespace) -> int:
     topology = load_topology(args.topology)
     if args.min_tension is not None:
         topology = dataclasses.replace(topology, min_tension=args.min_tension)
-    result = form(topology)
+    try:
+        result = form(topology)
+    except StructureError as err:  # a rod's or cable's own fields, checked once formed
+        raise err.with_source(args.topology) from None
     structure = result.structure
     print(f"{structure.name}: {result.nodes} nodes, {len(structure.rods)} rods, "
           f"{len(structure.cables)} cables; force density matrix of rank {result.rank} (a 3D "
