@@ -20,6 +20,7 @@ from tensim.design.form_finding import form
 from tensim.design.topology import load_topology, topology_from_dict
 from tensim.hardware import node_positions
 from tensim.model import WorldOptions
+from tensim.models.prisms import prism
 from tensim.models.six_bar import six_bar
 from tensim.structure import StructureError
 
@@ -276,3 +277,26 @@ def test_form_command_names_the_file_of_a_bad_member(tmp_path: Path, capsys) -> 
     assert main(["design", "form", str(path), "--out", str(tmp_path / "out.yaml")]) != 0
     assert f"{path}: rod 'rod_1': radius must be > 0 m, got -0.01" in capsys.readouterr().err
     assert not (tmp_path / "out.yaml").exists()
+
+
+@pytest.mark.parametrize("n", [3, 5])
+def test_rough_positions_place_the_form(n: int) -> None:
+    # the prism preset's exact form, each coordinate moved by up to 2 mm: given q or given
+    # lengths, the form comes back to the exact one (placed by the best rigid fit to the rough
+    # positions) within 2 mm (measured 0.8 / 0.6 mm: the fit spreads the noise)
+    exact = prism(n)
+    rod, side = exact.distance("b0", "t0"), exact.distance("t0", "t1")
+    ratio = 2 * math.sin(math.pi / n)
+    for groups in ({"rod": {"force_density": -ratio, "length": rod},
+                    "top": {"force_density": 1.0, "length": side},
+                    "bottom": {"force_density": 1.0}, "vertical": {"force_density": ratio}},
+                   {"rod": {"length": rod}, "top": {"length": side}, "bottom": {"length": side},
+                    "vertical": {}}):
+        data = _prism(n, groups)
+        rng = np.random.default_rng(1)
+        for node in data["nodes"]:
+            node["position"] = (exact.position(node["name"])
+                                + rng.uniform(-2e-3, 2e-3, 3)).tolist()
+        formed = form(topology_from_dict(data)).structure
+        assert max(np.linalg.norm(formed.position(x.name) - exact.position(x.name))
+                   for x in exact.nodes) < 2e-3

@@ -169,6 +169,7 @@ def _given_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nd
     """Every group's q given: the affine image of D's null space that best meets the groups'
     lengths. Returns (coordinates (n, 3) [m], q (n_groups,))."""
     q = problem.q_given
+    sized = None if np.isfinite(problem.length).any() else rough  # lengths set the size
     null = _null_space(problem.density_matrix(q))
     if null.shape[1] < 3:
         rank = problem.n - 1 - null.shape[1]
@@ -184,7 +185,7 @@ def _given_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nd
 
     def residuals(y: np.ndarray) -> np.ndarray:
         x = null @ y.reshape(-1, 3)
-        return np.r_[problem.length_residuals(x, scale), _size_residual(x, rough)]
+        return np.r_[problem.length_residuals(x, scale), _size_residual(x, sized)]
 
     fit = least_squares(residuals, start.ravel(), method="trf", xtol=1e-15, ftol=1e-15,
                         gtol=1e-15, max_nfev=2000)
@@ -214,6 +215,7 @@ def _free_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nda
     q_scale = float(np.abs(guess).max())
     normalise = not np.isfinite(problem.q_given).any()
     cables = ~rods & free
+    sized = None if np.isfinite(problem.length).any() else rough  # lengths set the size
 
     def unpack(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         q = guess.copy()
@@ -225,7 +227,7 @@ def _free_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nda
         force = problem.density_matrix(q) @ x / (q_scale * scale)
         extra = [np.mean(q[cables]) / q_scale - 1.0] if normalise and cables.any() else []
         return np.r_[force.ravel(), problem.length_residuals(x, scale), _size_residual(
-            x, rough), extra]
+            x, sized), extra]
 
     units = [problem.density_matrix(np.eye(len(guess))[g]) for g in np.flatnonzero(free)]
 
@@ -235,7 +237,7 @@ def _free_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nda
         force_q = np.array([(u @ x).ravel() for u in units]).T / (q_scale * scale)
         n_free = len(units)
         lengths = problem.length_jacobian(x, scale)
-        size = _size_jacobian(x, rough)
+        size = _size_jacobian(x, sized)
         rows = [np.hstack([force_x, force_q.reshape(-1, n_free)]),
                 np.hstack([lengths, np.zeros((len(lengths), n_free))]),
                 np.hstack([size, np.zeros((len(size), n_free))])]
