@@ -52,7 +52,8 @@ class Form:
         lengths: group -> (shortest, longest) member length [m].
         rank: rank of the force density matrix D.
         nodes: number of nodes n (a 3D form needs rank <= n - 4).
-        super_stable: D is positive semi-definite with rank n - 4 (Connelly's condition).
+        super_stable: D is positive semi-definite with rank n - 4 (Connelly's conditions on
+            D; that the member directions lie on no conic at infinity is not checked).
         imbalance: largest node force imbalance / largest member force [-].
     """
 
