@@ -176,7 +176,8 @@ class CableGeometry:
         """(n_dof, n_dof) sum_c t_c d2L_c/dq2 for tensions (n_cables,) [N]."""
         full = np.zeros((self.basis.shape[0],) * 2)
         for cable, index, block in self.spans:
-            full[np.ix_(index, index)] += tensions[cable] * block
+            # np.add.at: a span with both ends on one body repeats its indices
+            np.add.at(full, np.ix_(index, index), tensions[cable] * block)
         return self.basis.T @ full @ self.basis
 
 
@@ -193,7 +194,7 @@ def cable_geometry(structure: Structure, body_set: Bodies) -> CableGeometry:
         for j in range(len(points) - 1):
             index, g, h, length, unit = _span(body_set, owners[j], points[j], owners[j + 1],
                                               points[j + 1])
-            grads[c, index] += g
+            np.add.at(grads[c], index, g)  # both ends on one body repeat indices
             spans.append((c, index, h))
             lengths[c] += length
             node_forces[cable.path[j]][:, c] += unit
