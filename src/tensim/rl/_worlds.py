@@ -60,6 +60,9 @@ class Worlds:
         self._robot_body[idx.body] = True
         self._slot = np.full(robot.model.nbody, -1)  # MuJoCo body id -> rigid body number
         self._slot[idx.body] = np.arange(idx.body.size)
+        self._geom_body = robot.model.geom_bodyid.copy()  # read once: each read copies
+        self._end_body = robot.rods["body"].ravel()
+        self._end_local = robot.rods["local"].reshape(-1, 3)
 
     def _open_batch(self, models: list[mujoco.MjModel]) -> None:
         """The batch engine over ``models`` (one per robot) and its field views."""
@@ -248,16 +251,22 @@ class Worlds:
             terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(ids.size, -1)
         if "velocity" in robot.layout:
             terms["velocity"] = self._velocity(ids, xipos, yaw)
-        length = f["ten_length"][ids][:, robot.compiled.index.tendon]
-        rest = robot.compiled.index.cable_act(f["act"][ids])
-        terms["cable_length"], terms["rest_length"] = length, rest
-        if "tension" in robot.layout:  # the load cells, with each robot's own stiffness
+        layout = robot.layout
+        if "cable_length" in layout or "tension" in layout:
+            terms["cable_length"] = f["ten_length"][ids][:, robot.compiled.index.tendon]
+        if "rest_length" in layout or "tension" in layout:
+            terms["rest_length"] = robot.compiled.index.cable_act(f["act"][ids])
+        if "tension" in layout:  # the load cells, with each robot's own stiffness
             stiffness = np.stack([robot.compiled.law(self.models[i]).stiffness for i in ids])
-            terms["tension"] = load_cell_tension(length, rest, stiffness)
-        if "rod_axis" in robot.layout:
-            terms["rod_axis"] = _to_frame(self._rod_axes(ids), yaw)
-        if "contact" in robot.layout or "end_contact" in robot.layout:
-            terms["contact"], terms["end_contact"] = self._contact(ids)
+            terms["tension"] = load_cell_tension(terms["cable_length"], terms["rest_length"],
+                                                 stiffness)
+        ends = None
+        if "rod_axis" in layout or "end_contact" in layout:
+            ends = self._end_positions(ids)
+        if "rod_axis" in layout:
+            terms["rod_axis"] = _to_frame(_rod_axes(ends), yaw)
+        if "contact" in layout or "end_contact" in layout:
+            terms["contact"], terms["end_contact"] = self._contact(ids, ends)
         if robot.config.task == "direction":
             terms["task"] = _to_frame(self.target[ids, None], yaw)[:, 0, :2]
         elif robot.config.task == "goal":
@@ -274,12 +283,6 @@ class Worlds:
         self.past[ids] = np.concatenate([obs[:, None], self.past[ids][:, :-1]], axis=1)
         return out
 
-    def _rod_axes(self, ids: np.ndarray) -> np.ndarray:
-        """(k, n_rods, 3) unit vectors from each rod's first end to its second (world)."""
-        ends = self._end_positions(ids).reshape(ids.size, -1, 2, 3)
-        axis = ends[:, :, 1] - ends[:, :, 0]
-        return axis / np.linalg.norm(axis, axis=2, keepdims=True)
-
     def _velocity(self, ids: np.ndarray, xipos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
         cvel = self.f["cvel"][ids][:, self._body]  # (rotation, translation) at the root's com
         root_com = self.f["subtree_com"][ids][:, self._root]
@@ -289,52 +292,56 @@ class Worlds:
                  _to_frame(cvel[..., :3], yaw)]
         return np.concatenate([p.reshape(ids.size, -1) for p in parts], axis=1)
 
-    def _contact(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground), and
-        (k, 2 n_rods) 1 where the ground touches a rod nearer that end than the other."""
-        m, rods = self.robot.model, self.robot.rods
-        rows, bodies, points = [], [], []
-        for row, i in enumerate(ids):  # MuJoCo's contact list of each robot
-            d = self.batch.get_data(int(i), self._scratch_contacts)
+    def _contacts(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """MuJoCo's contact lists of robots ``ids``, stacked: the (c,) row in ``ids`` of each
+        contact, its (c, 2) bodies and (c, 3) world position [m]."""
+        geoms, points, counts = [], [], np.zeros(ids.size, dtype=int)
+        for row, i in enumerate(ids.tolist()):
+            d = self.batch.get_data(i, self._scratch_contacts)
             if d.ncon:
-                pair = m.geom_bodyid[d.contact.geom[:d.ncon]]
-                ground = (pair == 0).any(axis=1)
-                bodies.append(pair[ground].max(axis=1))
-                points.append(d.contact.pos[:d.ncon][ground])
-                rows.append(np.full(bodies[-1].size, row))
+                contact = d.contact  # views of the scratch data, which the next robot reuses
+                geoms.append(contact.geom[:d.ncon].copy())
+                points.append(contact.pos[:d.ncon].copy())
+                counts[row] = d.ncon
+        if not geoms:
+            return np.zeros(0, dtype=int), np.zeros((0, 2), dtype=int), np.zeros((0, 3))
+        return (np.repeat(np.arange(ids.size), counts), self._geom_body[np.concatenate(geoms)],
+                np.concatenate(points))
+
+    def _contact(self, ids: np.ndarray, ends: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground), and
+        (k, 2 n_rods) 1 where the ground touches a rod nearer that end than the other;
+        ``ends``: the rod ends of :meth:`_end_positions`, if already known."""
+        at, pair, point = self._contacts(ids)
+        ground = (pair == 0).any(axis=1)
+        at, body, point = at[ground], pair[ground].max(axis=1), point[ground]
         touch = np.zeros((ids.size, self._body.size))
-        ends = np.zeros((ids.size, rods["body"].size))
-        if not rows:
-            return touch, ends
-        at, body, point = np.concatenate(rows), np.concatenate(bodies), np.concatenate(points)
+        out = np.zeros((ids.size, self._end_body.size))
+        if not at.size:
+            return touch, out
         slot = self._slot[body]
         touch[at[slot >= 0], slot[slot >= 0]] = 1.0
-        if ends.shape[1]:  # the nearest end of the touching rod's body
-            where = self._end_positions(ids)[at]  # (c, 2 n_rods, 3)
+        if out.shape[1]:  # the nearest end of the touching rod's body
+            where = (self._end_positions(ids) if ends is None else ends)[at]  # (c, 2 n_rods, 3)
             far = np.linalg.norm(where - point[:, None], axis=2)
-            far[rods["body"].ravel()[None] != body[:, None]] = np.inf
+            far[self._end_body[None] != body[:, None]] = np.inf
             hit = np.isfinite(far).any(axis=1)
-            ends[at[hit], np.argmin(far[hit], axis=1)] = 1.0
-        return touch, ends
+            out[at[hit], np.argmin(far[hit], axis=1)] = 1.0
+        return touch, out
 
     def _end_positions(self, ids: np.ndarray) -> np.ndarray:
         """(k, 2 n_rods, 3) world positions of the rod ends."""
-        rods = self.robot.rods
-        body = rods["body"].ravel()
-        xmat = self.f["xmat"][ids].reshape(ids.size, -1, 3, 3)[:, body]
-        return self.f["xpos"][ids][:, body] + np.einsum("kexy,ey->kex", xmat,
-                                                        rods["local"].reshape(-1, 3))
+        body = self._end_body
+        xmat = self.f["xmat"][ids[:, None], body].reshape(ids.size, -1, 3, 3)
+        return self.f["xpos"][ids[:, None], body] + np.einsum("kexy,ey->kex", xmat,
+                                                              self._end_local)
 
     def bar_contacts(self, ids: np.ndarray) -> np.ndarray:
         """(k,) contacts between two of the robot's rigid bodies, per robot."""
-        m = self.robot.model
-        out = np.zeros(ids.size)
-        for row, i in enumerate(ids):
-            d = self.batch.get_data(int(i), self._scratch_contacts)
-            bodies = m.geom_bodyid[d.contact.geom[:d.ncon]]
-            both = self._robot_body[bodies].all(axis=1) & (bodies[:, 0] != bodies[:, 1])
-            out[row] = both.sum()
-        return out
+        at, bodies, _ = self._contacts(ids)
+        both = self._robot_body[bodies].all(axis=1) & (bodies[:, 0] != bodies[:, 1])
+        return np.bincount(at[both], minlength=ids.size).astype(float)
 
     def _noisy(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
         r, layout = self.robot.config.randomization, self.robot.layout
@@ -359,6 +366,14 @@ class Worlds:
     def data(self, i: int) -> Any:
         """Robot ``i``'s whole MjData (for rendering)."""
         return self.batch.get_data(i)
+
+
+def _rod_axes(ends: np.ndarray) -> np.ndarray:
+    """(k, n_rods, 3) unit vectors from each rod's first end to its second (world), from the
+    (k, 2 n_rods, 3) rod ends."""
+    ends = ends.reshape(ends.shape[0], -1, 2, 3)
+    axis = ends[:, :, 1] - ends[:, :, 0]
+    return axis / np.linalg.norm(axis, axis=2, keepdims=True)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
