@@ -9,10 +9,10 @@ import pytest
 
 pytest.importorskip("gymnasium", reason="the rl extra (gymnasium) is not installed")
 
-from tensim.rl import EnvConfig, Randomization, TensegrityVectorEnv  # noqa: E402
-from tensim.rl.config import ROLLING_OBSERVATION  # noqa: E402
-from tensim.sim import compiled_available  # noqa: E402
-from tests.test_rl_rolling import three_bar  # noqa: E402
+from tensim.rl import EnvConfig, Randomization, TensegrityVectorEnv
+from tensim.rl.config import ROLLING_OBSERVATION
+from tensim.sim import compiled_available
+from test_rl_rolling import three_bar
 
 pytestmark = pytest.mark.skipif(not compiled_available(),
                                 reason="the environments step on the compiled cable law")

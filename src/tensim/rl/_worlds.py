@@ -166,6 +166,11 @@ class Worlds:
             d.qpos[adr + 3:adr + 7] = quat
             d.qvel[dof:dof + 3] = turn @ d.qvel[dof:dof + 3]  # angular velocity is local
 
+    def _rows(self, ids: np.ndarray) -> np.ndarray | slice:
+        """``ids`` as an index of the robot axis: a slice (views, no copies) when they are all
+        the robots (ids are sorted and unique, so their count says so)."""
+        return slice(None) if ids.size == self.n else ids
+
     # -- stepping --------------------------------------------------------------------------
 
     def step(self, ids: np.ndarray, commands: np.ndarray, applied: np.ndarray
@@ -173,7 +178,7 @@ class Worlds:
         """One control period of robots ``ids``.
 
         Args:
-            ids: (k,) the robots that step.
+            ids: (k,) the robots that step, sorted and unique.
             commands: (k, n_cables) their ``ctrl`` commands [m/s] or [m].
             applied: (k, n_cables) the same actions in the action space's units.
 
@@ -181,28 +186,30 @@ class Worlds:
             (k,) rewards, (k,) terminated, and the reward terms and error flags per robot.
         """
         c, n = self.robot.config, self.robot.n
+        r = self._rows(ids)
         if c.randomization.action_delay:
-            queue = self.pending[ids]
+            queue = self.pending[r]
             now = queue[:, 0].copy()
-            self.pending[ids] = np.concatenate([queue[:, 1:], commands[:, None]], axis=1)
+            self.pending[r] = np.concatenate([queue[:, 1:], commands[:, None]], axis=1)
             commands = now
-        self.f["ctrl"][ids, :n] = commands
-        before = self.f["subtree_com"][ids, 0, :2].copy()
-        bodies_before = self.f["xipos"][ids][:, self._body, :2]
+        self.f["ctrl"][r, :n] = commands
+        before = self.f["subtree_com"][r, 0, :2].copy()
+        bodies_before = self.f["xipos"][r][:, self._body, :2] if c.task == "turn" else None
         failed = np.zeros(ids.size, dtype=bool)
         try:
-            self.batch.step(ids, nstep=c.control_steps, stage=mujoco.mjtStage.mjSTAGE_VEL)
+            self.batch.step(None if isinstance(r, slice) else ids, nstep=c.control_steps,
+                            stage=mujoco.mjtStage.mjSTAGE_VEL)
         except mjbatch.SimulationError as err:
             failed = np.isin(ids, err.ids)
-        self.steps[ids] += 1
-        self.previous[ids] = applied
+        self.steps[r] += 1
+        self.previous[r] = applied
         f = self.f
-        speed = np.abs(f["qvel"][ids]).max(axis=1)
-        force = -f["actuator_force"][ids, :n].min(axis=1)
-        bad = self.batch.warning[ids, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
+        speed = np.abs(f["qvel"][r]).max(axis=1)
+        force = -f["actuator_force"][r, :n].min(axis=1)
+        bad = self.batch.warning[r, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
         unstable = failed | ~(speed < self.limits.max_speed) | \
             ~(force < self.limits.max_tension) | bad
-        after = f["subtree_com"][ids, 0, :2]
+        after = f["subtree_com"][r, 0, :2]
         progress, reached = self._progress(ids, before, after, bodies_before)
         control = -c.control_cost * np.mean(applied ** 2, axis=1) * c.control_dt
         contact = np.zeros(ids.size)
@@ -217,21 +224,21 @@ class Worlds:
 
     def _progress(self, ids: np.ndarray, before: np.ndarray, after: np.ndarray,
                   bodies_before: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        c = self.robot.config
+        c, r = self.robot.config, self._rows(ids)
         if c.task == "direction":
-            return np.einsum("ij,ij->i", after - before, self.target[ids]), np.zeros(
+            return np.einsum("ij,ij->i", after - before, self.target[r]), np.zeros(
                 ids.size, dtype=bool)
         if c.task == "turn":
-            bodies = self.f["xipos"][ids][:, self._body, :2]
+            bodies = self.f["xipos"][r][:, self._body, :2]
             turned = _yaw_change(bodies_before - before[:, None], bodies - after[:, None],
                                  self._mass)
             drift = np.linalg.norm(after - before, axis=1)
             return (-turned if c.clockwise else turned) - drift, np.zeros(ids.size, bool)
         if c.task == "goal":
-            far_before = np.linalg.norm(self.target[ids] - before, axis=1)
-            far = np.linalg.norm(self.target[ids] - after, axis=1)
+            far_before = np.linalg.norm(self.target[r] - before, axis=1)
+            far = np.linalg.norm(self.target[r] - after, axis=1)
             return far_before - far, far < c.goal_radius_m
-        moved = np.linalg.norm(self.f["xipos"][ids][:, self._body] - self.start_xipos[ids],
+        moved = np.linalg.norm(self.f["xipos"][r][:, self._body] - self.start_xipos[r],
                                axis=2).mean(axis=1)
         return -moved * c.control_dt, np.zeros(ids.size, dtype=bool)
 
@@ -239,23 +246,23 @@ class Worlds:
 
     def observe(self, ids: np.ndarray) -> np.ndarray:
         """(k, size) observations of robots ``ids``, with their sensor noise."""
-        robot, f = self.robot, self.f
-        com = f["subtree_com"][ids, 0]
-        xipos = f["xipos"][ids][:, self._body]
+        robot, f, r = self.robot, self.f, self._rows(ids)
+        com = f["subtree_com"][r, 0]
+        xipos = f["xipos"][r][:, self._body]
         ahead = xipos[:, 0, :2] - com[:, :2]  # the robot frame's x axis: toward body 0
         yaw = np.arctan2(ahead[:, 1], ahead[:, 0])
         terms: dict[str, np.ndarray] = {"height": com[:, 2:3]}
         if "pose" in robot.layout:
             rel = _to_frame(xipos - com[:, None], yaw)
-            quat = _quat_to_frame(f["xquat"][ids][:, self._body], yaw)
+            quat = _quat_to_frame(f["xquat"][r][:, self._body], yaw)
             terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(ids.size, -1)
         if "velocity" in robot.layout:
             terms["velocity"] = self._velocity(ids, xipos, yaw)
         layout = robot.layout
         if "cable_length" in layout or "tension" in layout:
-            terms["cable_length"] = f["ten_length"][ids][:, robot.compiled.index.tendon]
+            terms["cable_length"] = f["ten_length"][r][:, robot.compiled.index.tendon]
         if "rest_length" in layout or "tension" in layout:
-            terms["rest_length"] = robot.compiled.index.cable_act(f["act"][ids])
+            terms["rest_length"] = robot.compiled.index.cable_act(f["act"][r])
         if "tension" in layout:  # the load cells, with each robot's own stiffness
             stiffness = np.stack([robot.compiled.law(self.models[i]).stiffness for i in ids])
             terms["tension"] = load_cell_tension(terms["cable_length"], terms["rest_length"],
@@ -268,24 +275,25 @@ class Worlds:
         if "contact" in layout or "end_contact" in layout:
             terms["contact"], terms["end_contact"] = self._contact(ids, ends)
         if robot.config.task == "direction":
-            terms["task"] = _to_frame(self.target[ids, None], yaw)[:, 0, :2]
+            terms["task"] = _to_frame(self.target[r, None], yaw)[:, 0, :2]
         elif robot.config.task == "goal":
-            terms["task"] = _to_frame((self.target[ids] - com[:, :2])[:, None], yaw)[:, 0, :2]
+            terms["task"] = _to_frame((self.target[r] - com[:, :2])[:, None], yaw)[:, 0, :2]
         else:
             terms["task"] = np.zeros((ids.size, 2))
-        terms["previous_action"] = self.previous[ids]
+        terms["previous_action"] = self.previous[r]
         terms["position"] = com[:, :2]
         obs = self._noisy(ids, np.concatenate([terms[t].reshape(ids.size, -1)
                                                for t in robot.layout if t != "history"], axis=1))
         if not robot.config.history:
             return obs
-        out = np.concatenate([obs, self.past[ids].reshape(ids.size, -1)], axis=1)
-        self.past[ids] = np.concatenate([obs[:, None], self.past[ids][:, :-1]], axis=1)
+        out = np.concatenate([obs, self.past[r].reshape(ids.size, -1)], axis=1)
+        self.past[r] = np.concatenate([obs[:, None], self.past[r][:, :-1]], axis=1)
         return out
 
     def _velocity(self, ids: np.ndarray, xipos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-        cvel = self.f["cvel"][ids][:, self._body]  # (rotation, translation) at the root's com
-        root_com = self.f["subtree_com"][ids][:, self._root]
+        r = self._rows(ids)
+        cvel = self.f["cvel"][r][:, self._body]  # (rotation, translation) at the root's com
+        root_com = self.f["subtree_com"][r][:, self._root]
         linear = cvel[..., 3:] + _cross(cvel[..., :3], xipos - root_com)
         com_velocity = np.einsum("b,kbj->kj", self._mass, linear)
         parts = [_to_frame(com_velocity[:, None], yaw), _to_frame(linear, yaw),
@@ -333,8 +341,9 @@ class Worlds:
     def _end_positions(self, ids: np.ndarray) -> np.ndarray:
         """(k, 2 n_rods, 3) world positions of the rod ends."""
         body = self._end_body
-        xmat = self.f["xmat"][ids[:, None], body].reshape(ids.size, -1, 3, 3)
-        return self.f["xpos"][ids[:, None], body] + np.einsum("kexy,ey->kex", xmat,
+        r = self._rows(ids)
+        xmat = self.f["xmat"][r][:, body].reshape(ids.size, -1, 3, 3)
+        return self.f["xpos"][r][:, body] + np.einsum("kexy,ey->kex", xmat,
                                                               self._end_local)
 
     def bar_contacts(self, ids: np.ndarray) -> np.ndarray:
