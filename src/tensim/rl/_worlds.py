@@ -223,12 +223,12 @@ class Worlds:
         return reward, unstable | reached, terms
 
     def _progress(self, ids: np.ndarray, before: np.ndarray, after: np.ndarray,
-                  bodies_before: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                  bodies_before: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         c, r = self.robot.config, self._rows(ids)
         if c.task == "direction":
             return np.einsum("ij,ij->i", after - before, self.target[r]), np.zeros(
                 ids.size, dtype=bool)
-        if c.task == "turn":
+        if c.task == "turn" and bodies_before is not None:  # (read before a turn's step)
             bodies = self.f["xipos"][r][:, self._body, :2]
             turned = _yaw_change(bodies_before - before[:, None], bodies - after[:, None],
                                  self._mass)
@@ -270,7 +270,7 @@ class Worlds:
         ends = None
         if "rod_axis" in layout or "end_contact" in layout:
             ends = self._end_positions(ids)
-        if "rod_axis" in layout:
+        if "rod_axis" in layout and ends is not None:
             terms["rod_axis"] = _to_frame(_rod_axes(ends), yaw)
         if "contact" in layout or "end_contact" in layout:
             terms["contact"], terms["end_contact"] = self._contact(ids, ends)
