@@ -17,7 +17,7 @@ from tensim.sim._batch import setup_trial
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
 _FIELDS = ("ten_length", "xpos", "xmat", "xipos", "xquat", "subtree_com", "cvel", "qvel",
-           "actuator_force", "act", "ctrl")
+           "actuator_force", "act", "ctrl", "ncon")
 
 
 class Worlds:
@@ -296,25 +296,22 @@ class Worlds:
         root_com = self.f["subtree_com"][r][:, self._root]
         linear = cvel[..., 3:] + _cross(cvel[..., :3], xipos - root_com)
         com_velocity = np.einsum("b,kbj->kj", self._mass, linear)
-        parts = [_to_frame(com_velocity[:, None], yaw), _to_frame(linear, yaw),
-                 _to_frame(cvel[..., :3], yaw)]
-        return np.concatenate([p.reshape(ids.size, -1) for p in parts], axis=1)
+        world = np.concatenate([com_velocity[:, None], linear, cvel[..., :3]], axis=1)
+        return _to_frame(world, yaw).reshape(ids.size, -1)  # centre of mass, linear, angular
 
     def _contacts(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """MuJoCo's contact lists of robots ``ids``, stacked: the (c,) row in ``ids`` of each
         contact, its (c, 2) bodies and (c, 3) world position [m]."""
-        geoms, points, counts = [], [], np.zeros(ids.size, dtype=int)
-        for row, i in enumerate(ids.tolist()):
-            d = self.batch.get_data(i, self._scratch_contacts)
-            if d.ncon:
-                contact = d.contact  # views of the scratch data, which the next robot reuses
-                geoms.append(contact.geom[:d.ncon].copy())
-                points.append(contact.pos[:d.ncon].copy())
-                counts[row] = d.ncon
-        if not geoms:
-            return np.zeros(0, dtype=int), np.zeros((0, 2), dtype=int), np.zeros((0, 3))
-        return (np.repeat(np.arange(ids.size), counts), self._geom_body[np.concatenate(geoms)],
-                np.concatenate(points))
+        counts = self.f["ncon"][self._rows(ids)]
+        total = int(counts.sum())
+        geoms, points = np.empty((total, 2), dtype=int), np.empty((total, 3))
+        start = 0
+        for i in ids[counts > 0].tolist():
+            contact = self.batch.get_data(i, self._scratch_contacts).contact
+            stop = start + len(contact)
+            geoms[start:stop], points[start:stop] = contact.geom, contact.pos
+            start = stop
+        return np.repeat(np.arange(ids.size), counts), self._geom_body[geoms], points
 
     def _contact(self, ids: np.ndarray, ends: np.ndarray | None = None
                  ) -> tuple[np.ndarray, np.ndarray]:
