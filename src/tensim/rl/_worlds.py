@@ -63,6 +63,7 @@ class Worlds:
         self._geom_body = robot.model.geom_bodyid.copy()  # read once: each read copies
         self._end_body = robot.rods["body"].ravel()
         self._end_local = robot.rods["local"].reshape(-1, 3)
+        self._sigma = np.zeros(0)  # the observation noise's std, set by the first observation
 
     def _open_batch(self, models: list[mujoco.MjModel]) -> None:
         """The batch engine over ``models`` (one per robot) and its field views."""
@@ -350,8 +351,17 @@ class Worlds:
         return np.bincount(at[both], minlength=ids.size).astype(float)
 
     def _noisy(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
+        if self._sigma.size != obs.shape[1]:  # once: it depends on the configuration only
+            self._sigma = self._noise_sigma(obs.shape[1])
+        if not self._sigma.any():
+            return obs
+        return obs + np.stack([self.rngs[i].normal(0.0, 1.0, obs.shape[1])
+                               for i in ids]) * self._sigma
+
+    def _noise_sigma(self, size: int) -> np.ndarray:
+        """(size,) the std of each observed value's sensor noise."""
         r, layout = self.robot.config.randomization, self.robot.layout
-        sigma = np.zeros(obs.shape[1])
+        sigma = np.zeros(size)
         for term, std in (("height", r.length_noise_m), ("pose", r.length_noise_m),
                           ("cable_length", r.length_noise_m), ("rest_length", r.length_noise_m),
                           ("tension", r.tension_noise_n), ("velocity", r.velocity_noise),
@@ -361,9 +371,7 @@ class Worlds:
         if "pose" in layout:  # the quaternions stay clean: 7 values per body, the last 4
             start, stop = layout["pose"]
             sigma[start:stop] *= np.tile([1, 1, 1, 0, 0, 0, 0], (stop - start) // 7)
-        if not sigma.any():
-            return obs
-        return obs + np.stack([self.rngs[i].normal(0.0, 1.0, obs.shape[1]) for i in ids]) * sigma
+        return sigma
 
     def state(self, i: int) -> np.ndarray:
         """Robot ``i``'s ``mjSTATE_INTEGRATION`` state."""
