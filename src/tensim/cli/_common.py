@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -304,3 +305,68 @@ def count(text: str) -> int:
 def natural(text: str) -> int:
     """A whole number >= 0."""
     return _int(text, 0)
+
+
+def output_option(parser: Any, flag: str, kind: str, **kwargs: Any) -> None:
+    """Adds ``flag``, the path of a ``kind`` ("file" or "folder") the command writes.
+
+    :func:`check_outputs` checks every such option before the command runs.
+    """
+    action = parser.add_argument(flag, **kwargs)
+    parser.set_defaults(outputs=(*(parser.get_default("outputs") or ()),
+                                 (action.dest, flag, kind)))
+
+
+def _input_paths(args: argparse.Namespace, skip: set[str]) -> list[str]:
+    """Every argument value that names an existing file or folder (the command's inputs)."""
+    found = []
+    for key, value in vars(args).items():
+        if key in skip or key == "outputs":
+            continue
+        for item in value if isinstance(value, (list, tuple)) else [value]:
+            if isinstance(item, str) and item and os.path.exists(item):
+                found.append(item)
+    return found
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Refuses output paths a command may not write, before it runs: a device, FIFO, socket,
+    a folder for a file (or a file for a folder), and the command's own input (a file it reads,
+    or a folder that holds one: replacing the folder would delete it).
+
+    Raises:
+        InputError: naming the option, its path and the reason.
+    """
+    from tensim._files import check_writable
+    from tensim._input import InputError
+
+    outputs = [(dest, flag, kind, getattr(args, dest, None))
+               for dest, flag, kind in getattr(args, "outputs", ())]
+    outputs = [(dest, flag, kind, value) for dest, flag, kind, value in outputs
+               if isinstance(value, str) and value]
+    for _, flag, kind, value in outputs:
+        check_writable(Path(value), kind, flag)
+    inputs = _input_paths(args, {dest for dest, _, _, _ in outputs})
+    for _, flag, kind, value in outputs:
+        if not os.path.exists(value):
+            continue
+        out = os.path.realpath(value)
+        for item in inputs:
+            real = os.path.realpath(item)
+            if real == out or (kind == "folder" and real.startswith(out + os.sep)):
+                what = "is" if real == out else "holds"
+                raise InputError(f"{flag} {value}: {what} the input {item} of this command; "
+                                 f"writing {flag} would replace what the command reads; choose "
+                                 f"another {flag}")
+
+
+def output_option_of(args: argparse.Namespace, filename: str) -> str | None:
+    """The output option whose path is ``filename`` or holds it, as ``"--out PATH"``."""
+    target = os.path.realpath(filename)
+    for dest, flag, _ in getattr(args, "outputs", ()):
+        value = getattr(args, dest, None)
+        if isinstance(value, str) and value:
+            real = os.path.realpath(value)
+            if target == real or target.startswith(real + os.sep):
+                return f"{flag} {value}"
+    return None

@@ -13,6 +13,7 @@ from tensim.cli._common import (
     add_figures_option,
     add_world_options,
     load_model,
+    output_option,
     parse_point,
     positive,
     print_summary,
@@ -284,7 +285,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--target", default=None, metavar="X,Y",
                    help="goal: the target point in the world frame [m] (default 1.5,0, "
                         "2.7 m ahead of the robot; write --target=-2,1 for a negative X)")
-    p.add_argument("--out", default=None, help="output folder (default runs/NAME)")
+    output_option(p, "--out", "folder", default=None, help="output folder (default runs/NAME)")
     add_figures_option(p, "disturbance, sine, cpg: ")
     p.set_defaults(run=run)
 

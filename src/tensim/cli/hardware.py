@@ -22,6 +22,7 @@ from tensim.cli._common import (
     load_model,
     natural,
     nonnegative,
+    output_option,
     positive,
     world_from_args,
 )
@@ -63,7 +64,7 @@ def _register_calibrate(sub: argparse._SubParsersAction) -> None:
                        "'adc,force_N' pairs; writes calibration.json and calibration.png, and "
                        "converts raw logs' adc/ columns to tension_N/.")
     p.add_argument("pairs", help="CSV with the columns adc,force_N")
-    p.add_argument("--out", default="runs/calibration", help="output folder")
+    output_option(p, "--out", "folder", default="runs/calibration", help="output folder")
     p.add_argument("--max-force", type=positive, default=111.21,
                    help="largest measurable tension [N] (Tetraspine3: 111.21)")
     p.add_argument("--convert", nargs="*", default=[], metavar="LOG",
@@ -118,7 +119,7 @@ def _register_compare(sub: argparse._SubParsersAction) -> None:
                         "delay, else estimated by cross-correlation)")
     p.add_argument("--max-offset", type=positive, default=0.5,
                    help="largest lag the estimate tries [s]")
-    p.add_argument("--out", default="runs/compare", help="output folder")
+    output_option(p, "--out", "folder", default="runs/compare", help="output folder")
     p.set_defaults(run=_compare)
 
 
@@ -256,7 +257,7 @@ def _register_sysid(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-offset", type=nonnegative, default=0.5,
                    help="largest time offset the nominal model's alignment tries while "
                         "'delay' is not fitted [s] (0: the log's clock is the simulation's)")
-    p.add_argument("--out", default="runs/sysid", help="output folder")
+    output_option(p, "--out", "folder", default="runs/sysid", help="output folder")
     p.set_defaults(run=_sysid)
 
 
@@ -370,7 +371,7 @@ def _register_make_log(sub: argparse._SubParsersAction) -> None:
                    help="its parameters, e.g. peak=22.56,start=30,rise=5,hold=5,fall=5 "
                         "(the disturbance defaults)")
     add_world_options(p)
-    p.add_argument("--out", required=True, help="output CSV")
+    output_option(p, "--out", "file", required=True, help="output CSV")
     p.set_defaults(run=_make_log)
 
 

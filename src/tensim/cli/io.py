@@ -6,7 +6,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from tensim.cli._common import add_world_options, load_model, nonnegative, world_from_args
+from tensim.cli._common import (
+    add_world_options,
+    load_model,
+    nonnegative,
+    output_option,
+    world_from_args,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--keep-position", action="store_true",
                    help="keep the file's positions (no --clearance placement)")
     p.add_argument("--name", default=None, help="structure name (default: the file's stem)")
-    p.add_argument("--out", required=True, help="tensim structure .yaml to write")
+    output_option(p, "--out", "file", required=True, help="tensim structure .yaml to write")
     p.set_defaults(run=run_import)
 
     p = sub.add_parser("export-mjcf", help="write a preset or structure as MuJoCo MJCF",
@@ -38,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-springs", action="store_true",
                    help="leave the tendons without springs (tensim applies cable tension "
                         "through the actuators)")
-    p.add_argument("--out", required=True, help="MJCF .xml file to write")
+    output_option(p, "--out", "file", required=True, help="MJCF .xml file to write")
     p.set_defaults(run=run_export)
 
 

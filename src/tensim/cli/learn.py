@@ -17,6 +17,7 @@ from tensim.cli._common import (
     load_model,
     natural,
     nonnegative,
+    output_option,
     parse_point,
     positive,
     world_from_args,
@@ -125,7 +126,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help="run trials on Ray (a local Ray is started unless --ray-address)")
     run.add_argument("--ray-address", metavar="ADDR",
                      help="address of a running Ray cluster, e.g. ray://head:10001")
-    run.add_argument("--out", help=f"new run folder (default {d['out']})")
+    output_option(run, "--out", "folder", help=f"new run folder (default {d['out']})")
     run.add_argument("--resume", metavar="DIR", help="continue the run in DIR")
     p.set_defaults(run=run_learn)
 
