@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import sys
@@ -192,6 +193,7 @@ def run_learn(args: argparse.Namespace) -> int:
         OptimizerSettings,
         RunStore,
         create_run,
+        discard_unstarted,
         make_executor,
         resume,
     )
@@ -216,6 +218,7 @@ def run_learn(args: argparse.Namespace) -> int:
             if getattr(args, name, None) is None:
                 setattr(args, name, value)
         out = Path(args.out)
+        existed = out.is_dir()
         settings = LearningSettings(
             OptimizerSettings(args.optimizer, args.step, args.batch, args.monte_carlo),
             args.evaluations, args.seed)
@@ -225,12 +228,15 @@ def run_learn(args: argparse.Namespace) -> int:
             print(f"note: ntrt asks {args.batch or 8} trials at a time, so at most that many "
                   f"of the {workers} workers are busy; raise --batch", file=sys.stderr)
     already = len(RunStore(out).evaluations())
+    fresh = discard_unstarted(out, existed) if not args.resume else contextlib.nullcontext()
     try:
-        result = resume(out, args.evaluations, progress=_LearningProgress(args.quiet, already),
-                        executor=lambda p: make_executor(p, workers, ray=args.ray,
-                                                         ray_address=args.ray_address,
-                                                         processes=args.processes,
-                                                         engine=args.backend))
+        with fresh:
+            result = resume(out, args.evaluations,
+                            progress=_LearningProgress(args.quiet, already),
+                            executor=lambda p: make_executor(p, workers, ray=args.ray,
+                                                             ray_address=args.ray_address,
+                                                             processes=args.processes,
+                                                             engine=args.backend))
     except KeyboardInterrupt:
         end = "\n" if sys.stderr.isatty() and not args.quiet else ""  # the progress bar's
         print(f"{end}tensim: interrupted; every finished evaluation is in "
@@ -238,6 +244,10 @@ def run_learn(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 130
     except ClusterError as err:
+        if not RunStore(out).exists():  # a fresh run that evaluated nothing left no folder
+            print(f"tensim: {err}; nothing was evaluated, so no run folder was left",
+                  file=sys.stderr)
+            return 1
         print(f"tensim: {err}; every finished evaluation is in {out}/evaluations.jsonl; "
               f"continue with: tensim learn --resume {out}", file=sys.stderr)
         return 1
