@@ -144,7 +144,8 @@ def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = N
 
 def world_record(world: WorldOptions) -> dict[str, Any]:
     """The world options as summary fields, enough to rebuild the run's world: ``dt_s``,
-    ``terrain`` (a ``--terrain`` string), ``contact_timeconst_s`` and the engine options."""
+    ``terrain`` (a ``--terrain`` string), ``contact_timeconst_s``, the engine options and the
+    inertia floor."""
     from tensim.terrain import format_terrain
 
     return {"dt_s": world.timestep, "terrain": format_terrain(world.terrain),
@@ -152,7 +153,8 @@ def world_record(world: WorldOptions) -> dict[str, Any]:
             "self_collision": world.self_collision, "cone": world.cone,
             "noslip_iterations": world.noslip_iterations, "condim": world.condim,
             "torsional_friction_m": world.torsional_friction,
-            "rolling_friction_m": world.rolling_friction}
+            "rolling_friction_m": world.rolling_friction,
+            "min_inertia_ratio": world.min_inertia_ratio}
 
 
 def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,

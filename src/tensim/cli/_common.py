@@ -165,6 +165,10 @@ def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None
                         help="robot-ground friction model: cone=pyramidal|elliptic, "
                              "noslip=ITERATIONS, condim=3|4|6, torsional=COEFF [m], "
                              "rolling=COEFF [m] (see docs/speed.md)")
+    parser.add_argument("--inertia-floor", type=_fraction, default=None, metavar="RATIO",
+                        help="raise a rigid body's smallest principal inertia to RATIO of its "
+                             "largest (default 0.01: MuJoCo spins thin rods up); 0 turns the "
+                             "floor off")
 
 
 def add_terrain_option(parser: argparse.ArgumentParser | argparse._ArgumentGroup,
@@ -190,7 +194,17 @@ def world_from_args(args: argparse.Namespace) -> WorldOptions:
     return WorldOptions(timestep=args.dt,
                         terrain=parse_terrain(text) if text is not None else Flat(),
                         self_collision=not getattr(args, "no_self_collision", False),
-                        **contact_options(getattr(args, "contact", None)))
+                        **contact_options(getattr(args, "contact", None)),
+                        **({} if getattr(args, "inertia_floor", None) is None else
+                           {"min_inertia_ratio": args.inertia_floor}))
+
+
+def _fraction(text: str) -> float:
+    """A number in [0, 1) (argparse type)."""
+    value = float(text)
+    if not 0 <= value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number in [0, 1), got {text}")
+    return value
 
 
 _CONTACT = {"cone": ("cone", str), "noslip": ("noslip_iterations", int),

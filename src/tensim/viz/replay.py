@@ -197,7 +197,9 @@ def _world(summary: dict[str, Any], folder: Path) -> WorldOptions:
             torsional_friction=float(summary.get("torsional_friction_m",
                                                  defaults.torsional_friction)),
             rolling_friction=float(summary.get("rolling_friction_m",
-                                               defaults.rolling_friction)))
+                                               defaults.rolling_friction)),
+            min_inertia_ratio=float(summary.get("min_inertia_ratio",
+                                                defaults.min_inertia_ratio)))
     except (TypeError, ValueError, OverflowError) as err:
         raise RunFolderError(f"{folder / 'summary.json'}: {str(err)[:200]}") from None
     text = summary.get("terrain")
