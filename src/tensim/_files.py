@@ -152,6 +152,20 @@ def pid_alive(pid: int) -> bool:
     return True
 
 
+RUN_MARKER = ".tensim-run"  # every run folder written through tensim.runs.replace_folder holds it
+
+
+def run_folder_name(folder: Path) -> str:
+    """The name a run folder will have: ``folder``'s own, or for a staging folder the name of
+    the ``--out`` it becomes (its marker file's ``folder:`` line)."""
+    marker = folder / RUN_MARKER
+    if marker.is_file():
+        for line in marker.read_text(errors="replace").splitlines():
+            if line.startswith("folder: "):
+                return line[len("folder: "):]
+    return folder.name
+
+
 def write_text(path: Path, text: str) -> None:
     """Writes ``text`` to ``path`` atomically."""
     with atomic_path(path) as tmp:

@@ -31,7 +31,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from tensim import __version__
-from tensim._files import cause, check_writable, output_target, pid_alive, write_json, write_text
+from tensim._files import (
+    RUN_MARKER,
+    cause,
+    check_writable,
+    output_target,
+    pid_alive,
+    write_json,
+    write_text,
+)
 from tensim._input import InputError
 from tensim.sim import SimulationResult, TimeSeries
 from tensim.viz.report import figure_names, write_report
@@ -196,7 +204,7 @@ def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
     return finish_run(out, summary, result.trajectory, drawer)
 
 
-MARKER = ".tensim-run"  # every folder written through replace_folder holds it
+MARKER = RUN_MARKER  # every folder written through replace_folder holds it
 _STAGE = ".partial-"  # staging folders are named .<out name>.partial-<pid>-<random>
 
 
@@ -262,7 +270,8 @@ def replace_folder(out: str | os.PathLike[str]) -> Iterator[Path]:
     except OSError as err:
         raise InputError(f"--out {named}: cannot be written ({cause(err)})") from None
     try:
-        (stage / MARKER).write_text("a tensim run folder; tensim may replace it whole\n")
+        (stage / MARKER).write_text("a tensim run folder; tensim may replace it whole\n"
+                                    f"folder: {named.name}\n")
         yield stage
         os.chmod(stage, 0o777 & ~_umask())  # mkdtemp makes 0700
         if out.exists():

@@ -133,12 +133,17 @@ def gains_summary(structure: Structure, config: Any) -> dict[str, Any]:
             for c in structure.cables}
 
 
-def print_summary(summary: dict[str, Any], out: Path) -> None:
-    """Prints where a run went, its speed and its tensions."""
+def print_summary(summary: dict[str, Any], out: Path, moved: bool = False) -> None:
+    """Prints where a run went, its speed, (with ``moved``) how far its centre of mass moved,
+    and its tensions."""
     tensions = summary.get("max_tension_N", {})
     print(f"wrote {out}/ (summary.json, trajectory.parquet, figures)")
     print(f"simulated {summary['duration_s']} s in {summary['wall_s']} s "
           f"({summary['real_time_factor']}x real time)")
+    if moved and "com_displacement_m" in summary:
+        dx, dy, dz = summary["com_displacement_m"]
+        print(f"centre of mass moved {math.hypot(dx, dy):.4f} m over the ground "
+              f"(x {dx:+.4f} m, y {dy:+.4f} m; z {dz:+.4f} m)")
     if isinstance(tensions, dict) and tensions:
         print(f"max system tension {summary['max_system_tension_N']} N; per cable [N]:")
         for name, value in tensions.items():

@@ -115,6 +115,7 @@ def _disturbance(args: argparse.Namespace, out: Path) -> dict[str, Any]:
               f"({BEFORE[0]:g}-{BEFORE[1]:g} s) [N]:")
         for name, value in change.items():
             print(f"  {name:<16} {value:+8.3f}")
+    _print_stance(summary)
     return summary
 
 
@@ -185,7 +186,18 @@ def _drag(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     print(f"steady drag force {summary['drag_force_N']:.3f} N "
           f"(mu m g = {summary['coulomb_force_N']:.3f} N); "
           f"effective friction {summary['effective_friction']:.4f}")
+    _print_stance(summary)
     return summary
+
+
+def _print_stance(summary: dict[str, Any]) -> None:
+    """Says, after a protocol's figures, that they mean nothing when the robot left its stance."""
+    problems = summary.get("stance_problems") or []
+    if problems:
+        print("NOT VALID: the robot left its stance, so the figures above do not measure "
+              f"what the {summary.get('experiment', 'experiment')} test measures:")
+        for problem in problems:
+            print(f"  {problem}")
 
 
 def _scenario_args(args: argparse.Namespace, name: str) -> dict[str, Any]:

@@ -270,7 +270,9 @@ def _report(out: Path, summary: dict[str, Any]) -> int:
         return 1
     if summary["best_score"] is not None:
         what = problem.get("objective_text", "score")
-        print(f"best score {summary['best_score']:.4f} (evaluation {summary['best_index']} of "
+        unit = " m" if problem.get("kind") == "trial" else ""  # a trial's score is a distance
+        print(f"best score {summary['best_score']:.4f}{unit} (evaluation "
+              f"{summary['best_index']} of "
               f"{summary['evaluations']}; {what})")
     print(f"{summary['evaluations']} evaluations in {summary['wall_s']:.1f} s "
           f"({summary['evaluations_per_s'] or 0:.2f} per s); {summary['stop_reason'] or 'stopped'}")
