@@ -146,8 +146,9 @@ def run_size(args: argparse.Namespace) -> int:
             if (folder / STRUCTURE_FILE).exists():
                 limits = {c.name: (c.motor.max_speed, c.motor.max_tension)
                           for c in load_structure(folder / STRUCTURE_FILE).cables}
-            runs.append(motors.cable_duty(
-                TimeSeries.from_parquet(folder / "trajectory.parquet"), limits))
+            series = TimeSeries.from_parquet(folder / "trajectory.parquet")
+            motors.check_sampling(series, _tracked_peaks(folder), str(folder))
+            runs.append(motors.cable_duty(series, limits))
         duties = motors.merge(runs)
     needs = motors.requirements(duties, args.spool_radius, args.gear, args.safety)
     period = args.period
@@ -181,6 +182,19 @@ def run_size(args: argparse.Namespace) -> int:
               f"({best}) falls short by {-100 * verdicts[best]:.0f} % of its torque-speed line")
         return 1
     return 0
+
+
+def _tracked_peaks(folder: Path) -> dict[str, float]:
+    """The run's peak tension per cable over every physics step (its summary's
+    ``max_tension_N``; empty when the summary lacks it)."""
+    import json
+
+    try:
+        peaks = json.loads((folder / "summary.json").read_text()).get("max_tension_N")
+    except (OSError, ValueError):
+        return {}
+    return {str(k): float(v) for k, v in peaks.items()
+            if isinstance(v, (int, float))} if isinstance(peaks, dict) else {}
 
 
 def _move(text: str) -> tuple[str, tuple[float, float, float]]:
