@@ -317,7 +317,7 @@ def _sysid(args: argparse.Namespace) -> int:
     v = summary["validation"]
     window = v["window_s"]
     where = "fit samples" if v["on_fit_data"] else \
-        f"held-out samples {window[0]:g}-{window[1]:g} s"
+        f"validation samples {window[0]:g}:{window[1]:g} s"
     print(f"RMSE on the {where}: nominal {v['nominal_rmse_N']:.3f} N, fitted "
           f"{v['fitted_rmse_N']:.3f} N")
     print(f"|error| on the max system tension after settling (mean over the logs; compare "
