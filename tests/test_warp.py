@@ -34,7 +34,8 @@ def test_warp_worlds_agree_with_the_cpu_engine():
         compiled.model.opt.timestep)
     push = ramp_hold_release("s2_tip", (0.0, 1.0, 0.5), 8.0, 0.2, 0.3, 0.4, 0.1)
     trials = [Trial(p.controller(), loads=(push,)), Trial(gait),
-              Trial(gait, physics=PhysicsScale(stiffness=1.1, friction=2.0))]
+              Trial(gait, physics=PhysicsScale(stiffness=1.1, friction=2.0)),
+              Trial(gait, physics=PhysicsScale(mass=1.3))]
     warp = run_batch(compiled, trials, DURATION, backend="warp", device="cpu")
     cpu = run_batch(compiled, trials, DURATION)
     for w, c in zip(warp, cpu, strict=True):
@@ -49,6 +50,62 @@ def test_warp_worlds_agree_with_the_cpu_engine():
     # the per-world parameters took effect: the stiffer robot's tensions differ from the gait's
     stiff, nominal = warp[2].result.trajectory, warp[1].result.trajectory
     assert np.abs(stiff.matrix("tension") - nominal.matrix("tension")).max() > 1.0
+    heavy = warp[3].result.trajectory  # masses, inertias and derived constants per world
+    assert np.abs(heavy.matrix("tension") - nominal.matrix("tension")).max() > 1.0
+
+
+def test_a_trial_with_its_own_compiled_model_runs_as_on_the_cpu_engine():
+    # a recompiled structure (stiffer cables, heavier rods, more friction) of the same layout:
+    # every field it changes, derived constants included, becomes a per-world field
+    import dataclasses
+
+    p = preset("tetraspine3")
+    structure = p.build()
+    compiled = compile_structure(structure)
+    gait = load_controller("tetraspine3_cpg", structure).with_duration(DURATION).build(
+        compiled.model.opt.timestep)
+    changed = dataclasses.replace(
+        structure,
+        cables=tuple(dataclasses.replace(c, stiffness=1.1 * c.stiffness, pretension=None,
+                                         rest_length=structure.rest_length(c))
+                     for c in structure.cables),
+        rods=tuple(dataclasses.replace(
+            r, friction=1.5 * r.friction,
+            linear_density=None if r.linear_density is None else 1.2 * r.linear_density,
+            density=None if r.density is None else 1.2 * r.density) for r in structure.rods))
+    own = compile_structure(changed)
+    trials = [Trial(gait), Trial(gait, compiled=own)]
+    warp = run_batch(compiled, trials, DURATION, backend="warp", device="cpu")
+    cpu = run_batch(compiled, trials, DURATION)
+    for w, c in zip(warp, cpu, strict=True):
+        assert w.ok and c.ok, (w.error, c.error)
+        a, b = c.result.trajectory, w.result.trajectory
+        assert np.abs(a.matrix("tension") - b.matrix("tension")).max() < 1.0
+        for axis in "xyz":
+            assert np.abs(a[f"pos_{axis}/com"] - b[f"pos_{axis}/com"]).max() < 1e-3
+    nominal, rebuilt = (r.result.trajectory for r in warp)
+    assert np.abs(rebuilt.matrix("tension") - nominal.matrix("tension")).max() > 1.0
+
+
+def test_inputs_held_on_the_device_are_reloaded_at_the_right_step(monkeypatch):
+    # with room for one record interval of inputs, the rows are reloaded before every record;
+    # a row taken from the wrong step (one early or late) would change the V* the motors see
+    import tensim.sim._warp_inputs as held
+
+    p = preset("tetraspine3")
+    structure = p.build()
+    compiled = compile_structure(structure)
+    gait = load_controller("tetraspine3_cpg", structure).with_duration(0.3).build(
+        compiled.model.opt.timestep)
+    trials = [Trial(gait), Trial(gait, physics=PhysicsScale(friction=1.5))]
+    whole = run_batch(compiled, trials, 0.3, backend="warp", device="cpu")
+    monkeypatch.setattr(held, "INPUT_BYTES", 1)
+    reloaded = run_batch(compiled, trials, 0.3, backend="warp", device="cpu")
+    for a, b in zip(whole, reloaded, strict=True):
+        assert a.ok and b.ok, (a.error, b.error)
+        for channel in ("tension", "rest_length", "setpoint"):
+            np.testing.assert_array_equal(a.result.trajectory.matrix(channel),
+                                          b.result.trajectory.matrix(channel))
 
 
 def test_learning_evaluates_a_generation_on_warp():
@@ -125,3 +182,35 @@ def test_a_diverging_world_is_reported_failed_and_the_others_run_on():
         assert "unstable" in results[1].error and "non-finite acceleration" in results[1].error
     assert "reset" not in warp[1].error  # MuJoCo Warp keeps the state it reached
     assert np.isfinite(warp[0].result.trajectory.matrix("tension")).all()
+
+
+def test_held_inputs_give_each_step_its_own_row():
+    import warp as wp
+
+    from tensim.sim._warp_inputs import HeldInputs
+
+    worlds, nu, steps = 3, 2, 7
+    rows = (1000.0 * np.arange(worlds)[:, None, None] + 10.0 * np.arange(steps)[None, :, None]
+            + np.arange(nu)[None, None, :])  # world w, step j, input u: 1000 w + 10 j + u
+    with wp.ScopedDevice("cpu"):
+        held = HeldInputs(worlds, nu, record_steps=1, total_steps=steps)
+        assert held.next_rows(1) == steps  # everything the run needs fits: one load
+        held.load(rows)
+        ctrl = wp.zeros((worlds, nu), dtype=float)
+        for j in range(steps):
+            held.apply(ctrl)
+            np.testing.assert_array_equal(ctrl.numpy(), rows[:, j])
+        held.consumed(steps)
+        assert held.left() == 0 and held.remaining == 0
+
+
+def test_a_world_out_of_room_for_contacts_fails_with_a_message(monkeypatch):
+    # MuJoCo Warp drops contacts past its allocation and steps on (wrong physics, a printed
+    # warning): tensim fails such a world instead, saying what to raise
+    import tensim.sim._warp_batch as warp_batch
+
+    monkeypatch.setattr(warp_batch, "world_capacity", lambda model: (8, 1))
+    p = preset("tetraspine3")
+    compiled = compile_structure(p.build())  # stands on several feet: more than one contact
+    result = run_batch(compiled, [Trial(p.controller())], 0.02, backend="warp", device="cpu")[0]
+    assert not result.ok and "ran out of room for contacts" in result.error

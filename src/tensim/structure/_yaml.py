@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -179,6 +180,15 @@ def load_structure(path: str | os.PathLike[str]) -> Structure:
         raise err.with_source(str(path)) from None
 
 
-def save_structure(structure: Structure, path: str | os.PathLike[str]) -> None:
-    """Writes a structure to a YAML file atomically (never a half-written file)."""
-    write_text(Path(path), yaml.safe_dump(structure_to_dict(structure), sort_keys=False))
+def save_structure(structure: Structure, path: str | os.PathLike[str],
+                   header: Sequence[str] = ()) -> None:
+    """Writes a structure to a YAML file atomically (never a half-written file).
+
+    Args:
+        structure: the structure.
+        path: the file to write.
+        header: lines written first as YAML comments (where the structure came from).
+    """
+    comments = "".join(f"# {line}\n" for text in header for line in str(text).splitlines())
+    write_text(Path(path), comments + yaml.safe_dump(structure_to_dict(structure),
+                                                     sort_keys=False))
