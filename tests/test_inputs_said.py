@@ -75,7 +75,7 @@ def test_a_refused_learning_run_leaves_no_folder(tmp_path, capsys):
     assert not out.exists()
 
 
-def test_a_run_that_fails_before_its_first_evaluation_leaves_no_folder(tmp_path):
+def test_a_run_whose_executor_cannot_start_leaves_no_folder(tmp_path):
     def broken(problem):
         raise RuntimeError("no executor")
 

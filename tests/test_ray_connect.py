@@ -41,4 +41,4 @@ def test_learn_on_an_unreachable_cluster_fails_and_leaves_no_folder(tmp_path, ca
                  "--ray-address", f"127.0.0.1:{port}", "--out", str(out)]) == 1
     err = capsys.readouterr().err
     assert f"--ray-address 127.0.0.1:{port}: the Ray head cannot be reached" in err
-    assert "no run folder was left" in err and not out.exists()
+    assert "the run never started, so no run folder was left" in err and not out.exists()

@@ -244,8 +244,8 @@ def run_learn(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 130
     except ClusterError as err:
-        if not RunStore(out).exists():  # a fresh run that evaluated nothing left no folder
-            print(f"tensim: {err}; nothing was evaluated, so no run folder was left",
+        if not RunStore(out).exists():  # a fresh run that never started left no folder
+            print(f"tensim: {err}; the run never started, so no run folder was left",
                   file=sys.stderr)
             return 1
         print(f"tensim: {err}; every finished evaluation is in {out}/evaluations.jsonl; "

@@ -125,8 +125,8 @@ def learn(problem: Problem, settings: LearningSettings, out: str | Path, *, work
           ) -> OptimizeResult:
     """Learns from scratch into the new run folder ``out``; see :func:`resume`.
 
-    A run that fails before its first evaluation is recorded (an executor that cannot start,
-    a cluster that cannot be reached) leaves no run folder.
+    A run that fails before it starts evaluating (an executor that cannot start, a cluster
+    that cannot be reached) leaves no run folder.
     """
     existed = Path(out).is_dir()
     create_run(out, problem, settings)
@@ -138,13 +138,15 @@ def learn(problem: Problem, settings: LearningSettings, out: str | Path, *, work
 @contextlib.contextmanager
 def discard_unstarted(out: str | Path, existed: bool) -> Iterator[None]:
     """Removes the new run folder ``out`` (or empties it, if it ``existed``) when the block
-    fails with an error before the run recorded an evaluation (an interruption keeps it, to
-    resume)."""
+    fails with an error before the run started evaluating (its executor could not start: no
+    evaluation log was opened). A run that started keeps its folder, to resume, even if it
+    recorded nothing (a cluster node that died under the first generation); so does an
+    interruption."""
     try:
         yield
     except Exception:
         store = RunStore(out)
-        if not store.path(EVALUATIONS).is_file() or not store.evaluations():
+        if not store.path(EVALUATIONS).exists():
             store.discard(keep_folder=existed)
         raise
 
