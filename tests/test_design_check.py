@@ -182,3 +182,30 @@ def test_the_inertia_floor_option_reaches_the_run_and_its_replay(tmp_path) -> No
                  "--out", str(out)]) == 0
     assert json.loads((out / "summary.json").read_text())["min_inertia_ratio"] == 0.0
     assert load_run(out).compiled.world.min_inertia_ratio == 0.0
+
+
+def test_a_rod_given_its_axial_inertia_keeps_it(tmp_path, caplog) -> None:
+    import logging
+
+    from tensim.model import _compile, compile_structure
+
+    base = prism(3)
+    given = 2.5e-5  # kg m^2: between the cylinder's 1.39e-05 and the floor's 7.94e-05
+    robot = dataclasses.replace(base, rods=tuple(dataclasses.replace(r, axial_inertia=given)
+                                                 for r in base.rods))
+    path = tmp_path / "robot.yaml"
+    save_structure(robot, path)
+    assert load_structure(path) == robot  # the field goes through the file
+    _compile._WARNED.clear()
+    with caplog.at_level(logging.WARNING, logger="tensim.model._compile"):
+        compiled = compile_structure(load_structure(path))
+    assert not [r for r in caplog.records if "principal inertia" in r.getMessage()]
+    from tensim.structure import mass_properties
+
+    group = next(g for g in robot.rigid_groups() if g.name == "rod_0")
+    moments = np.linalg.eigvalsh(mass_properties(robot, group).inertia)  # rod plus end caps
+    assert moments[0] < 0.01 * moments[-1]  # below the floor, which would have raised it
+    body = compiled.model.body("rod_0").id
+    assert compiled.model.body_inertia[body].min() == pytest.approx(moments[0], rel=1e-9)
+    with pytest.raises(tensim.structure.StructureError, match="axial_inertia must be > 0"):
+        dataclasses.replace(base.rods[0], axial_inertia=-1.0)

@@ -250,8 +250,9 @@ def _warn_thin(structure: Structure, raised: list[tuple[str, float, float]],
     message = (f"{structure.name}: {len(raised)} rigid bod{'y' if len(raised) == 1 else 'ies'} "
                f"({names}): smallest principal inertia raised to {world.min_inertia_ratio:g} of "
                f"the largest (from {low:.3g} to {high:.3g} kg m^2, up to {factor:.3g}x; MuJoCo "
-               "spins thin rods up), which slows their spin about their axis; give the rods a "
-               "larger radius or point masses, or turn the floor off with --inertia-floor 0 "
+               "spins thin rods up), which slows their spin about their axis; give the rods their "
+               "axial_inertia in the structure file (kept as given), a larger radius or point "
+               "masses, or turn the floor off with --inertia-floor 0 "
                "(WorldOptions(min_inertia_ratio=0))")
     if message not in _WARNED:
         _WARNED.add(message)
@@ -303,7 +304,9 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     for group in structure.rigid_groups():
         props = mass_properties(structure, group)
         moving_mass += 0.0 if group.fixed else props.mass
-        inertia, changed = _regularize(group.name, props, world)
+        given = bool(group.rods) and all(rods[r].axial_inertia is not None for r in group.rods)
+        inertia, changed = (props.inertia, False) if given else \
+            _regularize(group.name, props, world)
         if changed:
             adjusted.append(group.name)
             raised.append((group.name, float(np.linalg.eigvalsh(props.inertia)[0]),
