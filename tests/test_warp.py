@@ -184,6 +184,29 @@ def test_a_diverging_world_is_reported_failed_and_the_others_run_on():
     assert np.isfinite(warp[0].result.trajectory.matrix("tension")).all()
 
 
+@pytest.mark.parametrize("law", ["implicit", "implicitfast"])
+def test_warp_runs_the_implicit_laws_as_the_cpu_engine(law):
+    """Tetraspine3 pushed in free space under an implicit law: the kernel's pull and force and
+    MuJoCo Warp's derivatives of the gain term against the CPU engine. Measured over 0.5 s:
+    tensions within 0.014 N (implicit, as close as the explicit law's 0.037 N) and 0.32 N
+    (implicitfast: the two engines keep different parts of a cable's damping between two free
+    bodies, docs/architecture.md) of 24 N; the bounds are about five times those."""
+    from tensim.model import WorldOptions
+
+    p = preset("tetraspine3")
+    world = WorldOptions(cable_law=law, timestep=0.002, ground=False, gravity=(0.0, 0.0, 0.0))
+    compiled = compile_structure(p.build(), world)
+    push = ramp_hold_release("s2_tip", (0.0, 1.0, 0.5), 8.0, 0.1, 0.1, 0.1, 0.1)
+    trial = [Trial(p.controller(), loads=(push,))]
+    (w,), (c,) = (run_batch(compiled, trial, 0.5, backend="warp", device="cpu"),
+                  run_batch(compiled, trial, 0.5))
+    assert w.ok and c.ok, (w.error, c.error)
+    bound = {"implicit": 0.07, "implicitfast": 1.6}[law]
+    a, b = c.result.trajectory.matrix("tension"), w.result.trajectory.matrix("tension")
+    assert np.abs(a - b).max() < bound
+    assert np.abs(a).max() > 20.0  # the push loads the cables
+
+
 def test_held_inputs_give_each_step_its_own_row():
     import warp as wp
 
@@ -214,3 +237,22 @@ def test_a_world_out_of_room_for_contacts_fails_with_a_message(monkeypatch):
     compiled = compile_structure(p.build())  # stands on several feet: more than one contact
     result = run_batch(compiled, [Trial(p.controller())], 0.02, backend="warp", device="cpu")[0]
     assert not result.ok and "ran out of room for contacts" in result.error
+
+
+def test_warp_runs_a_lagged_motor_as_the_cpu_engine():
+    """A held cable let out under a first-order lag (Motor.lag_time): the kernel's lag against
+    the compiled law; float32 rounding of rest lengths near 0.5 m is ~3e-8 m a step."""
+    from tensim.control.rest import RestCommand
+    from tensim.model import WorldOptions
+    from tensim.structure import Cable, Motor, Node, Structure
+
+    s = Structure("held", (Node("a", (0.0, 0.0, 1.0), fixed=True),
+                           Node("b", (0.5, 0.0, 1.0), fixed=True)),
+                  cables=(Cable("c", ("a", "b"), 100.0, rest_length=0.45,
+                                motor=Motor(max_speed=10.0, lag_time=0.1)),))
+    compiled = compile_structure(s, WorldOptions(ground=False))
+    trial = [Trial(RestCommand(("c",), (0.55,)))]
+    (w,), (c,) = (run_batch(compiled, trial, 0.3, backend="warp", device="cpu"),
+                  run_batch(compiled, trial, 0.3))
+    a, b = c.result.trajectory["rest_length/c"], w.result.trajectory["rest_length/c"]
+    assert a[-1] > 0.5 and np.abs(a - b).max() < 1e-5

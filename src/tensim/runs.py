@@ -32,7 +32,9 @@ from typing import TYPE_CHECKING, Any
 
 from tensim import __version__
 from tensim._files import (
+    CONTROLLER_FILE,
     RUN_MARKER,
+    STRUCTURE_FILE,
     cause,
     check_writable,
     output_target,
@@ -50,8 +52,6 @@ if TYPE_CHECKING:
     from tensim.structure import Structure
     from tensim.viz.drawing import FigureDrawer
 
-STRUCTURE_FILE = "structure.yaml"  # the robot as it ran, in every simulation's folder
-CONTROLLER_FILE = "controller.yaml"  # its controller, where it had one
 
 PROGRESS_LOGGER = "tensim.progress"  # progress lines: to the run log only, never the console
 _MAX_LINES = 20_000
@@ -161,7 +161,7 @@ def world_record(world: WorldOptions) -> dict[str, Any]:
             "self_collision": world.self_collision, "cone": world.cone,
             "noslip_iterations": world.noslip_iterations, "condim": world.condim,
             "torsional_friction_m": world.torsional_friction,
-            "rolling_friction_m": world.rolling_friction,
+            "rolling_friction_m": world.rolling_friction, "cable_law": world.cable_law,
             "min_inertia_ratio": world.min_inertia_ratio}
 
 

@@ -6,6 +6,7 @@ import argparse
 import logging
 import math
 import os
+import statistics
 import sys
 import time
 from pathlib import Path
@@ -144,10 +145,24 @@ def print_summary(summary: dict[str, Any], out: Path, moved: bool = False) -> No
         dx, dy, dz = summary["com_displacement_m"]
         print(f"centre of mass moved {math.hypot(dx, dy):.4f} m over the ground "
               f"(x {dx:+.4f} m, y {dy:+.4f} m; z {dz:+.4f} m)")
-    if isinstance(tensions, dict) and tensions:
+    if not (isinstance(tensions, dict) and tensions):
+        return
+    if len(tensions) <= LISTED_CABLES:
         print(f"max system tension {summary['max_system_tension_N']} N; per cable [N]:")
         for name, value in tensions.items():
             print(f"  {name:<16} {value:8.3f}")
+        return
+    # hundreds of cables: the most loaded few, the rest in summary.json
+    values = [float(v) for v in tensions.values()]
+    print(f"max system tension {summary['max_system_tension_N']} N; {len(tensions)} cables, "
+          f"max tension median {statistics.median(values):.3f} N, least {min(values):.3f} N; the "
+          f"{TOP_CABLES} most loaded [N] (every cable's in summary.json):")
+    for name, value in sorted(tensions.items(), key=lambda kv: -kv[1])[:TOP_CABLES]:
+        print(f"  {name:<16} {value:8.3f}")
+
+
+LISTED_CABLES = 30  # robots with more cables get a summary of their tensions, not a list
+TOP_CABLES = 5
 
 
 def add_figures_option(parser: argparse.ArgumentParser, which: str = "") -> None:
@@ -166,6 +181,12 @@ def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None
                         help="the robot's bodies collide only with the ground, not with each "
                              "other: faster, but wrong wherever its parts touch (see "
                              "docs/speed.md)")
+    parser.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
+                        default="explicit",
+                        help="explicit (default: the paper's law under MuJoCo's Euler step), "
+                             "implicit (MuJoCo's discrete integrator takes each taut cable's "
+                             "stiffness and damping: stiff, damped cables at 1-10 ms) or "
+                             "implicitfast (cheaper, damping only; see docs/speed.md)")
     parser.add_argument("--contact", default=None, metavar="KEY=VALUE,...",
                         help="robot-ground friction model: cone=pyramidal|elliptic, "
                              "noslip=ITERATIONS, condim=3|4|6, torsional=COEFF [m], "
@@ -199,6 +220,7 @@ def world_from_args(args: argparse.Namespace) -> WorldOptions:
     return WorldOptions(timestep=args.dt,
                         terrain=parse_terrain(text) if text is not None else Flat(),
                         self_collision=not getattr(args, "no_self_collision", False),
+                        cable_law=getattr(args, "cable_law", None) or "explicit",
                         **contact_options(getattr(args, "contact", None)),
                         **({} if getattr(args, "inertia_floor", None) is None else
                            {"min_inertia_ratio": args.inertia_floor}))
