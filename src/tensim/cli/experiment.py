@@ -13,6 +13,7 @@ from tensim.cli._common import (
     add_figures_option,
     add_world_options,
     load_model,
+    output_option,
     parse_point,
     positive,
     print_summary,
@@ -114,6 +115,7 @@ def _disturbance(args: argparse.Namespace, out: Path) -> dict[str, Any]:
               f"({BEFORE[0]:g}-{BEFORE[1]:g} s) [N]:")
         for name, value in change.items():
             print(f"  {name:<16} {value:+8.3f}")
+    _print_stance(summary)
     return summary
 
 
@@ -197,7 +199,18 @@ def _drag(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     print(f"steady drag force {summary['drag_force_N']:.3f} N "
           f"(mu m g = {summary['coulomb_force_N']:.3f} N); "
           f"effective friction {summary['effective_friction']:.4f}")
+    _print_stance(summary)
     return summary
+
+
+def _print_stance(summary: dict[str, Any]) -> None:
+    """Says, after a protocol's figures, that they mean nothing when the robot left its stance."""
+    problems = summary.get("stance_problems") or []
+    if problems:
+        print("NOT VALID: the robot left its stance, so the figures above do not measure "
+              f"what the {summary.get('experiment', 'experiment')} test measures:")
+        for problem in problems:
+            print(f"  {problem}")
 
 
 def _scenario_args(args: argparse.Namespace, name: str) -> dict[str, Any]:
@@ -304,7 +317,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ntrt", default=None, metavar="NTRTSIM_DIR",
                    help="laws: a checkout of the original toolkit, for its 12-bar cube")
     p.add_argument("--cpu", action="store_true", help="laws: print the CPU time per step")
-    p.add_argument("--out", default=None, help="output folder (default runs/NAME)")
+    output_option(p, "--out", "folder", default=None, help="output folder (default runs/NAME)")
     add_figures_option(p, "disturbance, sine, cpg: ")
     p.set_defaults(run=run)
 
