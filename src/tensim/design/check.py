@@ -161,7 +161,7 @@ def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list
             f"{Motor().max_speed} m/s, max_tension {Motor().max_tension} N)",
             "give each cable the motor it will have"))
     for cable, tension in zip(structure.cables, cable_tensions(structure), strict=True):
-        if tension > cable.motor.max_tension:
+        if tension > cable.motor.max_tension and not cable.motor.passive:  # no motor to stop
             out.append(Finding(
                 "error", f"cable {cable.name!r}",
                 f"its build tension {tension:.4g} N exceeds its motor's max_tension "
