@@ -90,26 +90,12 @@ def support_face(positions: dict[str, np.ndarray]) -> tuple[str, ...]:
     return tuple(sorted(n for n, on in zip(names, near, strict=True) if on))
 
 
-def exit_distance(polygon: np.ndarray, point: np.ndarray, direction: np.ndarray) -> float:
-    """How far ``point`` must move along ``direction`` to leave the convex hull of
-    ``polygon`` (k, 2) [m]; negative when it is already outside (its distance behind the
-    nearest crossing going backwards is not needed: -distance to the hull)."""
-    hull = ConvexHull(polygon) if len(polygon) >= 3 else None
-    if hull is None:  # two feet: an edge, already outside
-        return 0.0
-    best = math.inf
-    inside = True
-    for a, b, c in hull.equations:  # a x + b y + c <= 0 inside
-        n = np.array([a, b])
-        value = float(n @ point + c)
-        if value > 0:
-            inside = False
-        rate = float(n @ direction)
-        if rate > 1e-12:
-            best = min(best, -value / rate)
-    if not inside:
-        return -float(np.max(hull.equations[:, :2] @ point + hull.equations[:, 2]))
-    return best
+def support_edges(polygon: np.ndarray) -> np.ndarray:
+    """(k, 3) the edges of the convex hull of ``polygon`` (m, 2) as lines a x + b y + c = 0
+    with (a, b) the unit outward normal (a x + b y + c < 0 inside)."""
+    if len(polygon) < 3:  # standing on an edge or a point: no polygon to leave
+        return np.zeros((0, 3))
+    return ConvexHull(polygon).equations
 
 
 def _com_jacobian(lin: object) -> np.ndarray:
@@ -141,24 +127,30 @@ def _sensitivity(lin: object, structure: Structure) -> np.ndarray:
 
 @dataclasses.dataclass(frozen=True)
 class TipPlan:
-    """Rest lengths that carry the static centre of mass past the tipping edge.
+    """Rest lengths that carry the static centre of mass past a tipping edge.
 
     Attributes:
         rest_lengths: (n_cables,) commanded rest lengths [m].
         feet: the support face's nodes.
+        direction: (2,) unit outward normal of the edge it tips over.
         margin: how far past the edge the planned static centre of mass lies [m]
             (negative: short of it, the motors' travel spent).
     """
 
     rest_lengths: np.ndarray
     feet: tuple[str, ...]
+    direction: np.ndarray
     margin: float
 
 
 def plan_tip(structure: Structure, rest: np.ndarray, built: np.ndarray, heading: np.ndarray,
              settings: RollSettings = RollSettings(), gravity: float = GRAVITY) -> TipPlan:
-    """The rest lengths that tip ``structure`` (its nodes where the robot stands now) toward
-    ``heading``.
+    """The rest lengths that tip ``structure`` (its nodes where the robot stands now) over
+    the support polygon's edge that best leads toward ``heading``.
+
+    The edges are tried in order of how well their outward normal points along the heading
+    (those pointing ahead of it only); the first whose plan reaches the margin is taken, else
+    the one that came nearest.
 
     Args:
         structure: the robot, its node positions the current pose [m].
@@ -169,27 +161,47 @@ def plan_tip(structure: Structure, rest: np.ndarray, built: np.ndarray, heading:
         gravity: [m/s^2].
 
     Raises:
-        DesignError: no static pose on the current feet.
+        DesignError: no static pose on the current feet, or no edge ahead of the heading.
     """
     positions = {n.name: np.asarray(n.position) for n in structure.nodes}
     feet = support_face(positions)
-    polygon = np.array([positions[f][:2] for f in feet])
+    edges = support_edges(np.array([positions[f][:2] for f in feet]))
+    ahead = sorted((e for e in edges if e[:2] @ heading > 0), key=lambda e: -e[:2] @ heading)
+    if not ahead:
+        raise DesignError(f"no support edge ahead of the heading on feet {', '.join(feet)}")
+    explicit = with_rest_lengths(structure, rest)
+    start = settle(explicit, feet, gravity)
+    best: TipPlan | None = None
+    for edge in ahead:
+        plan = _plan_edge(structure, explicit, start, rest, built, edge, feet, settings,
+                          gravity)
+        if plan.margin >= settings.margin:
+            return plan
+        if best is None or plan.margin > best.margin:
+            best = plan
+    assert best is not None
+    return best
+
+
+def _plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.ndarray,
+               built: np.ndarray, edge: np.ndarray, feet: tuple[str, ...],
+               settings: RollSettings, gravity: float) -> TipPlan:
+    """Steps the motorised rest lengths along the sensitivity that carries the static centre
+    of mass across ``edge`` (a, b, c), until it lies ``settings.margin`` past it."""
     motorised = np.array([not c.motor.passive for c in structure.cables])
     lower = np.where(motorised, built * (1 - settings.shorten), rest)
     upper = np.where(motorised, built * (1 + settings.lengthen), rest)
     step = (upper - lower) / settings.steps
-    explicit = with_rest_lengths(structure, rest)
-    lin = settle(explicit, feet, gravity)
+    normal = edge[:2]
     planned = rest.copy()
     for _ in range(settings.steps):
-        past = -exit_distance(polygon, _com(lin)[:2], heading)
-        if past >= settings.margin:
+        if normal @ _com(lin)[:2] + edge[2] >= settings.margin:
             break
-        rate = heading @ (_com_jacobian(lin) @ _sensitivity(lin, structure))[:2]
+        rate = normal @ (_com_jacobian(lin) @ _sensitivity(lin, structure))[:2]
         useful = np.abs(rate) >= 0.2 * np.abs(rate).max()
         planned = np.clip(planned + np.where(useful, np.sign(rate) * step, 0.0), lower, upper)
         try:
             lin = settle(with_rest_lengths(explicit, planned), feet, gravity)
         except DesignError:
             break
-    return TipPlan(planned, feet, -exit_distance(polygon, _com(lin)[:2], heading))
+    return TipPlan(planned, feet, normal.copy(), float(normal @ _com(lin)[:2] + edge[2]))

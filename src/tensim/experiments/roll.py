@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -26,6 +27,9 @@ from tensim.model import WorldOptions, compile_structure
 from tensim.runs import world_record, write_run
 from tensim.sim import COM, Simulation, SimulationResult, TimeSeries
 from tensim.structure import Structure
+
+ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
+LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
 
 
 def node_positions(sim: Simulation) -> dict[str, np.ndarray]:
@@ -53,16 +57,24 @@ class _Gait:
     settings: RollSettings
     heading_deg: float
     goal: tuple[float, float] | None
+    origin: np.ndarray
+    length: float
     face: tuple[str, ...] = ()
+    seen: tuple[str, ...] = ()
     since: float = 0.0
     pushing: bool = False
     faces: list[tuple[str, ...]] = dataclasses.field(default_factory=list)
     plans: int = 0
 
     def heading(self, com: np.ndarray) -> np.ndarray:
-        if self.goal is None:
-            return heading_vector(self.heading_deg)
-        to_goal = np.asarray(self.goal) - com[:2]
+        """Toward the goal; without one toward a point on the heading's line through the
+        start, :data:`LOOKAHEAD` body lengths ahead (so a robot pushed aside steers back)."""
+        goal = self.goal
+        if goal is None:
+            h = heading_vector(self.heading_deg)
+            ahead = (com[:2] - self.origin) @ h + LOOKAHEAD * self.length
+            goal = tuple(self.origin + ahead * h)
+        to_goal = np.asarray(goal) - com[:2]
         norm = float(np.linalg.norm(to_goal))
         return to_goal / norm if norm > 1e-9 else heading_vector(self.heading_deg)
 
@@ -70,10 +82,12 @@ class _Gait:
         """Looks at the robot and updates the rest-length commands."""
         positions = node_positions(sim)
         face = support_face(positions)
+        held, self.seen = face == self.seen, face  # a new face counts once seen twice running
         if face != self.face:
-            self.face, self.since, self.pushing = face, sim.time, False
-            self.faces.append(face)
-            sim.drive.rest_command[self.motorised] = self.built[self.motorised]
+            if held or not self.faces:
+                self.face, self.since, self.pushing = face, sim.time, False
+                self.faces.append(face)
+                sim.drive.rest_command[self.motorised] = self.built[self.motorised]
             return
         waited = sim.time - self.since
         if not self.pushing and waited >= self.settings.settle_s:
@@ -123,10 +137,11 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     sim = Simulation(compiled, record_dt=record_dt)
     built = compiled.rest_length.copy()
     motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
-    gait = _Gait(compiled.structure, built, motorised, settings, heading_deg, goal)
+    gait = _Gait(compiled.structure, built, motorised, settings, heading_deg, goal,
+                 sim.data.subtree_com[0][:2].copy(), body_length(structure))
     chunks: list[TimeSeries] = []
     period = max(record_dt, round(settings.period_s / record_dt) * record_dt)
-    done = 0.0
+    done, start = 0.0, time.perf_counter()
     with sim:
         while done < duration - 1e-9:
             gait.control(sim)
@@ -137,7 +152,8 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
             if progress is not None:
                 progress(done, duration)
         trajectory = _join(chunks)
-        result = SimulationResult(trajectory, sim.drive.peak.copy(), 0.0, duration, sim.dt,
+        result = SimulationResult(trajectory, sim.drive.peak.copy(), time.perf_counter() - start,
+                                  duration, sim.dt,
                                   sim.index.cables)
     direction = heading_vector(heading_deg) if goal is None else None
     summary = {**result.summary(), **world_record(compiled.world),
