@@ -32,7 +32,7 @@ def _icosahedron() -> Structure:
             for end, along in enumerate((-h, h)):
                 points[f"{axis}{pair}{end}"] = np.array([0.0, offset, along])[list(perm)]
     lift = 0.02 - min(p[2] for p in points.values())
-    nodes = tuple(Node(n, tuple(p + [0, 0, lift])) for n, p in points.items())
+    nodes = tuple(Node(n, tuple(p + np.array([0.0, 0.0, lift]))) for n, p in points.items())
     rods = tuple(Rod(f"rod_{a}{k}", (f"{a}{k}0", f"{a}{k}1"), 0.01, linear_density=0.5)
                  for a in "xyz" for k in (0, 1))
     length = STRUT * math.sqrt(6) / 4
@@ -106,3 +106,12 @@ def test_three_bar_is_as_published_and_checks_clean():
         assert rod.mass_per_length() * robot.distance(*rod.nodes) == pytest.approx(
             BAR_MASS, rel=1e-3)  # the standing pose stretches bars by nothing; cables sag
     assert check_structure(robot, DEFAULT_TIMESTEP) == []
+
+
+def test_cli_roll_options_belong_to_roll(tmp_path):
+    from tensim.cli import main
+
+    assert main(["experiment", "drag", "--heading", "90", "--out", str(tmp_path / "d")]) == 2
+    assert main(["experiment", "roll", "--out", str(tmp_path / "r")]) == 2  # no robot
+    assert main(["experiment", "roll", "six_bar", "--heading", "0", "--goal", "1,0",
+                 "--out", str(tmp_path / "r")]) == 2

@@ -48,12 +48,12 @@ class RollSettings:
         period_s: the gait's control period: it looks at the robot this often [s].
     """
 
-    shorten: float = 0.35
-    lengthen: float = 0.1
+    shorten: float = 0.5
+    lengthen: float = 0.3
     margin: float = 0.03
-    steps: int = 8
+    steps: int = 12
     settle_s: float = 0.3
-    push_s: float = 3.0
+    push_s: float = 2.0
     period_s: float = 0.05
 
     def __post_init__(self) -> None:

@@ -204,9 +204,10 @@ def roll_summary(trajectory: TimeSeries, length: float, heading: np.ndarray | No
     span = float(trajectory.time[-1] - trajectory.time[0])
     error = math.degrees(math.atan2(float(heading[0] * moved[1] - heading[1] * moved[0]),
                                     distance)) if np.linalg.norm(moved) > 0 else 180.0
-    out = {"body_length_m": round(length, 6), "distance_m": round(distance, 6),
-           "body_lengths_per_s": round(distance / length / span, 6) if span > 0 else 0.0,
-           "heading_error_deg": round(abs(error), 3)}
+    out: dict[str, Any] = {"body_length_m": round(length, 6), "distance_m": round(distance, 6),
+                           "body_lengths_per_s": round(distance / length / span, 6) if span > 0
+                           else 0.0,
+                           "heading_error_deg": round(abs(error), 3)}
     if goal is not None:
         out["goal_distance_m"] = [round(float(np.linalg.norm(np.asarray(goal) - p)), 6)
                                   for p in (start, end)]
