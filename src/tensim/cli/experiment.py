@@ -256,6 +256,9 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
           f" {summary['body_lengths_per_s']:.3f} body lengths/s (body length "
           f"{summary['body_length_m']:.3f} m), heading error {summary['heading_error_deg']:.1f}"
           f" deg, {summary['rolls']} rolls over {summary['faces_visited']} faces")
+    if goal is not None:
+        before, after = summary["goal_distance_m"]
+        print(f"goal ({goal[0]:g}, {goal[1]:g}) m: distance {before:.3f} -> {after:.3f} m")
     return summary
 
 

@@ -46,6 +46,8 @@ class RollSettings:
             lengths, before the next plan [s].
         push_s: longest time a plan is held waiting for the robot to tip [s].
         period_s: the gait's control period: it looks at the robot this often [s].
+        release: on a new face, return the cables to their built rest lengths while the robot
+            rests (else hold the commands it tipped with and plan from there).
     """
 
     shorten: float = 0.5
@@ -55,6 +57,7 @@ class RollSettings:
     settle_s: float = 0.3
     push_s: float = 2.0
     period_s: float = 0.05
+    release: bool = True
 
     def __post_init__(self) -> None:
         for name in ("shorten", "lengthen", "margin", "settle_s", "push_s", "period_s"):

@@ -87,7 +87,8 @@ class _Gait:
             if held or not self.faces:
                 self.face, self.since, self.pushing = face, sim.time, False
                 self.faces.append(face)
-                sim.drive.rest_command[self.motorised] = self.built[self.motorised]
+                if self.settings.release:
+                    sim.drive.rest_command[self.motorised] = self.built[self.motorised]
             return
         waited = sim.time - self.since
         if not self.pushing and waited >= self.settings.settle_s:
