@@ -66,12 +66,12 @@ def test_cables_without_a_motor_in_their_file_are_named(tmp_path) -> None:
     save_structure(prism(3), path)
     text = path.read_text()
     assert text.count("motor:") == 9
-    # drop bottom_1's motor from the file: it inherits the default one
+    # drop bottom_1's motor from the file: it is passive
     data = yaml.safe_load(text)
     del data["cables"][1]["motor"]
     path.write_text(yaml.safe_dump(data))
     found = [str(f) for f in check_structure(load_structure(path), source=path)]
-    assert any("bottom_1 give no motor, so they inherit the default one" in f for f in found)
+    assert any("bottom_1 give no motor, so they are passive" in f for f in found)
     assert check_structure(prism(3), source="prism3") == []  # a preset: no file to read
 
 

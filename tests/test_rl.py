@@ -220,7 +220,7 @@ def test_physics_randomization_draws_each_robots_model_within_its_ranges():
     vector = TensegrityVectorEnv(4, config)
     vector.reset(seed=0)
     k0 = vector.robot.stiffness
-    ratios = np.array([m.actuator_biasprm[:12, 0] / k0 for m in vector.worlds.models])
+    ratios = np.array([m.actuator_gainprm[:12, 1] / k0 for m in vector.worlds.models])
     assert np.all((ratios >= 0.5) & (ratios <= 2.0))
     np.testing.assert_allclose(ratios, ratios[:, :1] * np.ones((1, 12)))  # one draw per robot
     assert len(np.unique(ratios[:, 0])) == 4

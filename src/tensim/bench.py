@@ -211,6 +211,59 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
     return BenchCase(f"{name}{label}", m.opt.timestep, timings["tensim"], timings["engine"])
 
 
+def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine3",
+               dt: float = 1e-3) -> dict[str, Any]:
+    """The cost of a step under each cable law (``WorldOptions.cable_law``): preset ``name``
+    under its impedance controller at step ``dt``, the laws' loops taking turns.
+
+    Returns:
+        JSON-ready figures: per law, the best and median CPU and wall time per step [us] and
+        the ratio of its best CPU time to the explicit law's.
+    """
+    from tensim.model._law_layout import CABLE_LAWS
+
+    model = preset(name)
+    structure = model.build()
+    loops: dict[str, Callable[[], None]] = {}
+    sims = []
+    for law in CABLE_LAWS:
+        compiled = compile_structure(structure, WorldOptions(timestep=dt, cable_law=law))
+        sim = Simulation(compiled, controller=model.controller())
+        sims.append(sim)
+        sim.step(int(SETTLE_S / sim.dt))
+        state = sim.get_state()
+
+        def loop(sim: Simulation = sim, state: np.ndarray = state) -> None:
+            sim.set_state(state)
+            sim.run(duration)
+        loops[law] = loop
+    try:
+        timings = _interleaved(loops, repeats, round(duration / dt))
+    finally:
+        for sim in sims:
+            sim.close()
+    base = timings[CABLE_LAWS[0]].best()
+    return {"model": name, "dt_s": dt, "duration_s": duration, "repeats": repeats,
+            "laws": {law: {"cpu_us_per_step_best": round(t.best(), 3),
+                           "cpu_us_per_step_median": round(t.median(), 3),
+                           "wall_us_per_step_best": round(t.best("wall"), 3),
+                           "ratio_to_explicit": round(t.best() / base, 3)}
+                     for law, t in timings.items()},
+            "core_share": min(t.core_share() for t in timings.values())}
+
+
+def format_laws(report: dict[str, Any]) -> str:
+    """The per-law table of :func:`bench_laws`."""
+    lines = [f"cable laws, {report['model']} at {report['dt_s'] * 1e3:g} ms, "
+             f"{report['repeats']} runs each taking turns: us per step (CPU best / median, "
+             "wall best), ratio to the explicit law from the best CPU times"]
+    for law, f in report["laws"].items():
+        lines.append(f"  {law:<12} {f['cpu_us_per_step_best']:7.1f} / "
+                     f"{f['cpu_us_per_step_median']:<7.1f} {f['wall_us_per_step_best']:7.1f}"
+                     f" {f['ratio_to_explicit']:6.2f}x")
+    return "\n".join(lines)
+
+
 CONTACT_TAGS = ("outer_left", "outer_right")  # the spine's lowest cables: they meet the wall
 
 

@@ -152,7 +152,7 @@ def world_record(world: WorldOptions) -> dict[str, Any]:
             "self_collision": world.self_collision, "cone": world.cone,
             "noslip_iterations": world.noslip_iterations, "condim": world.condim,
             "torsional_friction_m": world.torsional_friction,
-            "rolling_friction_m": world.rolling_friction}
+            "rolling_friction_m": world.rolling_friction, "cable_law": world.cable_law}
 
 
 def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,

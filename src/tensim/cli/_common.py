@@ -160,6 +160,12 @@ def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None
                         help="the robot's bodies collide only with the ground, not with each "
                              "other: faster, but wrong wherever its parts touch (see "
                              "docs/speed.md)")
+    parser.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
+                        default="explicit",
+                        help="explicit (default: the paper's law under MuJoCo's Euler step), "
+                             "implicit (MuJoCo's discrete integrator takes each taut cable's "
+                             "stiffness and damping: stiff, damped cables at 1-10 ms) or "
+                             "implicitfast (cheaper, damping only; see docs/speed.md)")
     parser.add_argument("--contact", default=None, metavar="KEY=VALUE,...",
                         help="robot-ground friction model: cone=pyramidal|elliptic, "
                              "noslip=ITERATIONS, condim=3|4|6, torsional=COEFF [m], "
@@ -189,6 +195,7 @@ def world_from_args(args: argparse.Namespace) -> WorldOptions:
     return WorldOptions(timestep=args.dt,
                         terrain=parse_terrain(text) if text is not None else Flat(),
                         self_collision=not getattr(args, "no_self_collision", False),
+                        cable_law=getattr(args, "cable_law", None) or "explicit",
                         **contact_options(getattr(args, "contact", None)))
 
 

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from tensim._input import InputError
 from tensim.cli._common import count, natural, positive
 
 
@@ -23,15 +24,75 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--batch", type=natural, default=0, metavar="N",
                    help="also N Tetraspine3 CPG trials per batch on 1 and 2 threads, against "
                    "mujoco.rollout (e.g. 64)")
+    p.add_argument("--cable-laws", action="store_true",
+                   help="instead of the cases: the cost of a step under each cable law "
+                   "(explicit, implicit, implicitfast), Tetraspine3 under impedance control at "
+                   "1 ms, the laws taking turns")
+    p.add_argument("--backend", choices=("cpu", "warp"), default="cpu",
+                   help="warp: aggregate steps/s of batches of worlds on MuJoCo Warp (a GPU "
+                   "where there is one) beside the CPU batch engine on every core")
+    p.add_argument("--worlds", default="256,1024,4096,16384", metavar="N,N,...",
+                   help="batch sizes of --backend warp")
+    p.add_argument("--record-dt", type=positive, default=0.01, metavar="S",
+                   help="recording period of --backend warp [s] (default 0.01)")
+    p.add_argument("--cases", default=None, metavar="NAME,...",
+                   help="cases of --backend warp (default all: tetraspine3_cpg, "
+                   "tetraspine_sidewind, superball, prism3)")
+    p.add_argument("--device", default=None, help="the Warp device of --backend warp "
+                   "(default: a GPU where there is one, e.g. cuda:0 or cpu)")
     p.set_defaults(run=run)
 
 
+def _worlds(text: str) -> list[int]:
+    try:
+        worlds = [int(w) for w in text.split(",")]
+    except ValueError:
+        worlds = []
+    if not worlds or min(worlds) < 1:
+        raise InputError(f"--worlds: expected batch sizes such as 256,1024, got {text!r}")
+    return worlds
+
+
+def _run_warp(args: argparse.Namespace) -> int:
+    from tensim._files import write_json
+    from tensim.bench_warp import CASES, bench_warp, format_row
+    from tensim.sim._warp_batch import warp_available
+
+    worlds = _worlds(args.worlds)
+    if not warp_available():
+        raise InputError("--backend warp needs MuJoCo Warp: pip install 'tensim[gpu]'")
+    cases = CASES if args.cases is None else tuple(args.cases.split(","))
+    unknown = sorted(set(cases) - set(CASES))
+    if unknown:
+        raise InputError(f"--cases: unknown case {unknown[0]!r}; expected some of "
+                         f"{', '.join(CASES)}")
+    report = bench_warp(worlds, args.duration, cases, device=args.device,
+                        record_dt=args.record_dt,
+                        report=lambda row: print(format_row(row), flush=True))
+    print(f"device: {report['device']}; CPU engine on {report['host_cores']} cores")
+    if args.json:
+        write_json(Path(args.json), report)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.backend == "warp":
+        return _run_warp(args)
     from tensim._files import write_json
     from tensim.bench import machine_note, run_benchmarks
     from tensim.limits import check_run
 
     check_run(args.duration, 1e-3, 0.01, force=args.force)  # the cases' step and recording
+    if args.cable_laws:
+        from tensim.bench import bench_laws, format_laws, load_average
+
+        load = load_average()
+        laws = bench_laws(args.duration, args.repeats)
+        print(format_laws(laws))
+        print(machine_note({"cable laws": laws["core_share"]}, load))
+        if args.json:
+            write_json(Path(args.json), {"cable_laws": laws})
+        return 0
     report = run_benchmarks(args.duration, args.repeats)
     print(format_table(report["cases"], args.repeats))
     print(machine_note(report["core_share"], report["load_average_before"]))

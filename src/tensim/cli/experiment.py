@@ -131,6 +131,19 @@ def _timestep(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     return summary
 
 
+def _laws(args: argparse.Namespace, out: Path) -> dict[str, Any]:
+    from tensim.experiments.laws import CASES, format_law_study, run_law_study
+    from tensim.runs import finish_run
+
+    cases = tuple(c.strip() for c in args.cases.split(",") if c.strip()) if args.cases \
+        else CASES + (("twelve_bar",) if args.ntrt else ())
+    bar = Progress("cable-law study", args.quiet)
+    summary = run_law_study(cases, Path(args.ntrt) if args.ntrt else None, bar.note)
+    finish_run(out, summary)
+    print("\n".join(format_law_study(summary, args.cpu)))
+    return summary
+
+
 def _gait(name: str, default: str) -> Callable[[argparse.Namespace, Path], dict[str, Any]]:
     def run(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         from tensim.experiments.gait import (
@@ -268,6 +281,8 @@ EXPERIMENTS: dict[str, tuple[str, Callable[[argparse.Namespace, Path], dict[str,
                     _disturbance),
     "timestep": ("disturbance test at 250/1000/4000 Hz and three contact time constants",
                  _timestep),
+    "laws": ("the cable laws at 0.5-10 ms steps against a 0.05 ms explicit run (Tetraspine3, "
+             "SUPERball, a stiff 3-bar)", _laws),
     "sine": ("hand-tuned style sine gait on V* (paper Fig. 4)",
              _gait("sine", "tetraspine3_sine")),
     "cpg": ("simulator-tuned CPG gait, sideways locomotion (paper Fig. 5)",
@@ -320,6 +335,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--target", default=None, metavar="X,Y",
                    help="goal: the target point in the world frame [m] (default 1.5,0, "
                         "2.7 m ahead of the robot; write --target=-2,1 for a negative X)")
+    p.add_argument("--cases", default=None, metavar="NAME,...",
+                   help="laws: tetraspine3, superball, three_bar, twelve_bar (default all)")
+    p.add_argument("--ntrt", default=None, metavar="NTRTSIM_DIR",
+                   help="laws: a checkout of the original toolkit, for its 12-bar cube")
+    p.add_argument("--cpu", action="store_true", help="laws: print the CPU time per step")
     p.add_argument("--out", default=None, help="output folder (default runs/NAME)")
     add_figures_option(p, "disturbance, sine, cpg: ")
     p.set_defaults(run=run)
@@ -335,7 +355,8 @@ def run(args: argparse.Namespace) -> int:
     if args.target is not None and args.name != "goal":
         raise ValueError(f"--target is for the goal experiment, not {args.name!r}")
     for option, names in (("push", ("disturbance",)), ("hold", ("disturbance",)),
-                          ("peak_force", ("disturbance",)), ("tow", ("drag",))):
+                          ("peak_force", ("disturbance",)), ("tow", ("drag",)),
+                          ("cases", ("laws",)), ("ntrt", ("laws",))):
         if getattr(args, option) is not None and args.name not in names:
             raise ValueError(f"--{option.replace('_', '-')} is for the {names[0]} experiment, "
                              f"not {args.name!r}")

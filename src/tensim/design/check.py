@@ -11,7 +11,7 @@ Each finding names the item, what is wrong and the change that fixes it:
 - slack cables at the build pose (rest length at or above the length);
 - a build pose far from equilibrium: the cables' net force on a body above 5 % of the mean
   tension (the robot jumps when released);
-- cables whose file gives no motor (they inherit the default one), or a pretension above the
+- cables whose file gives no motor (they are passive), or a pretension above the
   motor's tension limit;
 - sizes that look like centimetres or decimetres (tensim reads metres).
 """
@@ -29,7 +29,7 @@ from tensim._input import load_yaml_file
 from tensim.design._bodies import bodies, cable_tensions
 from tensim.design.equilibrium import residuals
 from tensim.design.stiffness import stable_timestep, stiffness
-from tensim.structure import Motor, Structure, StructureError, mass_properties
+from tensim.structure import Structure, StructureError, mass_properties
 
 _log = logging.getLogger(__name__)
 
@@ -76,7 +76,7 @@ def check_structure(structure: Structure, timestep: float = 1e-3,
         structure: the structure.
         timestep: the physics step to check [s].
         source: the YAML file it was read from, if any: cables whose motor the file leaves out
-            (so they inherit tensim's default motor) are then named too.
+            (so they are passive) are then named too.
     """
     findings = (_units(structure) + _slack(structure) + _motors(structure, source)
                 + _thin(structure))
@@ -157,11 +157,10 @@ def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list
         names = ", ".join(default[:4]) + (" ..." if len(default) > 4 else "")
         out.append(Finding(
             "warning", f"{len(default)} cable(s)",
-            f"{names} give no motor, so they inherit the default one (max_speed "
-            f"{Motor().max_speed} m/s, max_tension {Motor().max_tension} N)",
-            "give each cable the motor it will have"))
+            f"{names} give no motor, so they are passive (no motor winds them)",
+            "give each cable that a controller drives its motor"))
     for cable, tension in zip(structure.cables, cable_tensions(structure), strict=True):
-        if tension > cable.motor.max_tension and not cable.motor.passive:  # no motor to stop
+        if not cable.motor.passive and tension > cable.motor.max_tension:
             out.append(Finding(
                 "error", f"cable {cable.name!r}",
                 f"its build tension {tension:.4g} N exceeds its motor's max_tension "

@@ -80,7 +80,8 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         backend: ``"cpu"`` (MuJoCo's batch engine, bit-identical to single runs) or
             ``"warp"`` (MuJoCo Warp, one world per trial, float32; ``tensim[gpu]``).
         device: the Warp device for ``backend="warp"`` (None: a GPU if there is one).
-        force: run past :data:`tensim.limits.MAX_STEPS` physics steps (all trials together).
+        force: run past :data:`tensim.limits.MAX_STEPS` physics steps (all trials together)
+            and :data:`tensim.limits.MAX_SAMPLES` recorded values.
 
     Raises:
         ValueError: no trials, a bad duration, record_dt or backend, a batch too large to
@@ -110,7 +111,7 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
     record_steps = whole_steps(record_dt, dt, "record_dt")
     n_samples = sample_count(duration, record_steps, dt)
     size = len(trials) * (n_samples + 1) * (6 * compiled.n_cables + 7 * len(compiled.index.bodies))
-    if size > MAX_SAMPLES:
+    if size > MAX_SAMPLES and not force:
         raise ValueError(f"a batch of {len(trials)} trials x {n_samples + 1} samples would hold "
                          f"{size:.3g} recorded values (limit {MAX_SAMPLES:.0e}); run fewer "
                          "trials per batch or record less often (record_dt)")

@@ -87,18 +87,18 @@ class SampleBuffers:
 
 
 def sample_channels(samples: SampleBuffers, index: ModelIndex, dynprm: np.ndarray,
-                    biasprm: np.ndarray) -> TimeSeries:
+                    gainprm: np.ndarray) -> TimeSeries:
     """The named channels of recorded samples.
 
     Args:
         samples: the samples.
         index: the model's names.
-        dynprm, biasprm: (n_cables, 10) the cable actuators' law parameters.
+        dynprm, gainprm: (n_cables, 10) the cable actuators' law parameters.
     """
-    p, b = dynprm, biasprm
+    p, g = dynprm, gainprm
     x, v = samples.length, samples.velocity
-    tension, applied = _laws.cable_tension(x, v, samples.rest, b[:, layout.B_STIFFNESS],
-                                           b[:, layout.B_DAMPING])
+    tension, applied = _laws.cable_tension(x, v, samples.rest, g[:, layout.G_STIFFNESS],
+                                           g[:, layout.G_DAMPING])
     setpoint = _laws.impedance_setpoint(x, v, p[:, layout.P_OFFSET], p[:, layout.P_GAIN_K],
                                         p[:, layout.P_GAIN_B], p[:, layout.P_TARGET_LENGTH],
                                         samples.command)

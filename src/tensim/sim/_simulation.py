@@ -344,7 +344,7 @@ class _Recorder:
         n = self._sim.compiled.n_cables
         return sample_channels(self.buffers.head(self.k), self._sim.index,
                                self._sim.model.actuator_dynprm[:n],
-                               self._sim.model.actuator_biasprm[:n])
+                               self._sim.model.actuator_gainprm[:n])
 
 
 @dataclasses.dataclass(frozen=True)

@@ -280,6 +280,13 @@ class Motor:
         min_length: the motor stops reeling in once the actual length is at or below this [m].
         dc: the DC motor, or None for the kinematic one.
         passive: no motor at all (the other fields are then unused).
+        lag_time: the kinematic motor's first-order lag [s]: each step its rest length moves
+            1 - exp(-dt / lag_time) of the way to its target (still at most max_speed dt), as
+            an actuator filter; 0 (the default): all the way.
+        saturate: the kinematic motor's max_tension is a force cap that saturates: where the
+            static tension k(x - l) would exceed it, the cable back-drives the motor, which
+            pays out (at any speed) so that it holds max_tension. False (the default): the
+            motor only stops reeling in there.
     """
 
     max_speed: float = 0.07
@@ -288,6 +295,8 @@ class Motor:
     min_length: float = 0.01
     dc: DCMotor | None = None
     passive: bool = False
+    lag_time: float = 0.0
+    saturate: bool = False
 
     def __post_init__(self) -> None:
         _check(isinstance(self.passive, bool), "motor",
@@ -297,8 +306,11 @@ class Motor:
         _check(self.dc is None or isinstance(self.dc, DCMotor), "motor",
                f"dc must be a mapping of DC-motor parameters, got {describe(self.dc)}")
         for field, unit in (("max_speed", "m/s"), ("max_tension", "N"),
-                            ("min_rest_length", "m"), ("min_length", "m")):
+                            ("min_rest_length", "m"), ("min_length", "m"), ("lag_time", "s")):
             _real(self, "motor", field, unit)
+        _check(self.lag_time >= 0, "motor", f"lag_time must be >= 0 s, got {self.lag_time}")
+        _check(isinstance(self.saturate, bool), "motor",
+               f"saturate must be true or false, got {describe(self.saturate)}")
         for field in ("max_speed", "max_tension"):
             value = getattr(self, field)
             _check(value > 0, "motor", f"{field} must be > 0, got {value}")

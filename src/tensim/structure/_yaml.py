@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -131,8 +132,11 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
             if key == "motor" and value.get("passive"):
                 continue  # a passive cable is one without a motor
             if isinstance(value, dict):  # a nested record (motor, contact): drop its Nones
+                # (and the options that are off, so files without them stay as they were)
                 value = {k: v for k, v in value.items()
-                         if v is not None and not (k == "passive" and v is False)}
+                         if v is not None and not (k == "passive" and v is False)
+                         and not (k == "lag_time" and v == 0.0)
+                         and not (k == "saturate" and v is False)}
             out[key] = [list(v) if isinstance(v, tuple) else v for v in value] \
                 if isinstance(value, tuple) else value
         return out
@@ -179,6 +183,15 @@ def load_structure(path: str | os.PathLike[str]) -> Structure:
         raise err.with_source(str(path)) from None
 
 
-def save_structure(structure: Structure, path: str | os.PathLike[str]) -> None:
-    """Writes a structure to a YAML file atomically (never a half-written file)."""
-    write_text(Path(path), yaml.safe_dump(structure_to_dict(structure), sort_keys=False))
+def save_structure(structure: Structure, path: str | os.PathLike[str],
+                   header: Sequence[str] = ()) -> None:
+    """Writes a structure to a YAML file atomically (never a half-written file).
+
+    Args:
+        structure: the structure.
+        path: the file to write.
+        header: lines written first as YAML comments (where the structure came from).
+    """
+    comments = "".join(f"# {line}\n" for text in header for line in str(text).splitlines())
+    write_text(Path(path), comments + yaml.safe_dump(structure_to_dict(structure),
+                                                     sort_keys=False))

@@ -197,7 +197,8 @@ def _world(summary: dict[str, Any], folder: Path) -> WorldOptions:
             torsional_friction=float(summary.get("torsional_friction_m",
                                                  defaults.torsional_friction)),
             rolling_friction=float(summary.get("rolling_friction_m",
-                                               defaults.rolling_friction)))
+                                               defaults.rolling_friction)),
+            cable_law=str(summary.get("cable_law", defaults.cable_law)))
     except (TypeError, ValueError, OverflowError) as err:
         raise RunFolderError(f"{folder / 'summary.json'}: {str(err)[:200]}") from None
     text = summary.get("terrain")
