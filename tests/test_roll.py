@@ -115,3 +115,24 @@ def test_cli_roll_options_belong_to_roll(tmp_path):
     assert main(["experiment", "roll", "--out", str(tmp_path / "r")]) == 2  # no robot
     assert main(["experiment", "roll", "six_bar", "--heading", "0", "--goal", "1,0",
                  "--out", str(tmp_path / "r")]) == 2
+
+
+def test_cli_writes_a_run_folder_with_the_rolling_fields(tmp_path):
+    import json
+
+    from tensim.cli import main
+    from tensim.sim import TimeSeries
+    from tensim.structure import save_structure
+
+    save_structure(_icosahedron(), tmp_path / "robot.yaml")
+    out = tmp_path / "run"
+    assert main(["--quiet", "experiment", "roll", str(tmp_path / "robot.yaml"), "--heading",
+                 "90", "--duration", "1", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    ts = TimeSeries.from_parquet(out / "trajectory.parquet")
+    dy = ts["pos_y/com"][-1] - ts["pos_y/com"][0]  # heading 90: along +y
+    assert summary["distance_m"] == pytest.approx(dy, abs=1e-6)
+    assert summary["body_lengths_per_s"] == pytest.approx(dy / STRUT / 1.0, abs=1e-6)
+    for field in ("heading_error_deg", "faces_visited", "rolls", "body_length_m"):
+        assert field in summary
+    assert (out / "structure.yaml").is_file()
