@@ -8,7 +8,7 @@ import json
 import re
 from pathlib import Path
 
-from tensim.bench_warp import format_row
+from tensim.benchmarks.warp import format_row
 
 ROOT = Path(__file__).resolve().parent.parent
 

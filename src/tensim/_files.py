@@ -18,6 +18,10 @@ from typing import Any
 
 from tensim._input import InputError
 
+# a run folder's files that readers below the run writer look for (the replay)
+STRUCTURE_FILE = "structure.yaml"  # the robot as it ran, in every simulation's folder
+CONTROLLER_FILE = "controller.yaml"  # its controller, where it had one
+
 
 def _current_umask() -> int:
     mask = os.umask(0)

@@ -31,7 +31,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from tensim import __version__
-from tensim._files import check_writable, pid_alive, write_json, write_text
+from tensim._files import (
+    CONTROLLER_FILE,
+    STRUCTURE_FILE,
+    check_writable,
+    pid_alive,
+    write_json,
+    write_text,
+)
 from tensim._input import InputError
 from tensim.sim import SimulationResult, TimeSeries
 from tensim.viz.report import figure_names, write_report
@@ -42,8 +49,6 @@ if TYPE_CHECKING:
     from tensim.structure import Structure
     from tensim.viz.drawing import FigureDrawer
 
-STRUCTURE_FILE = "structure.yaml"  # the robot as it ran, in every simulation's folder
-CONTROLLER_FILE = "controller.yaml"  # its controller, where it had one
 
 PROGRESS_LOGGER = "tensim.progress"  # progress lines: to the run log only, never the console
 _MAX_LINES = 20_000

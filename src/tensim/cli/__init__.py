@@ -29,6 +29,7 @@ COMMAND_MODULES = (
     "tensim.cli.render",
     "tensim.cli.io",
     "tensim.cli.learn",
+    "tensim.cli.rl",
     "tensim.cli.hardware",
     "tensim.cli.bench",
     "tensim.cli.design",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import statistics
 import sys
 import time
 from pathlib import Path
@@ -138,10 +139,24 @@ def print_summary(summary: dict[str, Any], out: Path) -> None:
     print(f"wrote {out}/ (summary.json, trajectory.parquet, figures)")
     print(f"simulated {summary['duration_s']} s in {summary['wall_s']} s "
           f"({summary['real_time_factor']}x real time)")
-    if isinstance(tensions, dict) and tensions:
+    if not (isinstance(tensions, dict) and tensions):
+        return
+    if len(tensions) <= LISTED_CABLES:
         print(f"max system tension {summary['max_system_tension_N']} N; per cable [N]:")
         for name, value in tensions.items():
             print(f"  {name:<16} {value:8.3f}")
+        return
+    # hundreds of cables: the most loaded few, the rest in summary.json
+    values = [float(v) for v in tensions.values()]
+    print(f"max system tension {summary['max_system_tension_N']} N; {len(tensions)} cables, "
+          f"max tension median {statistics.median(values):.3f} N, least {min(values):.3f} N; the "
+          f"{TOP_CABLES} most loaded [N] (every cable's in summary.json):")
+    for name, value in sorted(tensions.items(), key=lambda kv: -kv[1])[:TOP_CABLES]:
+        print(f"  {name:<16} {value:8.3f}")
+
+
+LISTED_CABLES = 30  # robots with more cables get a summary of their tensions, not a list
+TOP_CABLES = 5
 
 
 def add_figures_option(parser: argparse.ArgumentParser, which: str = "") -> None:

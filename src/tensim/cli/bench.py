@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +25,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--batch", type=natural, default=0, metavar="N",
                    help="also N Tetraspine3 CPG trials per batch on 1 and 2 threads, against "
                    "mujoco.rollout (e.g. 64)")
+    p.add_argument("--process", action="store_true",
+                   help="also whole commands as processes (experiment disturbance and cpg, "
+                   "with and without figures): CPU time, peak memory, the figures' share")
+    p.add_argument("--busy", action="store_true",
+                   help="run a busy loop on every core beside the benchmark, so that its "
+                   "figures are taken on a loaded machine")
     p.add_argument("--cable-laws", action="store_true",
                    help="instead of the cases: the cost of a step under each cable law "
                    "(explicit, implicit, implicitfast), Tetraspine3 under impedance control at "
@@ -55,7 +62,7 @@ def _worlds(text: str) -> list[int]:
 
 def _run_warp(args: argparse.Namespace) -> int:
     from tensim._files import write_json
-    from tensim.bench_warp import CASES, bench_warp, format_row
+    from tensim.benchmarks.warp import CASES, bench_warp, format_row
     from tensim.sim._warp_batch import warp_available
 
     worlds = _worlds(args.worlds)
@@ -79,12 +86,13 @@ def run(args: argparse.Namespace) -> int:
     if args.backend == "warp":
         return _run_warp(args)
     from tensim._files import write_json
-    from tensim.bench import machine_note, run_benchmarks
+    from tensim.benchmarks._machine import busy
     from tensim.limits import check_run
 
     check_run(args.duration, 1e-3, 0.01, force=args.force)  # the cases' step and recording
     if args.cable_laws:
-        from tensim.bench import bench_laws, format_laws, load_average
+        from tensim.benchmarks._machine import load_average, machine_note
+        from tensim.benchmarks.engine import bench_laws, format_laws
 
         load = load_average()
         laws = bench_laws(args.duration, args.repeats)
@@ -93,22 +101,40 @@ def run(args: argparse.Namespace) -> int:
         if args.json:
             write_json(Path(args.json), {"cable_laws": laws})
         return 0
+    with contextlib.ExitStack() as stack:
+        loops = stack.enter_context(busy()) if args.busy else 0
+        if loops:
+            print(f"busy mode: {loops} busy-loop process(es) beside the benchmark")
+        report = _run(args)
+        report["busy_loops"] = loops
+    if args.json:
+        write_json(Path(args.json), report)
+    return 0
+
+
+def _run(args: argparse.Namespace) -> dict[str, Any]:
+    from tensim.benchmarks._machine import machine_note
+    from tensim.benchmarks.engine import run_benchmarks
+
     report = run_benchmarks(args.duration, args.repeats)
     print(format_table(report["cases"], args.repeats))
     print(machine_note(report["core_share"], report["load_average_before"]))
     if args.learning:
-        from tensim.learn.bench import bench_learning, format_learning
+        from tensim.benchmarks.learning import bench_learning, format_learning
 
         report["learning"] = bench_learning(args.duration, args.evaluations)
         print(format_learning(report["learning"]))
     if args.batch:
-        from tensim.bench_batch import bench_batch, format_batch
+        from tensim.benchmarks.batch import bench_batch, format_batch
 
         report["batch"] = bench_batch(args.batch, args.duration, args.repeats)
         print(format_batch(report["batch"]))
-    if args.json:
-        write_json(Path(args.json), report)
-    return 0
+    if args.process:
+        from tensim.benchmarks.process import bench_process, format_process
+
+        report["process"] = bench_process(args.repeats)
+        print(format_process(report["process"]))
+    return report
 
 
 def format_table(cases: list[dict[str, Any]], repeats: int) -> str:

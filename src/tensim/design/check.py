@@ -26,7 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from tensim._input import load_yaml_file
-from tensim.design._bodies import bodies, cable_tensions
+from tensim.design._blas import one_blas_thread
+from tensim.design._bodies import BuildPose, build_pose, cable_tensions
 from tensim.design.equilibrium import residuals
 from tensim.design.stiffness import stable_timestep, stiffness
 from tensim.structure import Structure, StructureError, mass_properties
@@ -68,6 +69,7 @@ def nice_step(limit: float) -> float:
     return float(10 ** (exponent - 1) * 5)
 
 
+@one_blas_thread
 def check_structure(structure: Structure, timestep: float = 1e-3,
                     source: str | os.PathLike[str] | None = None) -> list[Finding]:
     """Every finding for ``structure`` simulated with the physics step ``timestep`` [s].
@@ -81,20 +83,20 @@ def check_structure(structure: Structure, timestep: float = 1e-3,
     findings = (_units(structure) + _slack(structure) + _motors(structure, source)
                 + _thin(structure))
     try:
-        bodies(structure)
+        pose = build_pose(structure)  # once: every dynamic check reads it
     except StructureError as err:  # wrapped cables: the analyses need straight paths
         return [*findings, Finding("warning", "structure", f"dynamic checks skipped: {err}",
                                    "check the time step with `tensim experiment timestep`")]
-    return findings + _timestep(structure, timestep) + _equilibrium(structure)
+    return findings + _timestep(structure, timestep, pose) + _equilibrium(structure, pose)
 
 
-def _timestep(structure: Structure, timestep: float) -> list[Finding]:
+def _timestep(structure: Structure, timestep: float, pose: BuildPose) -> list[Finding]:
     if not structure.cables:
         return []
-    if bodies(structure).n_dof > MAX_DOF:
+    if pose.bodies.n_dof > MAX_DOF:
         return [Finding("warning", "timestep", f"not checked: more than {MAX_DOF} degrees of "
                         "freedom", "compare runs at two values of --dt")]
-    limit, frequency, zeta = stable_timestep(stiffness(structure, count=False))
+    limit, frequency, zeta = stable_timestep(stiffness(structure, count=False, pose=pose))
     if not np.isfinite(limit):
         return []
     needed = nice_step(limit / 2)
@@ -168,12 +170,12 @@ def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list
     return out
 
 
-def _equilibrium(structure: Structure) -> list[Finding]:
+def _equilibrium(structure: Structure, pose: BuildPose) -> list[Finding]:
     tensions = cable_tensions(structure)
     mean = float(np.mean(tensions)) if tensions.size else 0.0
     if mean <= 0:
         return []
-    forces = residuals(structure)
+    forces = residuals(structure, pose=pose)
     if not forces:  # every body is held by the world
         return []
     name, (force, _) = max(forces.items(), key=lambda kv: kv[1][0])

@@ -25,7 +25,7 @@ from tensim.control import ControllerConfig
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.runs import world_record, write_run
-from tensim.sim import Controller, Simulation, SimulationResult, TimeSeries
+from tensim.sim import Controller, Simulation, SimulationResult, TimeSeries, cable_tension
 from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions
 from tensim.viz.plots import save_figure, thin
@@ -110,7 +110,9 @@ class _Tow:
                 self.start = point.copy()
             travelled = s.speed * (t - s.settle)
             stretch = travelled - float((point - self.start) @ self.d)
-            force = max(0.0, s.stiffness * stretch + s.damping * (s.speed - speed))
+            # the tow line is a cable: the one tension-only spring-damper law (rest length 0)
+            force = float(cable_tension(stretch, s.speed - speed, 0.0, s.stiffness,
+                                        s.damping)[1])
         f = force * self.d
         xfrc = sim.data.xfrc_applied[self.body]
         xfrc[:3] = f

@@ -71,11 +71,13 @@ class LearningSettings:
 
 
 def _versions() -> dict[str, str]:
-    import cma
+    import importlib.metadata
+
     import mujoco
 
+    # cma's version from its metadata: importing cma costs a second (see import_cma)
     return {"tensim": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
-            "cma": cma.__version__, "python": platform.python_version()}
+            "cma": importlib.metadata.version("cma"), "python": platform.python_version()}
 
 
 def create_run(out: str | Path, problem: Problem, settings: LearningSettings) -> RunStore:

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 
-def load_cell_tension(length: np.ndarray, rest_length: np.ndarray, stiffness: np.ndarray
-                      ) -> np.ndarray:
+def load_cell_tension(length: np.ndarray | float, rest_length: np.ndarray | float,
+                      stiffness: np.ndarray | float) -> np.ndarray:
     """The load cell's reading k max(0, x - l) [N] (the spring part of :func:`cable_tension`).
 
     Args:
@@ -22,8 +22,9 @@ def load_cell_tension(length: np.ndarray, rest_length: np.ndarray, stiffness: np
     return np.where(stretch > 0.0, stiffness * stretch, 0.0)
 
 
-def cable_tension(length: np.ndarray, velocity: np.ndarray, rest_length: np.ndarray,
-                  stiffness: np.ndarray, damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def cable_tension(length: np.ndarray | float, velocity: np.ndarray | float,
+                  rest_length: np.ndarray | float, stiffness: np.ndarray | float,
+                  damping: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
     """Paper eq. (1)-(2): a tension-only Hooke spring with linear damping.
 
     f = k (x - l) + b xdot while x > l, else 0, and never negative.

@@ -17,9 +17,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from tensim._files import STRUCTURE_FILE
 from tensim._input import InputError, load_json, read_text
 from tensim.model import CompiledModel, WorldOptions, compile_structure
-from tensim.runs import STRUCTURE_FILE
 from tensim.sim import TimeSeries
 from tensim.structure import Structure, load_structure
 

@@ -12,16 +12,16 @@ comes from the best CPU times.
 from __future__ import annotations
 
 import dataclasses
-import os
 import statistics
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any
 
 import mujoco
 import numpy as np
 from mujoco import rollout
 
+from tensim.benchmarks._machine import core_share, load_average
 from tensim.control import ControllerConfig, load_controller
 from tensim.model import (
     CompiledModel,
@@ -61,46 +61,6 @@ class Timing:
     def core_share(self, threads: int = 1) -> float:
         """Median over runs of CPU time / (wall time x threads)."""
         return core_share(self.cpu, self.wall, threads)
-
-
-# below this share of its wall time on a core, a run mostly waited for other programs
-BUSY_SHARE = 0.85
-
-
-def core_share(cpu: Sequence[float], wall: Sequence[float], threads: int = 1) -> float:
-    """How much of its wall time a run's threads held a core: CPU time / (wall time x
-    threads), the median over runs. About 1 on a machine with a free core per thread; lower
-    where they waited for one (other programs' load), which stretches the wall time and not
-    the CPU time.
-
-    Args:
-        cpu: CPU time of each run (any unit).
-        wall: wall time of the same runs (the same unit).
-        threads: threads each run kept busy.
-    """
-    return statistics.median(c / (w * threads) for c, w in zip(cpu, wall, strict=True))
-
-
-def machine_note(shares: dict[str, float], load_at_start: float) -> str:
-    """One line on how busy the machine was: its cores, the load average before the runs and
-    the lowest core share among ``shares``; below ``BUSY_SHARE`` it says that the wall-time
-    figures (and ratios from them) mean little and the CPU-time ones are the figures."""
-    who, worst = min(shares.items(), key=lambda item: item[1])
-    line = (f"machine: {os.cpu_count()} cores, load average {load_at_start:.2f} before the "
-            f"runs; the runs' threads held a core {worst:.0%} of their wall time at worst "
-            f"({who})")
-    if worst < BUSY_SHARE:
-        return line + ": TOO BUSY for the wall-time figures to mean anything; read the " \
-                      "CPU-time ones"
-    return line
-
-
-def load_average() -> float:
-    """The machine's 1-minute load average (nan where the system gives none)."""
-    try:
-        return os.getloadavg()[0]
-    except OSError:
-        return float("nan")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -31,7 +31,7 @@ def _case(name: str, duration: float) -> tuple[str, CompiledModel, Callable[[int
     """(description, model, trials(n)) of a benchmark case."""
     rng = np.random.default_rng(0)
     if name == "tetraspine3_cpg":
-        from tensim.bench_batch import _problem
+        from tensim.benchmarks.batch import _problem
 
         problem = _problem(duration)
         compiled = problem.compiled()
