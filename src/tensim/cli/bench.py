@@ -8,12 +8,13 @@ from pathlib import Path
 from typing import Any
 
 from tensim._input import InputError
-from tensim.cli._common import count, natural, positive
+from tensim.cli._common import count, natural, output_option, positive
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="speed benchmark against MuJoCo alone")
-    p.add_argument("--json", default=None, help="also write the figures to this JSON file")
+    output_option(p, "--json", "file", default=None,
+                  help="also write the figures to this JSON file")
     p.add_argument("--duration", type=positive, default=10.0, help="simulated time per case [s]")
     p.add_argument("--repeats", type=count, default=5,
                    help="runs of each loop, tensim and MuJoCo alone taking turns")

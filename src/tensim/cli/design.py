@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from tensim.cli._common import load_model, positive
+from tensim.cli._common import load_model, output_option, positive
 
 if TYPE_CHECKING:
     from tensim.design.motors import CableDuty
@@ -28,14 +28,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     level.add_argument("--force-density", type=positive, metavar="Q",
                        help="mean cable force density t/L [N/m]")
     q.add_argument("--cable", default=None, help="the cable that --tension sets")
-    q.add_argument("--out", default=None, metavar="FILE.yaml",
+    output_option(q, "--out", "file", default=None, metavar="FILE.yaml",
                    help="write the prestressed structure here")
     q.set_defaults(run=run_prestress)
     s = steps.add_parser("stiffness", help="tangent stiffness, mechanisms stiffened by "
                          "prestress, natural frequencies and the softest modes")
     s.add_argument("model", help="preset name or structure .yaml file")
     s.add_argument("--modes", type=int, default=4, help="softest modes to list and draw")
-    s.add_argument("--out", default=None, help="output folder (modes.png, stiffness.json)")
+    output_option(s, "--out", "folder", default=None,
+                  help="output folder (modes.png, stiffness.json)")
     s.set_defaults(run=run_stiffness)
     register_size(steps)
     register_pull(steps)
@@ -316,7 +317,7 @@ def register_size(steps: argparse._SubParsersAction) -> None:
                    help="gait cycle [s]: report work per cycle (default: over the run)")
     z.add_argument("--motors", default=None, metavar="FILE.yaml",
                    help="catalogue: motors: [{name, stall_torque [N m], no_load_speed [rad/s]}]")
-    z.add_argument("--out", default="runs/size", help="output folder")
+    output_option(z, "--out", "folder", default="runs/size", help="output folder")
     z.set_defaults(run=run_size)
 
 
@@ -341,8 +342,9 @@ def run_size(args: argparse.Namespace) -> int:
             if (folder / STRUCTURE_FILE).exists():
                 limits = {c.name: (c.motor.max_speed, c.motor.max_tension)
                           for c in load_structure(folder / STRUCTURE_FILE).cables}
-            runs.append(motors.cable_duty(
-                TimeSeries.from_parquet(folder / "trajectory.parquet"), limits))
+            series = TimeSeries.from_parquet(folder / "trajectory.parquet")
+            motors.check_sampling(series, _tracked_peaks(folder), str(folder))
+            runs.append(motors.cable_duty(series, limits))
         duties = motors.merge(runs)
     needs = motors.requirements(duties, args.spool_radius, args.gear, args.safety)
     period = args.period
@@ -378,6 +380,19 @@ def run_size(args: argparse.Namespace) -> int:
     return 0
 
 
+def _tracked_peaks(folder: Path) -> dict[str, float]:
+    """The run's peak tension per cable over every physics step (its summary's
+    ``max_tension_N``; empty when the summary lacks it)."""
+    import json
+
+    try:
+        peaks = json.loads((folder / "summary.json").read_text()).get("max_tension_N")
+    except (OSError, ValueError):
+        return {}
+    return {str(k): float(v) for k, v in peaks.items()
+            if isinstance(v, (int, float))} if isinstance(peaks, dict) else {}
+
+
 def _move(text: str) -> tuple[str, tuple[float, float, float]]:
     """``NODE=DX,DY,DZ`` as (node, displacement [m])."""
     node, _, rest = text.partition("=")
@@ -403,8 +418,9 @@ def register_pull(steps: argparse._SubParsersAction) -> None:
     u.add_argument("--verify", action="store_true",
                    help="simulate the motors winding there slowly (0.01 m/s) and resting 2 s; "
                         "report each node's distance from the static answer")
-    u.add_argument("--out", default="runs/pull", help="output folder (controller.yaml: the "
-                   "commanded rest lengths, for simulate --controller; target.yaml; summary.json)")
+    output_option(u, "--out", "folder", default="runs/pull",
+                  help="output folder (controller.yaml: the "
+                  "commanded rest lengths, for simulate --controller; target.yaml; summary.json)")
     u.set_defaults(run=run_pull)
 
 

@@ -11,6 +11,7 @@ from tensim.cli._common import (
     add_world_options,
     load_model,
     nonnegative,
+    output_option,
     positive,
     world_from_args,
 )
@@ -33,7 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--keep-position", action="store_true",
                    help="keep the file's positions (no --clearance placement)")
     p.add_argument("--name", default=None, help="structure name (default: the file's stem)")
-    p.add_argument("--out", required=True, help="tensim structure .yaml to write")
+    output_option(p, "--out", "file", required=True, help="tensim structure .yaml to write")
     p.set_defaults(run=run_import)
 
     p = sub.add_parser("import-mjcf", help="convert a tensegrity's MuJoCo MJCF file to a tensim "
@@ -46,7 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "atop the structure file.")
     p.add_argument("file", help="the MJCF .xml file")
     p.add_argument("--name", default=None, help="structure name (default: the file's model name)")
-    p.add_argument("--out", required=True, help="tensim structure .yaml to write")
+    output_option(p, "--out", "file", required=True, help="tensim structure .yaml to write")
     p.add_argument("--compare", type=positive, default=None, metavar="SECONDS",
                    help="also run the file in MuJoCo and its import in tensim for this long "
                         "(passive, the file's initial controls) and print how far apart the "
@@ -62,7 +63,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-springs", action="store_true",
                    help="leave the tendons without springs (tensim applies cable tension "
                         "through the actuators)")
-    p.add_argument("--out", required=True, help="MJCF .xml file to write")
+    output_option(p, "--out", "file", required=True, help="MJCF .xml file to write")
     p.set_defaults(run=run_export)
 
 

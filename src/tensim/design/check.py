@@ -9,9 +9,10 @@ Each finding names the item, what is wrong and the change that fixes it:
   it rings and damps wrongly;
 - thin rods: a rod body whose axial inertia is under 1e-4 of its transverse one;
 - slack cables at the build pose (rest length at or above the length);
-- a build pose far from equilibrium: the cables' net force on a body above 5 % of the mean
-  tension (the robot jumps when released);
-- cables whose file gives no motor (they are passive), or a pretension above the
+- a build pose far from equilibrium: the cables' net force on a body above twice the robot's
+  weight (gravity and the ground cannot hold it: the robot springs to another pose); above
+  half the weight, a note (the robot settles into a nearby pose);
+- cables whose file gives no motor (a note: they are passive), or a pretension above the
   motor's tension limit;
 - sizes that look like centimetres or decimetres (tensim reads metres).
 """
@@ -35,7 +36,9 @@ from tensim.structure import Structure, StructureError, mass_properties
 _log = logging.getLogger(__name__)
 
 INERTIA_RATIO = 1e-4  # smallest axial / transverse inertia of a rod body that integrates well
-RESIDUAL_FRACTION = 0.05  # net cable force on a body, of the mean tension, that counts as far
+RESIDUAL_NOTE = 0.5  # net cable force on a body, in robot weights, worth a note
+RESIDUAL_WEIGHTS = 2.0  # net cable force on a body, in robot weights, that counts as far
+GRAVITY = 9.81  # m/s^2
 LARGEST_SIZE = 10.0  # m: a robot larger than this was probably written in cm or dm
 MAX_DOF = 2000  # the time-step check solves a dense eigenproblem: skipped above this size
 
@@ -45,7 +48,8 @@ class Finding:
     """One problem the check found.
 
     Attributes:
-        severity: ``error`` (runs fail or are wrong) or ``warning`` (runs may mislead).
+        severity: ``error`` (runs fail or are wrong), ``warning`` (runs may mislead) or
+            ``note`` (true of the robot, worth knowing, harmless).
         item: the part concerned, e.g. ``cable 'top_0'`` or ``timestep``.
         message: what is wrong, with the numbers.
         fix: what to change.
@@ -78,7 +82,7 @@ def check_structure(structure: Structure, timestep: float = 1e-3,
         structure: the structure.
         timestep: the physics step to check [s].
         source: the YAML file it was read from, if any: cables whose motor the file leaves out
-            (so they are passive) are then named too.
+            (so they are passive) are then named in a note.
     """
     findings = (_units(structure) + _slack(structure) + _motors(structure, source)
                 + _thin(structure))
@@ -139,8 +143,9 @@ def _slack(structure: Structure) -> list[Finding]:
             if structure.rest_length(c) >= structure.cable_length(c)]
 
 
-def _inherited(source: str | os.PathLike[str] | None) -> list[str]:
-    """Cables of a structure file that give no motor, here or in the file's defaults."""
+def _without_motor(source: str | os.PathLike[str] | None) -> list[str]:
+    """Cables of a structure file that give no motor, here or in the file's defaults (they are
+    passive: :func:`tensim.structure.motor_sources`)."""
     path = Path(source) if source is not None else None
     if path is None or path.suffix not in (".yaml", ".yml") or not path.is_file():
         return []
@@ -153,14 +158,14 @@ def _inherited(source: str | os.PathLike[str] | None) -> list[str]:
 
 
 def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list[Finding]:
-    default = _inherited(source)
+    passive = _without_motor(source)
     out = []
-    if default:
-        names = ", ".join(default[:4]) + (" ..." if len(default) > 4 else "")
+    if passive:
+        names = ", ".join(passive[:4]) + (" ..." if len(passive) > 4 else "")
         out.append(Finding(
-            "warning", f"{len(default)} cable(s)",
-            f"{names} give no motor, so they are passive (no motor winds them)",
-            "give each cable that a controller drives its motor"))
+            "note", f"{len(passive)} cable(s)",
+            f"{names} give no motor, so they are passive (their rest lengths never change)",
+            "give a cable a motor if a controller should drive it"))
     for cable, tension in zip(structure.cables, cable_tensions(structure), strict=True):
         if not cable.motor.passive and tension > cable.motor.max_tension:
             out.append(Finding(
@@ -171,22 +176,30 @@ def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list
 
 
 def _equilibrium(structure: Structure, pose: BuildPose) -> list[Finding]:
-    tensions = cable_tensions(structure)
-    mean = float(np.mean(tensions)) if tensions.size else 0.0
-    if mean <= 0:
+    # judged against the robot's weight: a net cable force of the order of the weight is taken
+    # up by gravity and the ground, and the robot settles near where it stands (Tetraspine3's
+    # end segments, pulled inward by 1.45 weights, slide 4 cm and stay down): a note; one
+    # several times the weight springs it into another pose (a prism3 cable at 2x its
+    # pretension, 3.8 weights, lifts a rod 6 mm; at 6x, 19 weights, 35 mm): a warning
+    weight = structure.total_mass() * GRAVITY
+    if weight <= 0:
         return []
     forces = residuals(structure, pose=pose)
     if not forces:  # every body is held by the world
         return []
     name, (force, _) = max(forces.items(), key=lambda kv: kv[1][0])
-    if force <= RESIDUAL_FRACTION * mean:
+    if force <= RESIDUAL_NOTE * weight:
         return []
-    return [Finding("warning", f"body {name!r}",
-                    f"the build pose is far from equilibrium: the cables' net force on it "
-                    f"(gravity left out) is "
-                    f"{force:.4g} N ({100 * force / mean:.0f} % of the mean tension "
-                    f"{mean:.4g} N), so the robot jumps when released",
-                    "run `tensim design prestress` for pretensions that balance")]
+    text = (f"the cables' net force on it at the build pose (gravity left out) is {force:.4g} N, "
+            f"{force / weight:.3g} times the robot's weight {weight:.4g} N")
+    fix = "run `tensim design prestress` for pretensions that balance"
+    if force <= RESIDUAL_WEIGHTS * weight:
+        return [Finding("note", f"body {name!r}", f"{text}: the build pose is not an "
+                        "equilibrium, and the robot settles into a nearby one when released",
+                        fix)]
+    return [Finding("warning", f"body {name!r}", f"{text}: the build pose is far from "
+                    "equilibrium, more than gravity and the ground can hold, so the robot "
+                    "springs to another pose when released", fix)]
 
 
 def _units(structure: Structure) -> list[Finding]:
@@ -201,6 +214,8 @@ def _units(structure: Structure) -> list[Finding]:
 
 def warn_findings(structure: Structure, timestep: float,
                   source: str | os.PathLike[str] | None = None) -> None:
-    """Logs every finding as a warning (``simulate`` runs the check before it starts)."""
+    """Logs every finding as a warning, notes at INFO (``simulate`` runs the check before it
+    starts)."""
     for finding in check_structure(structure, timestep, source):
-        _log.warning("%s: %s; %s", finding.item, finding.message, finding.fix)
+        level = logging.INFO if finding.severity == "note" else logging.WARNING
+        _log.log(level, "%s: %s; %s", finding.item, finding.message, finding.fix)

@@ -67,7 +67,8 @@ class WorldOptions:
         min_inertia_ratio: a body whose smallest principal moment is below this fraction of
             its largest gets the small moments raised to it (thin single rods: MuJoCo spins up
             bodies with a tiny axial inertia); see ``thin_body``.
-        thin_body: ``"regularize"`` (raise the moments and log it) or ``"refuse"`` (raise an error).
+        thin_body: ``"regularize"`` (raise the moments and say so at WARNING, with the figures)
+            or ``"refuse"`` (raise an error). ``min_inertia_ratio=0`` turns the floor off.
         contact_timeconst: time constant of MuJoCo's soft contact [s] (0.02 is MuJoCo's default;
             keep it >= 2 timesteps).
         terrain: the ground (``tensim.terrain``; flat by default); the robot is lifted onto it
@@ -257,9 +258,30 @@ def _regularize(name: str, props: MassProperties, world: WorldOptions) -> tuple[
             "bodies up. Use thin_body='regularize', thicken the rod, or join it to other rods."
         )
     raised = np.maximum(moments, floor)
-    log.info("rigid body %r: principal inertia raised from %s to %s kg m^2 (thin rod)",
-             name, moments, raised)
     return axes @ np.diag(raised) @ axes.T, True
+
+
+_WARNED: set[str] = set()  # thin-body warnings already given (each once per process)
+
+
+def _warn_thin(structure: Structure, raised: list[tuple[str, float, float]],
+               world: WorldOptions) -> None:
+    """One WARNING for the bodies whose smallest principal inertia was raised, with figures."""
+    if not raised:
+        return
+    names = ", ".join(n for n, _, _ in raised[:4]) + (" ..." if len(raised) > 4 else "")
+    low, high = min(r[1] for r in raised), max(r[2] for r in raised)
+    factor = max(new / old if old > 0 else np.inf for _, old, new in raised)
+    message = (f"{structure.name}: {len(raised)} rigid bod{'y' if len(raised) == 1 else 'ies'} "
+               f"({names}): smallest principal inertia raised to {world.min_inertia_ratio:g} of "
+               f"the largest (from {low:.3g} to {high:.3g} kg m^2, up to {factor:.3g}x; MuJoCo "
+               "spins thin rods up), which slows their spin about their axis; give the rods their "
+               "axial_inertia in the structure file (kept as given), a larger radius or point "
+               "masses, or turn the floor off with --inertia-floor 0 "
+               "(WorldOptions(min_inertia_ratio=0))")
+    if message not in _WARNED:
+        _WARNED.add(message)
+        log.warning(message)
 
 
 def compile_structure(structure: Structure, world: WorldOptions | None = None,
@@ -301,14 +323,19 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     masses = {p.node: p for p in structure.point_masses}
     node_body: dict[str, str] = {}
     node_local: dict[str, np.ndarray] = {}
-    adjusted = []
+    adjusted: list[str] = []
+    raised: list[tuple[str, float, float]] = []  # (body, smallest moment, raised) [kg m^2]
     moving_mass = 0.0
     for group in structure.rigid_groups():
         props = mass_properties(structure, group)
         moving_mass += 0.0 if group.fixed else props.mass
-        inertia, changed = _regularize(group.name, props, world)
+        given = bool(group.rods) and all(rods[r].axial_inertia is not None for r in group.rods)
+        inertia, changed = (props.inertia, False) if given else \
+            _regularize(group.name, props, world)
         if changed:
             adjusted.append(group.name)
+            raised.append((group.name, float(np.linalg.eigvalsh(props.inertia)[0]),
+                           float(np.linalg.eigvalsh(inertia)[0])))
         body = spec.worldbody.add_body(name=group.name, pos=props.com.tolist())
         if not group.fixed:
             body.add_freejoint(name=f"{group.name}_free")
@@ -348,6 +375,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
         if anchor.name not in node_body:  # a fixed anchor point in the world
             node_body[anchor.name] = "world"
             node_local[anchor.name] = structure.position(anchor.name)
+    _warn_thin(structure, raised, world)
     _beads.check_beads(structure, world.timestep, moving_mass)
     bodies = {b.name: b for b in spec.bodies}
     bead_paths: dict[str, list[str]] = {}  # contact cables: every site along the path

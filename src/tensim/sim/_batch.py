@@ -150,6 +150,10 @@ def _chunks(compiled: CompiledModel, trials: Sequence[Trial], threads: int, reco
             for first in range(0, len(trials), size)]
 
 
+class _Abandoned(Exception):
+    """A chunk stopped because another thread's failed or was interrupted."""
+
+
 def _run_stealing(runs: list[_BatchRun], threads: int, n_samples: int, duration: float,
                   progress: Callable[[float, float], None] | None) -> None:
     """Runs every chunk to its end on ``threads`` threads (the caller's among them), each
@@ -161,6 +165,8 @@ def _run_stealing(runs: list[_BatchRun], threads: int, n_samples: int, duration:
     failures: list[BaseException] = []
 
     def report(k: int, done_s: float) -> None:
+        if failures:  # another thread failed or was interrupted (Ctrl-C): stop here too
+            raise _Abandoned
         with lock:
             done[k] = done_s * len(runs[k].trials)
             mean = sum(done) / total
@@ -177,6 +183,8 @@ def _run_stealing(runs: list[_BatchRun], threads: int, n_samples: int, duration:
                 k = runs.index(run)
                 run.run(n_samples, duration,
                         lambda d, _t, k=k: report(k, d))  # type: ignore[misc]
+        except _Abandoned:
+            return
         except BaseException as exc:  # raised in the caller's thread below
             failures.append(exc)
 

@@ -180,6 +180,10 @@ class Rod:
         friction: Coulomb friction coefficient against the ground [-].
         restitution: fraction of normal velocity kept after an impact [0, 1).
         tags: labels used to select rods.
+        axial_inertia: moment of inertia about the rod's own axis [kg m^2] (None: the solid
+            cylinder's m r^2 / 2). A rigid body whose rods all give it keeps it: the
+            compiler's floor on thin bodies' inertia (``WorldOptions.min_inertia_ratio``)
+            leaves it alone.
         section: its cross-section and material (:class:`RodSection`), for member checks;
             None: not given (the simulation never needs it).
     """
@@ -192,6 +196,7 @@ class Rod:
     friction: float = 1.0
     restitution: float = 0.0
     tags: tuple[str, ...] = ()
+    axial_inertia: float | None = None
     section: RodSection | None = None
 
     def __post_init__(self) -> None:
@@ -205,6 +210,9 @@ class Rod:
         _real(self, item, "friction", "-")
         _real(self, item, "restitution", "-")
         _check(self.radius > 0, item, f"radius must be > 0 m, got {self.radius}")
+        _real(self, item, "axial_inertia", "kg m^2", optional=True)
+        _check(self.axial_inertia is None or self.axial_inertia > 0, item,
+               f"axial_inertia must be > 0 kg m^2, got {self.axial_inertia}")
         _check(
             (self.linear_density is None) != (self.density is None),
             item,

@@ -107,7 +107,7 @@ def _path(name: str, depth: int) -> str:
 
 # Panel figures by kind: the y label and the height of a row [in].
 PANELS = {"tensions": ("tension [N]", 2.4), "lengths": ("length [m]", 2.2),
-          "velocity_input": ("V* [mm/s]", 2.0)}
+          "velocity_input": ("V* [m/s]", 2.0)}
 LENGTHS_TITLE = "Cable length and motor rest length"
 VELOCITY_TITLE = "Target cable velocity V* sent to each impedance controller"
 
@@ -244,7 +244,9 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
                     label="commanded", zorder=2)
             low = min(low, float(np.nanmin(commanded[later])))
             high = max(high, float(np.nanmax(commanded[later])))
-        ax.plot(*thin(t, measured), color="black", lw=0.8, label="measured", zorder=3)
+        # without an impedance law nothing is commanded: say so rather than "measured" alone
+        label = "measured" if commanded is not None else "tension (no law: none commanded)"
+        ax.plot(*thin(t, measured), color="black", lw=0.8, label=label, zorder=3)
         for span in spans:
             ax.axvspan(span.start, span.stop, color=span.color, alpha=span.alpha, lw=0,
                        label=span.label)
@@ -335,13 +337,13 @@ def plot_velocity_input(table: VelocityTable, path: Path, *,
     times = table.times[:stop]
 
     def draw(ax: Axes, name: str) -> None:
-        ax.step(times, table.values[:stop, table.cables.index(name)] * 1000.0, where="post",
+        ax.step(times, table.values[:stop, table.cables.index(name)], where="post",
                 color="tab:green", lw=0.9, label="V*")
         ax.axhline(0.0, color="black", lw=0.5)
 
     def draw_group(ax: Axes, names: Sequence[str]) -> None:
         for name in names:
-            ax.step(times, table.values[:stop, table.cables.index(name)] * 1000.0,
+            ax.step(times, table.values[:stop, table.cables.index(name)],
                     where="post", lw=0.6, alpha=0.7)
         ax.axhline(0.0, color="black", lw=0.5)
 

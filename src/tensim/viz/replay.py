@@ -198,7 +198,9 @@ def _world(summary: dict[str, Any], folder: Path) -> WorldOptions:
                                                  defaults.torsional_friction)),
             rolling_friction=float(summary.get("rolling_friction_m",
                                                defaults.rolling_friction)),
-            cable_law=str(summary.get("cable_law", defaults.cable_law)))
+            cable_law=str(summary.get("cable_law", defaults.cable_law)),
+            min_inertia_ratio=float(summary.get("min_inertia_ratio",
+                                                defaults.min_inertia_ratio)))
     except (TypeError, ValueError, OverflowError) as err:
         raise RunFolderError(f"{folder / 'summary.json'}: {str(err)[:200]}") from None
     text = summary.get("terrain")
