@@ -17,7 +17,7 @@ from tensim.design.equilibrium import (
 )
 from tensim.design.inverse import InverseStatics, RestCommand, inverse_statics
 from tensim.design.motors import CableDuty, DriveMotor, cable_duty, load_catalogue
-from tensim.design.stiffness import Stiffness, stable_timestep, stiffness
+from tensim.design.stiffness import Stiffness, StepBound, stable_timestep, step_bound, stiffness
 
 __all__ = [
     "CableDuty",
@@ -28,6 +28,7 @@ __all__ = [
     "InverseStatics",
     "RestCommand",
     "SelfStress",
+    "StepBound",
     "Stiffness",
     "cable_duty",
     "check_structure",
@@ -38,5 +39,6 @@ __all__ = [
     "residuals",
     "self_stress",
     "stable_timestep",
+    "step_bound",
     "stiffness",
 ]
