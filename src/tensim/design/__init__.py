@@ -17,7 +17,7 @@ from tensim.design.equilibrium import (
 )
 from tensim.design.inverse import InverseStatics, RestCommand, inverse_statics
 from tensim.design.motors import CableDuty, DriveMotor, cable_duty, load_catalogue
-from tensim.design.stiffness import Stiffness, StepBound, stable_timestep, step_bound, stiffness
+from tensim.design.stiffness import StepBound, Stiffness, stable_timestep, step_bound, stiffness
 
 __all__ = [
     "CableDuty",
