@@ -5,8 +5,15 @@ physics steps, takes a sample and, every :data:`CHECK_EVERY` records and after t
 checks stability. The back-ends (a single :class:`~tensim.sim.Simulation`, MuJoCo's batch
 engine on threads, MuJoCo Warp's worlds) supply only how to step, sample and read the fields
 the checks need (:class:`Backend`); the loop, the time convention, the sample count and the
-verdicts (runaway speed or force, a bad acceleration, a contact cable through an obstacle)
-are written here once.
+verdicts (runaway speed or force, a bad acceleration, a contact cable through an obstacle,
+a cable that rings at the step frequency) are written here once.
+
+Ringing: a step too long for a cable (see ``tensim check``) shows as its force alternating
+up and down from one physics step to the next, often between slack and taut, before speeds
+run away (the tension-only clamp can even hold it there while the robot slides). A back-end
+keeps the cable forces of the last :data:`RING_STEPS` steps before each check
+(:class:`ForceHistory`; one step at a time only there) and :func:`ringing` tells whether each
+cable rings: no resolved motion alternates at the step frequency.
 
 Time: a sample taken when the data is about to take physics step j (``data.time`` = j dt)
 describes t = (j - 1) dt: the kinematics at t and the rest lengths the motors set at t.
@@ -24,6 +31,9 @@ import numpy as np
 from tensim.sim._contact_check import ContactCheck
 
 CHECK_EVERY = 5  # records between stability checks
+RING_STEPS = 3  # consecutive physics steps whose cable forces the ringing check compares
+RING_SWING = 0.5  # a step's force change, of the largest of the three forces, that rings
+RING_FLOOR = 0.01  # N: smaller force changes are round-off, not ringing
 TUNNEL_ADVICE = ("Try a smaller timestep (--dt) or a smaller bead spacing (the cable's "
                  "contact: spacing).")
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -144,6 +154,75 @@ def stable(qvel: np.ndarray, cable_force: np.ndarray, bad_acc: np.ndarray,
     speed = np.abs(qvel).max(axis=-1, initial=0.0)  # NaN stays NaN, and fails below
     pull = -cable_force.min(axis=-1, initial=0.0)
     return (speed < limits.max_speed) & (pull < limits.max_tension) & (bad_acc == 0)
+
+
+def ringing(force: np.ndarray) -> np.ndarray:
+    """(n, n_cables) whether each cable rings: its force over :data:`RING_STEPS` consecutive
+    physics steps went up then down (or down then up), each change above :data:`RING_SWING`
+    of the largest of the forces and above :data:`RING_FLOOR`.
+
+    Args:
+        force: (n, RING_STEPS, n_cables) the cables' forces, oldest first (either sign) [N].
+    """
+    change = np.diff(np.abs(force), axis=1)
+    size = np.abs(change).min(axis=1)
+    bound = np.maximum(RING_SWING * np.abs(force).max(axis=1), RING_FLOOR)
+    return (change[:, 0] * change[:, 1] < 0) & (size > bound)
+
+
+def ring_message(cable: str, time: float, dt: float, force: np.ndarray) -> str:
+    """The error of a cable that rings at ``time`` [s] with physics step ``dt`` [s], its force
+    over the last steps ``force`` (RING_STEPS,) [N]."""
+    low, high = float(np.abs(force).min()), float(np.abs(force).max())
+    return (f"cable {cable!r} rings at the step frequency at t = {time:.3f} s: its tension "
+            f"jumps between {low:.4g} and {high:.4g} N from one {dt * 1e3:g} ms step to the "
+            f"next, so the step is too long for it. Use --dt {suggest_step(dt):g} or less "
+            "(`tensim check` prints the bound), or softer cables / heavier parts.")
+
+
+def suggest_step(dt: float) -> float:
+    """A step [s] to try after ringing at ``dt`` [s]: the largest of 1, 2, 5 x 10^k at most
+    dt / 2 (the bound is below dt, and the step ``tensim check`` asks for is half of it)."""
+    exponent = np.floor(np.log10(dt / 2))
+    mantissa = next(m for m in (5.0, 2.0, 1.0) if m * 10**exponent <= dt / 2 * (1 + 1e-9))
+    return float(mantissa * 10**exponent)
+
+
+class ForceHistory:
+    """The cable forces of each world's last :data:`RING_STEPS` steps, for :func:`ringing`.
+
+    Args:
+        n: worlds.
+        n_cables: cables per world.
+    """
+
+    def __init__(self, n: int, n_cables: int):
+        self.force = np.zeros((n, RING_STEPS, n_cables))
+        self.count = np.zeros(n, dtype=int)
+
+    def push(self, ids: np.ndarray | slice, force: np.ndarray) -> None:
+        """Adds the forces (k, n_cables) [N] of worlds ``ids`` after one more step."""
+        self.force[ids, :-1] = self.force[ids, 1:]
+        self.force[ids, -1] = force
+        self.count[ids] += 1
+
+    def ringing(self, ids: np.ndarray | slice) -> np.ndarray:
+        """(k, n_cables) :func:`ringing` of worlds ``ids`` (False before RING_STEPS steps)."""
+        return ringing(self.force[ids]) & (self.count[ids] >= RING_STEPS)[:, None]
+
+
+def watched(k: int, n_samples: int, nstep: int) -> bool:
+    """Whether record ``k`` (of ``nstep`` steps) steps its last steps one at a time for the
+    ringing check: the records :func:`record_loop` checks after, and every record when a
+    record is shorter than RING_STEPS steps."""
+    return nstep < RING_STEPS or k % CHECK_EVERY == 0 or k == n_samples - 1
+
+
+def split_steps(nstep: int) -> list[tuple[int, bool]]:
+    """The calls (steps, whether to push the forces after it) of a watched record of
+    ``nstep`` steps: the steps before its last RING_STEPS in one call, then one call each."""
+    head = nstep - RING_STEPS
+    return ([(head, False)] if head > 0 else []) + [(1, True)] * min(nstep, RING_STEPS)
 
 
 def contact_problem(check: ContactCheck, model: mujoco.MjModel, scratch: mujoco.MjData,
