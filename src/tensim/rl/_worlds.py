@@ -13,6 +13,7 @@ from mujoco import batch as mjbatch
 from tensim.rl._robot import Robot
 from tensim.sim import PhysicsScale, StabilityLimits, Trial
 from tensim.sim._batch import setup_trial
+from tensim.sim._loop import ForceHistory, split_steps
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
@@ -57,6 +58,7 @@ class Worlds:
         self.start_xipos = np.zeros((n, len(idx.body), 3))
         self.target = np.zeros((n, 2))  # a unit direction or a goal position, world frame
         self.limits = StabilityLimits()
+        self.forces = ForceHistory(n, robot.n)  # the last steps' cable forces, for ringing
 
     # -- episodes --------------------------------------------------------------------------
 
@@ -89,6 +91,7 @@ class Worlds:
         self.pending[ids] = self.hold
         self.previous[ids] = 0.0
         self.steps[ids] = 0
+        self.forces.count[ids] = 0
 
     def _scaled_model(self, rng: np.random.Generator) -> mujoco.MjModel:
         r = self.robot.config.randomization
@@ -153,8 +156,11 @@ class Worlds:
         self.f["ctrl"][ids, :n] = commands
         before = self.f["subtree_com"][ids, 0, :2].copy()
         failed = np.zeros(ids.size, dtype=bool)
-        try:
-            self.batch.step(ids, nstep=c.control_steps, stage=mujoco.mjtStage.mjSTAGE_VEL)
+        try:  # the last steps one at a time: their cable forces tell ringing
+            for count, push in split_steps(c.control_steps):
+                self.batch.step(ids, nstep=count, stage=mujoco.mjtStage.mjSTAGE_VEL)
+                if push:
+                    self.forces.push(ids, self.f["actuator_force"][ids, :n])
         except mjbatch.SimulationError as err:
             failed = np.isin(ids, err.ids)
         self.steps[ids] += 1
@@ -163,8 +169,9 @@ class Worlds:
         speed = np.abs(f["qvel"][ids]).max(axis=1)
         force = -f["actuator_force"][ids, :n].min(axis=1)
         bad = self.batch.warning[ids, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
+        ringing = self.forces.ringing(ids).any(axis=1)
         unstable = failed | ~(speed < self.limits.max_speed) | \
-            ~(force < self.limits.max_tension) | bad
+            ~(force < self.limits.max_tension) | bad | ringing
         after = f["subtree_com"][ids, 0, :2]
         progress, reached = self._progress(ids, before, after)
         control = -c.control_cost * np.mean(applied ** 2, axis=1) * c.control_dt

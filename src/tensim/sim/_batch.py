@@ -26,14 +26,18 @@ from tensim.sim import _law
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import InputPlan
 from tensim.sim._loop import (
+    RING_STEPS,
+    ForceHistory,
     StabilityLimits,
     contact_problem,
     next_step,
     record_loop,
+    ring_message,
     sample_count,
     sample_time,
     stable,
     tunnel_message,
+    watched,
     whole_steps,
 )
 from tensim.sim._samples import SampleBuffers
@@ -154,6 +158,7 @@ class _BatchRun:
         self._contact = ContactCheck(compiled) \
             if any(c.contact for c in compiled.structure.cables) else None
         self._scratch = mujoco.MjData(m) if self._contact is not None else None
+        self.forces = ForceHistory(n, compiled.n_cables)  # the last steps', for ringing
         self._bound = {name: self.batch.bind(name) for name in _RECORD}  # refreshed per call
         self._out: dict[tuple[int, int], dict[str, np.ndarray]] = {}
 
@@ -207,7 +212,8 @@ class _BatchRun:
         live = self._live()
         if not live.size:
             return False
-        self._ids, self._fields = self._block.advance(live, nstep)
+        self._ids, self._fields = self._block.advance(live, nstep,
+                                                      watched(k, self.n_samples, nstep))
         return True
 
     def take(self) -> None:
@@ -242,6 +248,7 @@ class _BatchRun:
         n = self.compiled.n_cables
         bad_acc = self.batch.warning[ids, mujoco.mjtWarning.mjWARN_BADQACC, 1]
         fine = stable(fields["qvel"], fields["actuator_force"][:, :n], bad_acc, self.limits)
+        self._check_ringing(ids[fine])
         for row in np.flatnonzero(~fine):
             i = int(ids[row])
             d = mujoco.MjData(self.compiled.model)
@@ -256,6 +263,17 @@ class _BatchRun:
                 bool(bad_acc[row]))
         if self._contact is not None:
             self._check_contact(ids[fine])
+
+    def _check_ringing(self, ids: np.ndarray) -> None:
+        """Fails the trials with a cable that rings at the step frequency (see
+        :func:`tensim.sim._loop.ringing`), as :meth:`Simulation.check` does."""
+        ring = self.forces.ringing(ids)
+        for row in np.flatnonzero(ring.any(axis=1)):
+            i, force = int(ids[row]), self.forces.force[ids[row]]
+            cable = int(np.argmax(np.where(ring[row], np.ptp(np.abs(force), axis=0), -1.0)))
+            time = float(self.samples.time[i, self.count[i] - 1]) if self.samples else 0.0
+            self.error[i] = f"trial {i}: " + ring_message(
+                self.compiled.index.cables[cable], time, self.dt, force[:, cable])
 
     def _check_contact(self, ids: np.ndarray) -> None:
         """Fails the trials whose contact cables went through an obstacle, as
@@ -296,22 +314,31 @@ class _Block:
                                  for i, s in zip(self.ids, steps, strict=True)])
         self.change = (self.control[:, 1:] != self.control[:, :-1]).any(axis=(0, 2))
 
-    def advance(self, live: np.ndarray, nstep: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def advance(self, live: np.ndarray, nstep: int, watch: bool = False
+                ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Steps trials ``live`` (a subset of the block's) by nstep; returns the trials that
-        ran and their fields after the last step."""
-        run, a = self.run, self.at
+        ran and their fields after the last step. ``watch``: keep the cable forces of the last
+        steps for the ringing check (they are then stepped one at a time)."""
+        run, a, n = self.run, self.at, self.run.compiled.n_cables
         rows = self.control[np.searchsorted(self.ids, live), a:a + nstep]
         self.at += nstep
         cuts = [0, *(np.flatnonzero(self.change[a:a + nstep - 1]) + 1).tolist(), nstep]
+        last = max(0, nstep - RING_STEPS)  # the watched steps start here
         try:
             if len(cuts) > _MAX_STEP_CALLS + 1:  # inputs change often: set them step by step
                 out = run._buffers(live.size, nstep)
                 run.batch.rollout(nstep, rows, record=_RECORD, ids=live, out=out)
                 fields = {name: v[:, -1] for name, v in out.items()}
+                for step in range(last, nstep) if watch else ():
+                    run.forces.push(live, out["actuator_force"][:, step, :n])
             else:  # a few runs of constant inputs: one Batch.step each
+                if watch:
+                    cuts = sorted({*cuts, *range(last, nstep)})
                 for start, stop in itertools.pairwise(cuts):
                     run._bound["ctrl"][live] = rows[:, start]  # a view of the state rows
                     run.batch.step(live, stop - start)
+                    if watch and start >= last:
+                        run.forces.push(live, run._bound["actuator_force"][live, :n])
                 fields = {name: field[live] for name, field in run._bound.items()}
         except mjbatch.SimulationError as exc:
             run._fail(exc.ids)
