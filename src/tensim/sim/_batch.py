@@ -269,11 +269,10 @@ class _BatchRun:
         :func:`tensim.sim._loop.ringing`), as :meth:`Simulation.check` does."""
         ring = self.forces.ringing(ids)
         for row in np.flatnonzero(ring.any(axis=1)):
-            i, force = int(ids[row]), self.forces.force[ids[row]]
-            cable = int(np.argmax(np.where(ring[row], np.ptp(np.abs(force), axis=0), -1.0)))
+            i = int(ids[row])
             time = float(self.samples.time[i, self.count[i] - 1]) if self.samples else 0.0
             self.error[i] = f"trial {i}: " + ring_message(
-                self.compiled.index.cables[cable], time, self.dt, force[:, cable])
+                self.compiled.index.cables, ring[row], self.forces.force[i], time, self.dt)
 
     def _check_contact(self, ids: np.ndarray) -> None:
         """Fails the trials whose contact cables went through an obstacle, as

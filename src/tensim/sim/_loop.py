@@ -22,7 +22,7 @@ describes t = (j - 1) dt: the kinematics at t and the rest lengths the motors se
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Protocol, overload
 
 import mujoco
@@ -170,10 +170,15 @@ def ringing(force: np.ndarray) -> np.ndarray:
     return (change[:, 0] * change[:, 1] < 0) & (size > bound)
 
 
-def ring_message(cable: str, time: float, dt: float, force: np.ndarray) -> str:
-    """The error of a cable that rings at ``time`` [s] with physics step ``dt`` [s], its force
-    over the last steps ``force`` (RING_STEPS,) [N]."""
-    low, high = float(np.abs(force).min()), float(np.abs(force).max())
+def ring_message(cables: Sequence[str], ring: np.ndarray, force: np.ndarray, time: float,
+                 dt: float) -> str:
+    """The error of a world whose cables ``ring`` (n_cables,) at ``time`` [s] with physics
+    step ``dt`` [s]: it names the one whose force ``force`` (RING_STEPS, n_cables) [N] swings
+    most."""
+    swing = np.where(ring, np.ptp(np.abs(force), axis=0), -1.0)
+    k = int(np.argmax(swing))
+    cable = cables[k]
+    low, high = float(np.abs(force[:, k]).min()), float(np.abs(force[:, k]).max())
     return (f"cable {cable!r} rings at the step frequency at t = {time:.3f} s: its tension "
             f"jumps between {low:.4g} and {high:.4g} N from one {dt * 1e3:g} ms step to the "
             f"next, so the step is too long for it. Use --dt {suggest_step(dt):g} or less "

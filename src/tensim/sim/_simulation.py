@@ -221,10 +221,8 @@ class Simulation:
             self._peak_seen = (self.time, self.drive.peak.copy())
             ring = self._forces.ringing(slice(0, 1))[0]
             if ring.any():
-                force = self._forces.force[0]
-                cable = int(np.argmax(np.where(ring, np.ptp(np.abs(force), axis=0), -1.0)))
-                raise SimulationError(ring_message(self.index.cables[cable], self.time, self.dt,
-                                                   force[:, cable]))
+                raise SimulationError(ring_message(self.index.cables, ring,
+                                                   self._forces.force[0], self.time, self.dt))
             problem = contact_problem(self._contact, self.model, self.data) \
                 if self._contact else None
             if problem is None:

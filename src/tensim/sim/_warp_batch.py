@@ -23,13 +23,17 @@ from tensim.model import BUILD_KEY, CompiledModel
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import InputPlan
 from tensim.sim._loop import (
+    RING_STEPS,
+    ForceHistory,
     StabilityLimits,
     bad_acceleration,
     contact_problem,
     record_loop,
+    ring_message,
     sample_time,
     stable,
     tunnel_message,
+    watched,
 )
 from tensim.sim._samples import SampleBuffers
 from tensim.sim._simulation import diagnose
@@ -161,21 +165,26 @@ class _WarpRun:
                 out[i] = plan.control(int(first[i]), count)
         return out
 
-    def _advance(self, control: np.ndarray) -> None:
-        """Steps every world through ``control``'s rows, one ``mjw.step`` per step."""
+    def _advance(self, control: np.ndarray, watch_from: int | None = None) -> None:
+        """Steps every world through ``control``'s rows, one ``mjw.step`` per step; keeps the
+        cable forces of the steps from ``watch_from`` on for the ringing check."""
         import warp as wp
 
-        ctrl = self.d.ctrl
+        ctrl, n = self.d.ctrl, self.compiled.n_cables
         for k in range(control.shape[1]):
             if k == 0 or (control[:, k] != control[:, k - 1]).any():
                 ctrl.assign(control[:, k])
             self._step(self.m, self.d)
+            if watch_from is not None and k >= watch_from:
+                self.forces.push(slice(None), self.d.actuator_force.numpy()[:, :n])
         wp.synchronize()
         self.steps += control.shape[1]
 
     def run(self, n_samples: int, duration: float,
             progress: Callable[[float, float], None] | None, fresh: bool) -> None:
         self.samples = SampleBuffers.empty(self.compiled, n_samples + 1, (len(self.trials),))
+        self.n_samples = n_samples
+        self.forces = ForceHistory(len(self.trials), self.compiled.n_cables)
         if fresh:
             self._advance(self._control(self.steps, 1))  # the motor update at t = 0
         else:
@@ -188,7 +197,8 @@ class _WarpRun:
     # trials are no longer sampled or checked
 
     def advance(self, k: int, nstep: int) -> bool:
-        self._advance(self._control(self.steps, nstep))
+        watch = max(0, nstep - RING_STEPS) if watched(k, self.n_samples, nstep) else None
+        self._advance(self._control(self.steps, nstep), watch)
         return any(e is None for e in self.error)
 
     def take(self) -> None:
@@ -216,6 +226,12 @@ class _WarpRun:
             self.error[i] = f"trial {i}: " + diagnose(self.compiled.model, d,
                                                       self.compiled.index, self.limits, time,
                                                       bool(bad_acc[i]), reset=False)
+        ring = self.forces.ringing(slice(None))
+        for i in np.flatnonzero(fine & ring.any(axis=1)):
+            if self.error[i] is None:
+                time = float(self.samples.time[i, self.count[i] - 1])
+                self.error[i] = f"trial {i}: " + ring_message(
+                    self.compiled.index.cables, ring[i], self.forces.force[i], time, self.dt)
         if self._contact is not None:
             self._check_contact(np.flatnonzero(fine))
 
