@@ -13,7 +13,7 @@ from mujoco import batch as mjbatch
 from tensim.rl._robot import Robot
 from tensim.sim import PhysicsScale, StabilityLimits, Trial
 from tensim.sim._batch import setup_trial
-from tensim.sim._loop import ForceHistory, split_steps
+from tensim.sim._loop import ForceHistory, prestress_band, split_steps
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
@@ -58,7 +58,8 @@ class Worlds:
         self.start_xipos = np.zeros((n, len(idx.body), 3))
         self.target = np.zeros((n, 2))  # a unit direction or a goal position, world frame
         self.limits = StabilityLimits()
-        self.forces = ForceHistory(n, robot.n)  # the last steps' cable forces, for ringing
+        # the cable forces of the last steps, for the ringing check
+        self.forces = ForceHistory(n, prestress_band(robot.compiled.structure))
 
     # -- episodes --------------------------------------------------------------------------
 

@@ -31,6 +31,7 @@ from tensim.sim._loop import (
     StabilityLimits,
     contact_problem,
     next_step,
+    prestress_band,
     record_loop,
     ring_message,
     sample_count,
@@ -158,7 +159,8 @@ class _BatchRun:
         self._contact = ContactCheck(compiled) \
             if any(c.contact for c in compiled.structure.cables) else None
         self._scratch = mujoco.MjData(m) if self._contact is not None else None
-        self.forces = ForceHistory(n, compiled.n_cables)  # the last steps', for ringing
+        # the cable forces of the last steps, for the ringing check
+        self.forces = ForceHistory(n, prestress_band(compiled.structure))
         self._bound = {name: self.batch.bind(name) for name in _RECORD}  # refreshed per call
         self._out: dict[tuple[int, int], dict[str, np.ndarray]] = {}
 

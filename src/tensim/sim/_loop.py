@@ -29,10 +29,12 @@ import mujoco
 import numpy as np
 
 from tensim.sim._contact_check import ContactCheck
+from tensim.structure import Structure
 
 CHECK_EVERY = 5  # records between stability checks
 RING_STEPS = 3  # consecutive physics steps whose cable forces the ringing check compares
 RING_SWING = 0.5  # a step's force change, of the largest of the three forces, that rings
+RING_BAND = 0.5  # a step's force change, of the cable's prestress band, that rings
 RING_FLOOR = 0.01  # N: smaller force changes are round-off, not ringing
 TUNNEL_ADVICE = ("Try a smaller timestep (--dt) or a smaller bead spacing (the cable's "
                  "contact: spacing).")
@@ -156,18 +158,32 @@ def stable(qvel: np.ndarray, cable_force: np.ndarray, bad_acc: np.ndarray,
     return (speed < limits.max_speed) & (pull < limits.max_tension) & (bad_acc == 0)
 
 
-def ringing(force: np.ndarray) -> np.ndarray:
+def ringing(force: np.ndarray, band: np.ndarray | float = 0.0) -> np.ndarray:
     """(n, n_cables) whether each cable rings: its force over :data:`RING_STEPS` consecutive
     physics steps went up then down (or down then up), each change above :data:`RING_SWING`
-    of the largest of the forces and above :data:`RING_FLOOR`.
+    of the largest of the forces, above :data:`RING_BAND` of its prestress band and above
+    :data:`RING_FLOOR`.
 
     Args:
         force: (n, RING_STEPS, n_cables) the cables' forces, oldest first (either sign) [N].
+        band: (n_cables,) each cable's prestress band (see :func:`prestress_band`) [N].
     """
     change = np.diff(np.abs(force), axis=1)
     size = np.abs(change).min(axis=1)
-    bound = np.maximum(RING_SWING * np.abs(force).max(axis=1), RING_FLOOR)
+    bound = np.maximum(RING_SWING * np.abs(force).max(axis=1),
+                       np.maximum(RING_BAND * np.asarray(band), RING_FLOOR))
     return (change[:, 0] * change[:, 1] < 0) & (size > bound)
+
+
+def prestress_band(structure: Structure) -> np.ndarray:
+    """(n_cables,) the tension scale [N] a cable's step-to-step change must pass to ring: its
+    build tension, or the cables' mean build tension where that is larger (a cable slack or
+    nearly slack at the build pose flickers harmlessly while its damper switches on and off at
+    the slack point)."""
+    tension = np.array([c.stiffness * max(0.0, structure.cable_length(c)
+                                          - structure.rest_length(c))
+                        for c in structure.cables])
+    return np.maximum(tension, tension.mean()) if tension.size else tension
 
 
 def ring_message(cables: Sequence[str], ring: np.ndarray, force: np.ndarray, time: float,
@@ -198,11 +214,12 @@ class ForceHistory:
 
     Args:
         n: worlds.
-        n_cables: cables per world.
+        band: (n_cables,) the cables' prestress bands (:func:`prestress_band`) [N].
     """
 
-    def __init__(self, n: int, n_cables: int):
-        self.force = np.zeros((n, RING_STEPS, n_cables))
+    def __init__(self, n: int, band: np.ndarray):
+        self.band = band
+        self.force = np.zeros((n, RING_STEPS, len(band)))
         self.count = np.zeros(n, dtype=int)
 
     def push(self, ids: np.ndarray | slice, force: np.ndarray) -> None:
@@ -213,7 +230,7 @@ class ForceHistory:
 
     def ringing(self, ids: np.ndarray | slice) -> np.ndarray:
         """(k, n_cables) :func:`ringing` of worlds ``ids`` (False before RING_STEPS steps)."""
-        return ringing(self.force[ids]) & (self.count[ids] >= RING_STEPS)[:, None]
+        return ringing(self.force[ids], self.band) & (self.count[ids] >= RING_STEPS)[:, None]
 
 
 def watched(k: int, n_samples: int, nstep: int) -> bool:

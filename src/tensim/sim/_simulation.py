@@ -23,6 +23,7 @@ from tensim.sim._loop import (
     StabilityLimits,
     contact_problem,
     next_step,
+    prestress_band,
     record_loop,
     ring_message,
     sample_count,
@@ -114,7 +115,8 @@ class Simulation:
         self._bad_acc = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
         self._contact = ContactCheck(compiled) \
             if any(c.contact for c in compiled.structure.cables) else None
-        self._forces = ForceHistory(1, compiled.n_cables)  # the last steps', for ringing
+        # the cable forces of the last steps, for the ringing check
+        self._forces = ForceHistory(1, prestress_band(compiled.structure))
         if controller is not None:
             controller.configure(self)
         self._advance(1)  # the motor update at t = 0

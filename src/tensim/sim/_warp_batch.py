@@ -28,6 +28,7 @@ from tensim.sim._loop import (
     StabilityLimits,
     bad_acceleration,
     contact_problem,
+    prestress_band,
     record_loop,
     ring_message,
     sample_time,
@@ -184,7 +185,7 @@ class _WarpRun:
             progress: Callable[[float, float], None] | None, fresh: bool) -> None:
         self.samples = SampleBuffers.empty(self.compiled, n_samples + 1, (len(self.trials),))
         self.n_samples = n_samples
-        self.forces = ForceHistory(len(self.trials), self.compiled.n_cables)
+        self.forces = ForceHistory(len(self.trials), prestress_band(self.compiled.structure))
         if fresh:
             self._advance(self._control(self.steps, 1))  # the motor update at t = 0
         else:
