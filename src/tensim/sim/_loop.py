@@ -195,10 +195,11 @@ def ring_message(cables: Sequence[str], ring: np.ndarray, force: np.ndarray, tim
     k = int(np.argmax(swing))
     cable = cables[k]
     low, high = float(np.abs(force[:, k]).min()), float(np.abs(force[:, k]).max())
-    return (f"cable {cable!r} rings at the step frequency at t = {time:.3f} s: its tension "
-            f"jumps between {low:.4g} and {high:.4g} N from one {dt * 1e3:g} ms step to the "
-            f"next, so the step is too long for it. Use --dt {suggest_step(dt):g} or less "
-            "(`tensim check` prints the bound), or softer cables / heavier parts.")
+    return (f"simulation unstable at t = {time:.3f} s: cable {cable!r} rings at the step "
+            f"frequency, its tension jumping between {low:.4g} and {high:.4g} N from one "
+            f"{dt * 1e3:g} ms step to the next, so the step is too long for it. Use --dt "
+            f"{suggest_step(dt):g} or less (`tensim check` prints the bound), or softer cables "
+            "/ heavier parts.")
 
 
 def suggest_step(dt: float) -> float:
