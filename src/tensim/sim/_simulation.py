@@ -160,6 +160,7 @@ class Simulation:
                              f"(mjSTATE_INTEGRATION of this model), got {state.shape}")
         mujoco.mj_setState(self.model, self.data, state, spec)
         mujoco.mj_forward(self.model, self.data)  # derived fields; the state is unchanged
+        self._forces.count[:] = 0  # the kept forces were another state's
 
     def inputs(self) -> InputPlan:
         """The ``ctrl`` rows of this simulation's commands and loads (read when called)."""
