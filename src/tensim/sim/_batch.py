@@ -333,12 +333,12 @@ class _Block:
                 for step in range(last, nstep) if watch else ():
                     run.forces.push(live, out["actuator_force"][:, step, :n])
             else:  # a few runs of constant inputs: one Batch.step each
-                if watch:
-                    cuts = sorted({*cuts, *range(last, nstep)})
+                if watch:  # the forces after each of the last RING_STEPS steps
+                    cuts = sorted({*cuts, *range(max(1, last + 1), nstep)})
                 for start, stop in itertools.pairwise(cuts):
                     run._bound["ctrl"][live] = rows[:, start]  # a view of the state rows
                     run.batch.step(live, stop - start)
-                    if watch and start >= last:
+                    if watch and stop > last:
                         run.forces.push(live, run._bound["actuator_force"][live, :n])
                 fields = {name: field[live] for name, field in run._bound.items()}
         except mjbatch.SimulationError as exc:

@@ -11,9 +11,9 @@ a cable that rings at the step frequency) are written here once.
 Ringing: a step too long for a cable (see ``tensim check``) shows as its force alternating
 up and down from one physics step to the next, often between slack and taut, before speeds
 run away (the tension-only clamp can even hold it there while the robot slides). A back-end
-keeps the cable forces of the last :data:`RING_STEPS` steps before each check
-(:class:`ForceHistory`; one step at a time only there) and :func:`ringing` tells whether each
-cable rings: no resolved motion alternates at the step frequency.
+keeps the cable forces of the last :data:`RING_STEPS` steps before every :data:`RING_EVERY`-th
+check (:class:`ForceHistory`; its last steps one call each only there) and :func:`ringing`
+tells whether each cable rings: no resolved motion alternates at the step frequency.
 
 Time: a sample taken when the data is about to take physics step j (``data.time`` = j dt)
 describes t = (j - 1) dt: the kinematics at t and the rest lengths the motors set at t.
@@ -33,6 +33,7 @@ from tensim.structure import Structure
 
 CHECK_EVERY = 5  # records between stability checks
 RING_STEPS = 3  # consecutive physics steps whose cable forces the ringing check compares
+RING_EVERY = 4  # stability checks per ringing check (ringing lasts: every 200 ms by default)
 RING_SWING = 0.5  # a step's force change, of the largest of the three forces, that rings
 RING_BAND = 0.5  # a step's force change, of the cable's prestress band, that rings
 RING_FLOOR = 0.01  # N: smaller force changes are round-off, not ringing
@@ -165,14 +166,16 @@ def ringing(force: np.ndarray, band: np.ndarray | float = 0.0) -> np.ndarray:
     :data:`RING_FLOOR`.
 
     Args:
-        force: (n, RING_STEPS, n_cables) the cables' forces, oldest first (either sign) [N].
+        force: (n, RING_STEPS, n_cables) the cables' forces, oldest first, all of one sign
+            (MuJoCo's actuator forces pull: <= 0) [N].
         band: (n_cables,) each cable's prestress band (see :func:`prestress_band`) [N].
     """
-    change = np.diff(np.abs(force), axis=1)
-    size = np.abs(change).min(axis=1)
-    bound = np.maximum(RING_SWING * np.abs(force).max(axis=1),
-                       np.maximum(RING_BAND * np.asarray(band), RING_FLOOR))
-    return (change[:, 0] * change[:, 1] < 0) & (size > bound)
+    first, second = force[:, 1] - force[:, 0], force[:, 2] - force[:, 1]
+    size = np.minimum(np.abs(first), np.abs(second))
+    ring = size > np.maximum(RING_BAND * np.asarray(band), RING_FLOOR)
+    if not ring.any():  # the common case, in few operations
+        return ring
+    return ring & (first * second < 0) & (size > RING_SWING * np.abs(force).max(axis=1))
 
 
 def prestress_band(structure: Structure) -> np.ndarray:
@@ -219,33 +222,42 @@ class ForceHistory:
     """
 
     def __init__(self, n: int, band: np.ndarray):
-        self.band = band
+        self.band = np.maximum(RING_BAND * band, RING_FLOOR) / RING_BAND
         self.force = np.zeros((n, RING_STEPS, len(band)))
         self.count = np.zeros(n, dtype=int)
+        self.fresh = False  # forces pushed since the last ringing test
 
     def push(self, ids: np.ndarray | slice, force: np.ndarray) -> None:
         """Adds the forces (k, n_cables) [N] of worlds ``ids`` after one more step."""
         self.force[ids, :-1] = self.force[ids, 1:]
         self.force[ids, -1] = force
         self.count[ids] += 1
+        self.fresh = True
 
     def ringing(self, ids: np.ndarray | slice) -> np.ndarray:
-        """(k, n_cables) :func:`ringing` of worlds ``ids`` (False before RING_STEPS steps)."""
-        return ringing(self.force[ids], self.band) & (self.count[ids] >= RING_STEPS)[:, None]
+        """(k, n_cables) :func:`ringing` of worlds ``ids`` on the forces pushed since the last
+        test (False without new ones, or before RING_STEPS steps)."""
+        force = self.force[ids]
+        if not self.fresh:
+            return np.zeros((len(force), force.shape[2]), dtype=bool)
+        self.fresh = False
+        return ringing(force, self.band) & (self.count[ids] >= RING_STEPS)[:, None]
 
 
 def watched(k: int, n_samples: int, nstep: int) -> bool:
     """Whether record ``k`` (of ``nstep`` steps) steps its last steps one at a time for the
-    ringing check: the records :func:`record_loop` checks after, and every record when a
-    record is shorter than RING_STEPS steps."""
-    return nstep < RING_STEPS or k % CHECK_EVERY == 0 or k == n_samples - 1
+    ringing check: every :data:`RING_EVERY`-th record :func:`record_loop` checks after, the
+    last, and every record when a record is shorter than RING_STEPS steps."""
+    return nstep < RING_STEPS or k % (CHECK_EVERY * RING_EVERY) == 0 or k == n_samples - 1
 
 
 def split_steps(nstep: int) -> list[tuple[int, bool]]:
     """The calls (steps, whether to push the forces after it) of a watched record of
-    ``nstep`` steps: the steps before its last RING_STEPS in one call, then one call each."""
-    head = nstep - RING_STEPS
-    return ([(head, False)] if head > 0 else []) + [(1, True)] * min(nstep, RING_STEPS)
+    ``nstep`` steps: all but its last RING_STEPS - 1 steps in one call, then one call each;
+    the forces after each of these calls are those of the record's last RING_STEPS steps."""
+    head = nstep - (RING_STEPS - 1)
+    return [(head, True), *[(1, True)] * (RING_STEPS - 1)] if head > 1 \
+        else [(1, True)] * nstep
 
 
 def contact_problem(check: ContactCheck, model: mujoco.MjModel, scratch: mujoco.MjData,
