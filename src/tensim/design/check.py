@@ -206,10 +206,7 @@ def _units(structure: Structure) -> list[Finding]:
 
 
 def warn_findings(structure: Structure, timestep: float,
-                  source: str | os.PathLike[str] | None = None) -> list[Finding]:
-    """Logs every finding as a warning (``simulate`` runs the check before it starts) and
-    returns them."""
-    findings = check_structure(structure, timestep, source)
-    for finding in findings:
+                  source: str | os.PathLike[str] | None = None) -> None:
+    """Logs every finding as a warning (``simulate`` runs the check before it starts)."""
+    for finding in check_structure(structure, timestep, source):
         _log.warning("%s: %s; %s", finding.item, finding.message, finding.fix)
-    return findings
