@@ -222,8 +222,8 @@ class Simulation:
                   np.array(bad_acc), self.limits):
             # MuJoCo's reset clears the activations: keep the peak tensions for the message
             self._peak_seen = (self.time, self.drive.peak.copy())
-            ring = self._forces.ringing(slice(0, 1))[0]
-            if ring.any():
+            ring = self._forces.ringing(slice(0, 1))[0] if self._forces.fresh else None
+            if ring is not None and ring.any():
                 raise SimulationError(ring_message(self.index.cables, ring,
                                                    self._forces.force[0], self.time, self.dt))
             problem = contact_problem(self._contact, self.model, self.data) \
@@ -316,8 +316,11 @@ class _SingleRun:
             count = min(self.per_block, self.n_samples - k) * nstep
             self.segments = _Segments(self.plan.control(self.sim._next_step(), count))
             self.done = 0
-        calls = split_steps(nstep) if watched(k, self.n_samples, nstep) else [(nstep, False)]
-        for count, push in calls:
+        if not watched(k, self.n_samples, nstep):
+            self.segments.run(self.sim, self.done, self.done + nstep)
+            self.done += nstep
+            return True
+        for count, push in split_steps(nstep):
             self.segments.run(self.sim, self.done, self.done + count)
             self.done += count
             if push:
