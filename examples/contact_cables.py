@@ -112,7 +112,7 @@ def preset_masses() -> None:
 def climb(contact: CableContact | None, dt: float, touching: bool = True) -> str:
     """The climb scenario's outcome with the lowest cables as contact cables (None: straight);
     ``touching=False`` keeps the beads but lets them pass through the world."""
-    from tensim.bench import CONTACT_TAGS
+    from tensim.benchmarks.engine import CONTACT_TAGS
     from tensim.experiments.climb import (
         CLIMB_DURATION,
         CLIMB_TERRAIN,

@@ -123,7 +123,7 @@ def evaluate(folder: Path, args: argparse.Namespace) -> dict[str, object]:
     walked = []
     for k in range(config.max_steps):  # the last step ends the episodes (next-step reset)
         if k % every == 0 and renders is not None:
-            frames.append(renders.image(env.worlds.data(0)))  # the first start only
+            frames.append(renders.image(env.worlds.models[0], env.worlds.data(0)))  # first start
         obs = env.step(policy(obs))[0]
         if (k + 1) % marks == 0:
             walked.append(float(np.mean(env.worlds.f["subtree_com"][:, 0, 1] - start[:, 1])))
@@ -143,7 +143,7 @@ def _renders(env: TensegrityVectorEnv) -> Renders | None:
     from tensim.viz._gl import OffscreenUnavailable
 
     try:
-        return Renders(env.robot.compiled, env.robot.stiffness)
+        return Renders(env.robot.compiled)
     except OffscreenUnavailable as err:
         print(f"no video: {err}", file=sys.stderr)
         return None
@@ -218,7 +218,7 @@ def speed(args: argparse.Namespace) -> None:
     config = dataclasses.replace(training_config(args), threads=args.threads)
     vector, sb3 = TensegrityVectorEnv(args.envs, config), SB3VecEnv(args.envs, config)
     raw = vector.worlds.batch
-    actions = np.random.default_rng(0).uniform(-1, 1, (args.envs, vector.robot.n))
+    actions = np.random.default_rng(0).uniform(-1, 1, (args.envs, vector.robot.motors.size))
     vector.reset(seed=0)
     sb3.reset()
 

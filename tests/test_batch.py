@@ -175,7 +175,7 @@ def test_the_rollout_benchmark_replays_exactly_the_batch_trials():
     import mujoco
     from mujoco import rollout
 
-    from tensim.bench_batch import _problem, rollout_inputs
+    from tensim.benchmarks.batch import _problem, rollout_inputs
 
     problem = _problem(0.3)
     points = np.random.default_rng(5).random((3, problem.dimension))
@@ -190,3 +190,20 @@ def test_the_rollout_benchmark_replays_exactly_the_batch_trials():
     for k, trial in enumerate(trials):
         rest = states[k, -1, act:act + 2 * compiled.n_cables:2]
         np.testing.assert_array_equal(trial.result.trajectory.matrix("rest_length")[-1], rest)
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_chunks_on_any_thread_count_equal_single_runs_and_name_their_trials(robot, threads):
+    """Trials cut into chunks that threads take as they finish: every trial still equals its
+    single run bit for bit, and a failure names its place in the whole batch."""
+    p, structure, compiled = robot
+    gait = _gait(structure, compiled, "tetraspine3_cpg")
+    trials = [Trial(gait, physics=PhysicsScale(friction=f)) for f in np.linspace(0.6, 1.4, 6)]
+    trials.insert(4, Trial(p.controller(), physics=PhysicsScale(stiffness=1e4)))  # blows up
+    results = run_batch(compiled, trials, 0.3, threads=threads)
+    assert not results[4].ok and results[4].error.startswith("trial 4:")
+    for k in (0, 3, 5, 6):
+        trial = trials[k]
+        scaled = _modified(structure, friction=trial.physics.friction)
+        single = simulate(compile_structure(scaled), 0.3, controller=gait)
+        _assert_identical(single, results[k])

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import math
 
-from tensim.bench import Timing, bench_model, core_share, machine_note
-from tensim.bench_batch import bench_batch, format_batch
+from tensim.benchmarks._machine import core_share, machine_note
+from tensim.benchmarks.batch import bench_batch, format_batch
+from tensim.benchmarks.engine import Timing, bench_model
 from tensim.cli.bench import format_table
 from tensim.terrain import Rough
 
@@ -58,3 +59,26 @@ def test_the_batch_bench_gives_ratios_in_cpu_time_beside_wall_time():
         assert 0 < batch["core_share"] <= 1.2
     text = format_batch(report)
     assert "in CPU time" in text and "machine: " in text
+
+
+def test_the_busy_mode_keeps_a_core_busy_and_ends_with_its_block():
+    """The busy loops run while the block does (they take CPU that this process does not),
+    and are gone after it."""
+    import multiprocessing
+    import time
+
+    from tensim.benchmarks._machine import busy
+
+    with busy(1) as loops:
+        assert loops == 1
+        children = multiprocessing.active_children()
+        assert len(children) == 1 and children[0].is_alive()
+        time.sleep(0.2)
+    assert not children[0].is_alive()
+
+
+def test_a_whole_process_run_reports_its_cpu_time_and_memory(tmp_path):
+    from tensim.benchmarks.process import run_process
+
+    cpu, wall, peak = run_process(["info", "tetraspine3"])
+    assert 0 < cpu and 0 < wall and 20 < peak < 2000  # an interpreter with numpy: tens of MiB

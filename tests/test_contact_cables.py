@@ -8,7 +8,6 @@ import dataclasses
 import logging
 import math
 import re
-import time
 
 import mujoco
 import numpy as np
@@ -422,11 +421,15 @@ def test_beads_that_outweigh_the_robot_less_than_tenfold_are_built_with_a_warnin
 
 
 @pytest.mark.parametrize("spacing", [1e-7, 1e-300, 5e-324])
-def test_bead_counts_are_bounded_before_anything_is_built(spacing):
-    start = time.monotonic()
+def test_bead_counts_are_bounded_before_anything_is_built(spacing, monkeypatch):
+    from tensim.model import _beads
+
+    def never(*args, **kwargs):
+        raise AssertionError("a bead was built before the count was checked")
+
+    monkeypatch.setattr(_beads, "add_beads", never)
     with pytest.raises(InputError, match=r"beads: .* more than the limit of 1e\+04"):
         compile_structure(*_hanging(spacing))
-    assert time.monotonic() - start < 2.0
 
 
 @settings(max_examples=40, derandomize=True, database=None, deadline=None)
@@ -438,12 +441,10 @@ def test_any_bead_spacing_compiles_within_the_bounds_or_is_refused(spacing, mass
     structure, world = _hanging(spacing, dt, tension)
     cable = dataclasses.replace(structure.cables[0], contact=CableContact(spacing, R, mass))
     structure = dataclasses.replace(structure, cables=(cable,))
-    start = time.monotonic()
     try:
         compiled = compile_structure(structure, world)
     except InputError:
-        assert time.monotonic() - start < 2.0
-        return
+        return  # refused before building: test_bead_counts_are_bounded_before_anything_is_built
     m = compiled.model
     beads = compiled.index.bead
     assert 1 <= beads.size <= MAX_BEADS

@@ -75,12 +75,16 @@ def test_cables_without_a_motor_in_their_file_are_named(tmp_path) -> None:
     save_structure(prism(3), path)
     text = path.read_text()
     assert text.count("motor:") == 9
-    # drop bottom_1's motor from the file: it inherits the default one
+    # drop bottom_1's motor from the file: it is passive (as tensim info says), a note only
     data = yaml.safe_load(text)
     del data["cables"][1]["motor"]
     path.write_text(yaml.safe_dump(data))
-    found = [str(f) for f in check_structure(load_structure(path), source=path)]
-    assert any("bottom_1 give no motor, so they inherit the default one" in f for f in found)
+    robot = load_structure(path)
+    assert robot.cables[1].motor.passive
+    found = check_structure(robot, source=path)
+    assert [(f.severity, f.message) for f in found] == [
+        ("note", "bottom_1 give no motor, so they are passive (their rest lengths never "
+                 "change)")]
     assert check_structure(prism(3), source="prism3") == []  # a preset: no file to read
 
 
@@ -178,3 +182,107 @@ def test_step_bound_of_one_mode_is_the_closed_form() -> None:
         assert _scanned_step(stiff, damp, integrator, 1.0) == pytest.approx(closed, rel=2e-4)
     with pytest.raises(ValueError, match="integrator must be one of euler, implicitfast"):
         step_matrix(stiff, damp, np.eye(1), 1e-3, "rk4")
+
+
+def test_a_passive_cable_above_the_default_motors_limit_is_not_an_error(tmp_path, capsys):
+    # a cable the file gives no motor is passive: no motor limit applies (tensim info agrees)
+    data = yaml.safe_load(_saved(tmp_path, prism(3)).read_text())
+    data["cables"][0].pop("motor")
+    data["cables"][0]["pretension"] = 80.0  # above the default motor's 50 N
+    path = tmp_path / "passive.yaml"
+    path.write_text(yaml.safe_dump(data))
+    found = check_structure(load_structure(path), source=path)
+    assert not [f for f in found if "max_tension" in f.message]
+    assert main(["check", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "inherit" not in out and "note: 1 cable(s): bottom_0 give no motor, so they are " \
+        "passive" in out
+
+
+def _saved(tmp_path, structure):
+    path = tmp_path / "robot.yaml"
+    save_structure(structure, path)
+    return path
+
+
+def test_equilibrium_is_judged_against_the_robots_weight() -> None:
+    from tensim.design.equilibrium import residuals
+    from tensim.models import tetraspine3
+
+    # Tetraspine3's end segments are pulled inward by 1.45 times its weight: it settles (a
+    # note, not a warning on every run)
+    spine = tetraspine3()
+    weight = spine.total_mass() * 9.81
+    force = max(f for f, _ in residuals(spine).values())
+    assert 1.4 < force / weight < 1.5
+    assert [f.severity for f in check_structure(spine)] == ["note"]
+    # one prism cable at 3x its pretension: 7.5 weights, a warning with the figures
+    base = prism(3)
+    cables = list(base.cables)
+    cables[6] = dataclasses.replace(cables[6], pretension=3 * cables[6].pretension)
+    (finding,) = check_structure(dataclasses.replace(base, cables=tuple(cables)))
+    ratio = max(f for f, _ in residuals(dataclasses.replace(base, cables=tuple(cables)))
+                .values()) / (base.total_mass() * 9.81)
+    assert finding.severity == "warning" and f"{ratio:.3g} times the robot's weight" \
+        in finding.message and ratio > 2
+
+
+def test_the_thin_rod_floor_is_a_warning_with_figures_and_can_be_turned_off(caplog) -> None:
+    import logging
+
+    from tensim.model import WorldOptions, _compile, compile_structure
+
+    _compile._WARNED.clear()
+    with caplog.at_level(logging.WARNING, logger="tensim.model._compile"):
+        compiled = compile_structure(prism(3))
+    (record,) = [r for r in caplog.records if "principal inertia" in r.getMessage()]
+    assert record.levelno == logging.WARNING
+    message = record.getMessage()
+    # the prism's rods: axial 1.39e-05 kg m^2 raised to 0.01 of the transverse 7.94e-03
+    assert "from 1.39e-05 to 7.94e-05 kg m^2, up to 5.72x" in message
+    assert "--inertia-floor 0" in message and len(compiled.inertia_adjusted) == 3
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="tensim.model._compile"):
+        bare = compile_structure(prism(3), WorldOptions(min_inertia_ratio=0.0))
+    assert not caplog.records and bare.inertia_adjusted == ()
+    body = bare.model.body("rod_0").id
+    assert bare.model.body_inertia[body].min() == pytest.approx(1.389e-05, rel=1e-3)
+
+
+def test_the_inertia_floor_option_reaches_the_run_and_its_replay(tmp_path) -> None:
+    import json
+
+    from tensim.viz.replay import load_run
+
+    out = tmp_path / "run"
+    assert main(["--quiet", "simulate", "prism3", "--duration", "0.02", "--inertia-floor", "0",
+                 "--out", str(out)]) == 0
+    assert json.loads((out / "summary.json").read_text())["min_inertia_ratio"] == 0.0
+    assert load_run(out).compiled.world.min_inertia_ratio == 0.0
+
+
+def test_a_rod_given_its_axial_inertia_keeps_it(tmp_path, caplog) -> None:
+    import logging
+
+    from tensim.model import _compile, compile_structure
+
+    base = prism(3)
+    given = 2.5e-5  # kg m^2: between the cylinder's 1.39e-05 and the floor's 7.94e-05
+    robot = dataclasses.replace(base, rods=tuple(dataclasses.replace(r, axial_inertia=given)
+                                                 for r in base.rods))
+    path = tmp_path / "robot.yaml"
+    save_structure(robot, path)
+    assert load_structure(path) == robot  # the field goes through the file
+    _compile._WARNED.clear()
+    with caplog.at_level(logging.WARNING, logger="tensim.model._compile"):
+        compiled = compile_structure(load_structure(path))
+    assert not [r for r in caplog.records if "principal inertia" in r.getMessage()]
+    from tensim.structure import mass_properties
+
+    group = next(g for g in robot.rigid_groups() if g.name == "rod_0")
+    moments = np.linalg.eigvalsh(mass_properties(robot, group).inertia)  # rod plus end caps
+    assert moments[0] < 0.01 * moments[-1]  # below the floor, which would have raised it
+    body = compiled.model.body("rod_0").id
+    assert compiled.model.body_inertia[body].min() == pytest.approx(moments[0], rel=1e-9)
+    with pytest.raises(tensim.structure.StructureError, match="axial_inertia must be > 0"):
+        dataclasses.replace(base.rods[0], axial_inertia=-1.0)

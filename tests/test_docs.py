@@ -39,3 +39,28 @@ def test_an_ellipsis_matches_any_lines_and_nothing_else_does():
 def test_the_load_cell_transcript_matches_what_the_command_prints():
     (calibration,) = [t for t in check_docs.transcripts() if "calibrate-loadcell" in t.command]
     assert check_docs.check(calibration) == []
+
+
+def test_a_failing_command_piped_into_head_or_tail_is_seen():
+    for command in ("python -c 'import sys; print(1); sys.exit(3)' | tail -1",
+                    "python -c 'raise SystemExit(4)' 2>&1 | head -1"):
+        transcript = check_docs.Transcript("page.md", 1, command, ("1",))
+        (line,) = [d for d in check_docs.check(transcript) if d.startswith("+(exit status")]
+        assert "exit status" in line
+
+
+def test_a_stated_tolerance_covers_the_numbers_and_nothing_else(tmp_path):
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "page.md").write_text(
+        "text\n\n<!-- check_docs: rel=0.02 abs=0.001 -->\n```\n$ echo 1\nmoved 1.000 m in 3 s\n"
+        "```\n\n```\n$ echo 2\nmoved 1.000 m\n```\n")
+    tolerant, exact = check_docs.transcripts(tmp_path)
+    assert tolerant.tolerance == check_docs.Tolerance(0.02, 0.001)
+    assert exact.tolerance == check_docs.Tolerance()
+    same = check_docs.matches
+    assert same(tolerant.expected, ["moved 1.019 m in 3 s"], tolerant.tolerance)
+    assert not same(tolerant.expected, ["moved 1.021 m in 3 s"], tolerant.tolerance)
+    assert not same(tolerant.expected, ["moved 1.000 m in 3 s!"], tolerant.tolerance)
+    assert not same(tolerant.expected, ["moved 1.000 km in 3 s"], tolerant.tolerance)
+    assert same(("0.000 N",), ["0.001 N"], tolerant.tolerance)  # the absolute part
+    assert not same(exact.expected, ["moved 1.001 m"], exact.tolerance)

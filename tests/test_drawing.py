@@ -110,10 +110,14 @@ def test_closing_with_figures_pending_stops_the_process(tmp_path):
     assert process.poll() is not None  # ended (killed) before close returned
 
 
-def test_only_a_long_run_on_two_cores_starts_a_drawing_process(monkeypatch):
+def test_only_a_long_run_with_an_idle_core_starts_a_drawing_process(monkeypatch):
     monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0, 1})
+    monkeypatch.setattr("os.getloadavg", lambda: (0.9, 0.5, 0.5))  # this run alone
     assert background_pays(MIN_STEPS) and not background_pays(MIN_STEPS - 1)
+    monkeypatch.setattr("os.getloadavg", lambda: (1.6, 1.5, 1.5))  # no core idle
+    assert not background_pays(10 * MIN_STEPS)
     monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0})
+    monkeypatch.setattr("os.getloadavg", lambda: (0.0, 0.0, 0.0))
     assert not background_pays(10 * MIN_STEPS)
 
 

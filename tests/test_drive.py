@@ -94,28 +94,42 @@ def test_simultaneous_simulations_do_not_interfere():
 
 
 @needs_compiled
-def test_compiled_law_equals_the_reference_on_random_states():
+@pytest.mark.parametrize("law", ["explicit", "implicit"])
+def test_compiled_law_equals_the_reference_on_random_states(law):
     """For random rest lengths, commands, modes and motions, the compiled callbacks write the
-    act_dot and actuator force that tensim.sim.cable_law computes from the same data."""
+    act_dot and actuator force that tensim.sim.cable_law computes from the same data (under
+    the implicit law: its pull's rate too, and MuJoCo's force, gain term plus bias, clamped)."""
     p = preset("tetraspine3")
-    compiled = compile_structure(p.build())
+    compiled = compile_structure(p.build(), WorldOptions(cable_law=law))
     rng = np.random.default_rng(7)
     with Simulation(compiled, controller=p.controller()) as sim:
         m, d, n = sim.model, sim.data, compiled.n_cables
+        s = int(m.actuator_actnum[0])  # activations per cable
         for trial in range(20):
             sim.drive.mode[:] = rng.integers(0, 2, n)
             sim.drive.offset_tension[:] = rng.uniform(0, 20, n)
             d.qvel[:] = rng.normal(0, 0.5, m.nv)
-            d.act[0:2 * n:2] = compiled.rest_length * rng.uniform(0.8, 1.2, n)
-            d.act[1:2 * n:2] = rng.uniform(0, 30, n)
+            d.act[0:s * n:s] = compiled.rest_length * rng.uniform(0.8, 1.6, n)
+            d.act[1:s * n:s] = rng.uniform(0, 30, n)
             d.ctrl[:n] = np.where(sim.drive.mode == 1, rng.normal(0, 0.05, n),
                                   compiled.rest_length * rng.uniform(0.8, 1.2, n))
             mujoco.mj_forward(m, d)
-            rest_rate, peak_rate, _, force = cable_law(m, d)
-            assert np.abs(rest_rate).max() > 0, trial  # the motors do move
-            np.testing.assert_array_equal(d.act_dot[0:2 * n:2], rest_rate)
-            np.testing.assert_array_equal(d.act_dot[1:2 * n:2], peak_rate)
-            np.testing.assert_array_equal(d.actuator_force[:n], force)
+            rates = cable_law(m, d)
+            assert np.abs(rates.rest_rate).max() > 0, trial  # the motors do move
+            np.testing.assert_array_equal(d.act_dot[0:s * n:s], rates.rest_rate)
+            np.testing.assert_array_equal(d.act_dot[1:s * n:s], rates.peak_rate)
+            np.testing.assert_array_equal(d.actuator_force[:n], rates.force)
+            if law == "implicit":  # the pull: -1 exactly where taut after the motor step
+                d.act[2:s * n:s] = rng.choice([-1.0, 0.0], n)
+                mujoco.mj_forward(m, d)
+                rates = cable_law(m, d)
+                np.testing.assert_array_equal(d.act_dot[2:s * n:s], rates.pull_rate)
+                np.testing.assert_array_equal(d.actuator_force[:n], rates.force)
+                pull = d.act[2:s * n:s] + rates.pull_rate * m.opt.timestep
+                rest = d.act[0:s * n:s] + rates.rest_rate * m.opt.timestep
+                taut = d.ten_length[compiled.index.tendon] > rest
+                np.testing.assert_allclose(pull, np.where(taut, -1.0, 0.0), atol=1e-12)
+                assert 0 < taut.sum() < n and np.all(rates.force[~taut] == 0.0)
 
 
 def test_snapshot_continuation_is_bit_identical_mid_gait():

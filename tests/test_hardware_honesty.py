@@ -87,18 +87,29 @@ def test_touching_windows_fit_no_validation_sample(push_log, robot, impedance):
 
 
 def test_window_fit_compares_the_window_it_simulated(push_log, robot, impedance):
-    """A fit on 0:2 s simulates to 2 s; its before/after figures and the nominal model's
-    alignment use those samples, not the rest of the log (which the simulation never
-    reached: a held last value would be scored there)."""
+    """A fit on 0:2 s is judged on the samples after it (held out by default), so it
+    simulates to the log's end and no further; with a validation window of 2:3 s it
+    simulates to 3 s, and its before/after figures and the nominal model's alignment use
+    those samples, not the rest of the log (which the simulation never reached: a held last
+    value would be scored there)."""
     result = identify([push_log], robot, impedance, ["offset"],
                       settings=SysidSettings(fit_window=(0.0, 2.0), max_simulations=4))
+    assert result.validation["window_s"] == [2.0, push_log.duration]
+    assert not result.validation["on_fit_data"]
+    result = identify([push_log], robot, impedance, ["offset"],
+                      settings=SysidSettings(fit_window=(0.0, 2.0), validate_window=(2.0, 3.0),
+                                             max_simulations=4))
     for comparison in (*result.before, *result.after):
-        assert comparison.time[-1] <= 2.0
-    summary = result.summary()
-    # no validation window: the verdict is on the fit samples, the same as the baseline's
-    assert summary["rmse_before_N"] == pytest.approx(result.validation["nominal_rmse_N"],
+        assert comparison.time[-1] <= 3.0
+    # a fit window over the whole log leaves nothing out: the verdict is on the fit samples,
+    # the same as the baseline's
+    whole = identify([push_log], robot, impedance, ["offset"], settings=SysidSettings(
+        fit_window=(0.0, push_log.duration), max_simulations=4))
+    summary = whole.summary()
+    assert whole.validation["on_fit_data"]
+    assert summary["rmse_before_N"] == pytest.approx(whole.validation["nominal_rmse_N"],
                                                      abs=1e-6)
-    assert summary["rmse_after_N"] == pytest.approx(result.validation["fitted_rmse_N"],
+    assert summary["rmse_after_N"] == pytest.approx(whole.validation["fitted_rmse_N"],
                                                     abs=1e-6)
 
 
@@ -204,8 +215,9 @@ def test_a_slow_push_without_load_columns_is_named(robot, impedance, tmp_path, c
     assert max(d[3] for d in drifts) > 2.5  # newtons: a push, far above the 0.1 N noise
     assert unexplained_drifts(log) == []  # the logged push explains it
     path = write_log(stripped, tmp_path / "stripped.csv")
-    assert main(["check-log", str(path)]) == 0
-    assert f"warning: tensions drift by up to {largest:.3g} N" in capsys.readouterr().out
+    assert main(["check-log", str(path)]) == 1  # a push the log does not record: not valid
+    out = capsys.readouterr().out
+    assert f"warning: tensions drift by up to {largest:.3g} N" in out and "NOT valid" in out
     # the same robot without a push: no drift
     quiet = simulated_log(robot, impedance, 18.0, sensor=SensorModel(noise=0.1),
                           rng=np.random.default_rng(5))
@@ -222,7 +234,7 @@ def test_many_jumps_are_counted(tmp_path, capsys):
                     + "".join(f"{t:.1f},{v:.3f}\n" for t, v in zip(time, tension, strict=True)))
     jumps = len(unexplained_jumps(read_log(path)))
     assert jumps > 40  # up and down at each spike
-    assert main(["check-log", str(path)]) == 0
+    assert main(["check-log", str(path)]) == 1  # no load logged: spikes like a missing push
     out = capsys.readouterr().out
     assert out.count("warning: tensions jump") == 5
     assert f"... and {jumps - 5} more jumps ({jumps} in all; --json lists them)" in out

@@ -205,7 +205,7 @@ def test_disturbance_log_end_to_end(tmp_path, capsys):
     assert "warning" not in out
     # the same log without its load columns: the push shows in the tensions, unexplained
     write_log(_without_loads(read_log(log)), tmp_path / "stripped.csv")
-    assert main(["check-log", str(tmp_path / "stripped.csv")]) == 0
+    assert main(["check-log", str(tmp_path / "stripped.csv")]) == 1  # not valid: no push
     assert "warning: tensions jump at 2.8 s" in capsys.readouterr().out
     assert main(["--quiet", "compare", str(log), "--out", str(tmp_path / "c")]) == 0
     compared = json.loads((tmp_path / "c" / "summary.json").read_text())

@@ -35,7 +35,8 @@ def test_committed_header_is_the_one_the_layout_generates():
 
 def test_every_slot_has_its_own_index_and_a_define():
     header = layout.c_header()
-    for prefix, table in (("P", layout.DYNPRM), ("B", layout.BIASPRM), ("A", layout.ACT)):
+    for prefix, table in (("P", layout.DYNPRM), ("G", layout.GAINPRM), ("B", layout.BIASPRM),
+                          ("A", layout.ACT)):
         names = [n for n, _ in table]
         assert len(set(names)) == len(names)
         for k, name in enumerate(names):
@@ -66,13 +67,15 @@ def test_compiler_writes_each_parameter_into_its_named_slot():
     assert (p[layout.P_MAX_SPEED], p[layout.P_MAX_TENSION]) == (0.3, 70.0)
     assert (p[layout.P_MIN_REST], p[layout.P_MIN_LENGTH]) == (0.02, 0.05)
     assert p[layout.P_TARGET_LENGTH] == compiled.rest_length[0]
-    assert (b[layout.B_STIFFNESS], b[layout.B_DAMPING]) == (123.0, 4.5)
+    g = compiled.model.actuator_gainprm[0]
+    assert (g[layout.G_STIFFNESS], g[layout.G_DAMPING]) == (123.0, 4.5)
     assert b[layout.B_STALL_FORCE] == line["stall_force"]
     assert b[layout.B_NO_LOAD_SPEED] == line["no_load_line_speed"]
     assert (b[layout.B_MASS], b[layout.B_VISCOUS]) == (line["mass"], line["viscous"])
     assert b[layout.B_COULOMB] == line["coulomb"]
     assert b[layout.B_POSITION_TIME] == motor.dc.position_time  # type: ignore[union-attr]
     assert b[layout.B_BACK_DRIVABLE] == 0.0 and b[2] == 0.0
+    assert b[layout.B_LAG_TIME] == 0.0 and b[layout.B_SATURATE] == 0.0  # no lag, no cap
     assert compiled.model.actuator_actnum[0] == layout.DC_ACTDIM
     assert compiled.model.actuator_gainprm[0, 0] == layout.GAIN
 
@@ -80,8 +83,8 @@ def test_compiler_writes_each_parameter_into_its_named_slot():
 def test_derived_views_follow_edits_of_the_model():
     compiled = compile_structure(preset("tetraspine3").build())
     law = compiled.law()
-    compiled.model.actuator_biasprm[2, layout.B_STIFFNESS] = 777.0
-    compiled.model.actuator_biasprm[3, layout.B_DAMPING] = 9.25
+    compiled.model.actuator_gainprm[2, layout.G_STIFFNESS] = 777.0
+    compiled.model.actuator_gainprm[3, layout.G_DAMPING] = 9.25
     compiled.model.actuator_dynprm[:, layout.P_MAX_TENSION] = 12.0
     assert law.stiffness[2] == compiled.law().stiffness[2] == 777.0
     assert law.damping[3] == 9.25 and np.all(law.max_tension == 12.0)
@@ -94,7 +97,7 @@ def test_derived_views_follow_edits_of_the_model():
     with Simulation(compiled) as sim:
         sim.drive.stiffness[0] = 55.0
         assert compiled.law(sim.model).stiffness[0] == 55.0
-        assert sim.model.actuator_biasprm[0, layout.B_STIFFNESS] == 55.0
+        assert sim.model.actuator_gainprm[0, layout.G_STIFFNESS] == 55.0
         assert compiled.law().stiffness[0] != 55.0
 
 
@@ -110,5 +113,7 @@ def test_drive_and_law_parameters_are_the_same_views():
 def test_layout_rows_round_trip():
     row = layout.dynprm(layout.MODE_IMPEDANCE, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0)
     assert row == [layout.CABLE_MARKER, 1.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]
-    bias = layout.biasprm(10.0, 0.5, {"coulomb": 0.25})
-    assert bias[layout.B_COULOMB] == 0.25 and sum(bias) == 10.75
+    bias = layout.biasprm({"coulomb": 0.25})
+    assert bias[layout.B_COULOMB] == 0.25 and sum(bias) == 0.25
+    gain = layout.gainprm(10.0, 0.5)
+    assert (gain[layout.G_STIFFNESS], gain[layout.G_DAMPING]) == (10.0, 0.5) and sum(gain) == 10.5

@@ -140,3 +140,16 @@ def test_cma_leaves_numpy_global_random_state_alone():
     points = optimizer.ask()
     optimizer.tell(points, np.sum(points**2, axis=1))
     assert np.random.random() == expected  # noqa: NPY002
+
+
+def test_cma_loads_without_pyplot_or_scipy_stats_and_leaves_them_importable():
+    """Importing cma for CMA-ES neither chooses a plotting backend (pyplot) nor pays for
+    scipy.stats; both import normally afterwards (a fresh interpreter: this one may hold them)."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom tensim.learn.optimizers import import_cma\ncma = import_cma()\n"
+            "assert cma.CMAEvolutionStrategy\n"
+            "assert 'matplotlib.pyplot' not in sys.modules and 'scipy.stats' not in sys.modules\n"
+            "import scipy.stats, matplotlib.pyplot\n")
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -190,6 +191,7 @@ def test_learn_command_end_to_end_with_resume(tmp_path, capsys):
     assert main(["--quiet", "learn", "--resume", str(out), "--evaluations", "6"]) == 0
     printed = capsys.readouterr().out
     assert "best score" in printed and "tensim experiment cpg --controller" in printed
+    assert re.search(r"best score -?\d+\.\d{4} m \(evaluation", printed)  # a distance [m]
     lines = (out / "evaluations.jsonl").read_text().splitlines()
     assert sorted(json.loads(line)["index"] for line in lines) == list(range(6))
     summary = json.loads((out / "summary.json").read_text())

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from tensim.cli import main
-from tensim.io import save_mjcf, to_mjcf
+from tensim.io import mjcf_spec, save_mjcf, to_mjcf
 from tensim.model import WorldOptions, compile_spec, compile_structure, without_cable_law
 from tensim.models import preset
 from tensim.sim import Simulation
@@ -38,6 +38,9 @@ def test_export_loads_back_with_the_same_model(name, tmp_path):
     path = save_mjcf(compiled, tmp_path / f"{name}.xml", springs=False)
     # the file holds the robot without tensim's law: each cable a plain force input
     m, c = mujoco.MjModel.from_xml_path(str(path)), compile_spec(without_cable_law(compiled))
+    # and a hidden site marking each node (for import-mjcf)
+    assert m.nsite == c.nsite + len(compiled.structure.nodes)
+    c = compile_spec(mjcf_spec(compiled, springs=False))
     assert (m.nbody, m.ngeom, m.nsite, m.ntendon, m.nu, m.nq) == \
         (c.nbody, c.ngeom, c.nsite, c.ntendon, c.nu, c.nq)
     for kind, count in ((mujoco.mjtObj.mjOBJ_BODY, c.nbody), (mujoco.mjtObj.mjOBJ_TENDON,

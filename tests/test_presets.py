@@ -11,7 +11,7 @@ from tensim.sim import simulate
 
 DECLARED_CABLES = {"tetraspine3": 12, "tetraspine": 66, "six_bar": 24, "prism3": 9,
                    "prism4": 12, "prism5": 15, "superball": 24, "tetrahedral_complex": 40,
-                   "octahedral_complex": 40}
+                   "octahedral_complex": 40, "three_bar": 9}
 # six_bar runs 20 s: a six-bar with bare thin rods was reported to blow up within 20 s
 DURATION = {"six_bar": 20.0}
 
@@ -37,7 +37,9 @@ def test_preset_builds_compiles_and_runs(name):
     # cables only pull, and stay below the motor's force limit by a wide margin
     tension = ts.matrix("tension")
     assert np.all(tension >= 0.0)
-    assert np.all(result.peak_tension < compiled.law().max_tension)
+    motorised = np.array([not c.motor.passive for c in structure.cables])  # a passive cable
+    # has no motor whose limit it could reach
+    assert np.all(result.peak_tension[motorised] < compiled.law().max_tension[motorised])
     # nothing flew away or sank through the ground: the COM stays within a robot's size
     com = np.stack([ts["pos_x/com"], ts["pos_y/com"], ts["pos_z/com"]], axis=1)
     assert np.all(com[:, 2] > 0.0)

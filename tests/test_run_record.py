@@ -61,3 +61,15 @@ def test_the_timestep_study_runs_as_long_as_asked(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["duration_s"] == 0.2
     assert set(summary["max_change_percent"]) == {"250", "4000"}
+
+
+def test_a_robot_of_hundreds_of_cables_prints_a_summary_not_every_cable(capsys, tmp_path):
+    from tensim.cli._common import LISTED_CABLES, TOP_CABLES, print_summary
+
+    tensions = {f"c{k}": float(k) for k in range(3 * LISTED_CABLES)}
+    print_summary({"duration_s": 1.0, "wall_s": 0.1, "real_time_factor": 10.0,
+                   "max_tension_N": tensions, "max_system_tension_N": 89.0}, tmp_path)
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 3 + TOP_CABLES
+    assert "90 cables" in out[2] and "median 44.500 N" in out[2]
+    assert out[3].split() == ["c89", "89.000"]  # the most loaded first

@@ -11,6 +11,7 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
+from tensim.sim import load_cell_tension
 from tensim.structure import Cable, Motor, Node, Rod, Structure, mass_properties
 
 MOTOR_SOURCES = {
@@ -42,7 +43,7 @@ def _cable(structure: Structure, cable: Cable, source: str, gains: Any) -> dict[
     rest = structure.rest_length(cable) if build is not None or cable.rest_length else None
     pretension = None
     if build is not None and rest is not None:
-        pretension = max(0.0, cable.stiffness * (build - rest))
+        pretension = float(load_cell_tension(build, rest, cable.stiffness))
     return {
         "name": cable.name, "nodes": list(cable.nodes), "via": list(cable.via),
         "wrap": list(cable.wrap),

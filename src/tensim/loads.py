@@ -54,13 +54,16 @@ def push(node: str, force: Sequence[float], start: float, stop: float,
     if not (math.isfinite(start) and math.isfinite(stop) and 0 <= start < stop):
         raise LoadError(f"load at {node!r}: window {start:g}-{stop:g} s must have 0 <= start "
                         "< stop")
-    if not (math.isfinite(ramp) and ramp > 0 and 2 * ramp <= stop - start):
+    # a ramp that fills the window exactly, as the user wrote it (0.1-0.3/0.1), is read as
+    # filling it, not refused by the round-off of stop - start
+    fills = math.isclose(2 * ramp, stop - start, rel_tol=1e-9)
+    if not (math.isfinite(ramp) and ramp > 0 and (2 * ramp <= stop - start or fills)):
         raise LoadError(f"load at {node!r}: ramp {ramp:g} s must be > 0 and fit twice in the "
                         f"window {start:g}-{stop:g} s")
-    if stop - start > 2 * ramp:
+    if not fills:
         times, scale = [start, start + ramp, stop - ramp, stop], [0.0, 1.0, 1.0, 0.0]
     else:  # all ramp: up and straight back down
-        times, scale = [start, start + ramp, stop], [0.0, 1.0, 0.0]
+        times, scale = [start, (start + stop) / 2, stop], [0.0, 1.0, 0.0]
     return NodeLoad(node, np.array(times), np.array(scale)[:, None] * vector[None, :])
 
 

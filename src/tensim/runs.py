@@ -31,7 +31,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from tensim import __version__
-from tensim._files import check_writable, pid_alive, write_json, write_text
+from tensim._files import (
+    CONTROLLER_FILE,
+    RUN_MARKER,
+    STRUCTURE_FILE,
+    cause,
+    check_writable,
+    output_target,
+    pid_alive,
+    write_json,
+    write_text,
+)
 from tensim._input import InputError
 from tensim.sim import SimulationResult, TimeSeries
 from tensim.viz.report import figure_names, write_report
@@ -42,8 +52,6 @@ if TYPE_CHECKING:
     from tensim.structure import Structure
     from tensim.viz.drawing import FigureDrawer
 
-STRUCTURE_FILE = "structure.yaml"  # the robot as it ran, in every simulation's folder
-CONTROLLER_FILE = "controller.yaml"  # its controller, where it had one
 
 PROGRESS_LOGGER = "tensim.progress"  # progress lines: to the run log only, never the console
 _MAX_LINES = 20_000
@@ -144,7 +152,8 @@ def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = N
 
 def world_record(world: WorldOptions) -> dict[str, Any]:
     """The world options as summary fields, enough to rebuild the run's world: ``dt_s``,
-    ``terrain`` (a ``--terrain`` string), ``contact_timeconst_s`` and the engine options."""
+    ``terrain`` (a ``--terrain`` string), ``contact_timeconst_s``, the engine options and the
+    inertia floor."""
     from tensim.terrain import format_terrain
 
     return {"dt_s": world.timestep, "terrain": format_terrain(world.terrain),
@@ -152,7 +161,8 @@ def world_record(world: WorldOptions) -> dict[str, Any]:
             "self_collision": world.self_collision, "cone": world.cone,
             "noslip_iterations": world.noslip_iterations, "condim": world.condim,
             "torsional_friction_m": world.torsional_friction,
-            "rolling_friction_m": world.rolling_friction}
+            "rolling_friction_m": world.rolling_friction, "cable_law": world.cable_law,
+            "min_inertia_ratio": world.min_inertia_ratio}
 
 
 def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
@@ -194,7 +204,7 @@ def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
     return finish_run(out, summary, result.trajectory, drawer)
 
 
-MARKER = ".tensim-run"  # every folder written through replace_folder holds it
+MARKER = RUN_MARKER  # every folder written through replace_folder holds it
 _STAGE = ".partial-"  # staging folders are named .<out name>.partial-<pid>-<random>
 
 
@@ -211,7 +221,7 @@ def check_run_folder(out: Path) -> None:
         InputError: a file, a path under a file, or a folder that holds something other than a
             tensim run.
     """
-    check_writable(out, "folder")
+    check_writable(out, "folder", "--out")
     if out.is_dir() and not _holds_run(out):
         raise InputError(f"{out}: a folder that holds no tensim run (no summary.json); tensim "
                          "replaces a run folder whole, so it writes only into an empty folder "
@@ -242,22 +252,26 @@ def replace_folder(out: str | os.PathLike[str]) -> Iterator[Path]:
 
     An earlier run in ``out`` is removed only then. If the block raises (or is interrupted),
     the staging folder is deleted and ``out`` is left as it was. Stale staging folders of
-    ``out`` (from killed processes) are deleted first.
+    ``out`` (from killed processes) are deleted first. A symbolic link is followed (the rule of
+    :mod:`tensim._files`): the folder it points to is replaced, and the link stays.
 
     Raises:
-        InputError: ``out`` may not be replaced (see :func:`check_run_folder`).
+        InputError: ``out`` may not be replaced (see :func:`check_run_folder`), or cannot be
+            written (the message names ``out`` and the cause in words).
     """
-    out = Path(out)
-    check_run_folder(out)
+    named = Path(out)
+    check_run_folder(named)
+    out = output_target(named)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         _remove_stale_stages(out)
         stage = Path(tempfile.mkdtemp(prefix=f"{_stage_prefix(out)}{os.getpid()}-",
                                       dir=out.parent))
     except OSError as err:
-        raise InputError(f"--out {out}: cannot be written ({err.strerror or err})") from None
+        raise InputError(f"--out {named}: cannot be written ({cause(err)})") from None
     try:
-        (stage / MARKER).write_text("a tensim run folder; tensim may replace it whole\n")
+        (stage / MARKER).write_text("a tensim run folder; tensim may replace it whole\n"
+                                    f"folder: {named.name}\n")
         yield stage
         os.chmod(stage, 0o777 & ~_umask())  # mkdtemp makes 0700
         if out.exists():
@@ -274,8 +288,8 @@ def replace_folder(out: str | os.PathLike[str]) -> Iterator[Path]:
                              or where.name.startswith(stage.name)):
             raise
         inside = f" while writing {where.relative_to(stage)}" if stage in where.parents else ""
-        raise InputError(f"--out {out}: cannot be written{inside} ({err.strerror or err}); "
-                         f"{out} is left as it was") from None
+        raise InputError(f"--out {named}: cannot be written{inside} ({cause(err)}); "
+                         f"{named} is left as it was") from None
     finally:
         if stage.exists():
             shutil.rmtree(stage, ignore_errors=True)

@@ -29,6 +29,7 @@ COMMAND_MODULES = (
     "tensim.cli.render",
     "tensim.cli.io",
     "tensim.cli.learn",
+    "tensim.cli.rl",
     "tensim.cli.hardware",
     "tensim.cli.bench",
     "tensim.cli.design",
@@ -53,6 +54,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``tensim`` console script; errors in the input exit with status 2."""
+    from tensim._files import WriteError
+    from tensim.cli._common import check_outputs, output_option_of
     from tensim.control import ControllerFileError, GaitError
     from tensim.model import ModelError
     from tensim.sim import SimulationError
@@ -62,6 +65,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     run: Callable[[argparse.Namespace], int] = args.run
     try:
+        check_outputs(args)
         status = run(args)
         sys.stdout.flush()  # a reader that left (a broken pipe) shows here, not at exit
         return status
@@ -72,6 +76,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # the reader of our output left (`tensim ... | head`): not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second complaint
         return 0
+    except WriteError as err:  # name the option and the cause in words, not [Errno 28]
+        name = os.fsdecode(err.filename or "")
+        option = output_option_of(args, name)
+        message = (str(err) if option is None else
+                   f"{option}: cannot be written ({err.strerror})" if option.endswith(" " + name)
+                   else f"{option}: {err}")
+        print(f"tensim: error: {message}", file=sys.stderr)
+        return 2
     except (StructureError, ModelError, SimulationError, ControllerFileError, GaitError,
             KeyError, ValueError, OSError) as err:
         message = err.args[0] if isinstance(err, KeyError) and err.args else err

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
+import statistics
 import sys
 import time
 from pathlib import Path
@@ -132,16 +134,35 @@ def gains_summary(structure: Structure, config: Any) -> dict[str, Any]:
             for c in structure.cables}
 
 
-def print_summary(summary: dict[str, Any], out: Path) -> None:
-    """Prints where a run went, its speed and its tensions."""
+def print_summary(summary: dict[str, Any], out: Path, moved: bool = False) -> None:
+    """Prints where a run went, its speed, (with ``moved``) how far its centre of mass moved,
+    and its tensions."""
     tensions = summary.get("max_tension_N", {})
     print(f"wrote {out}/ (summary.json, trajectory.parquet, figures)")
     print(f"simulated {summary['duration_s']} s in {summary['wall_s']} s "
           f"({summary['real_time_factor']}x real time)")
-    if isinstance(tensions, dict) and tensions:
+    if moved and "com_displacement_m" in summary:
+        dx, dy, dz = summary["com_displacement_m"]
+        print(f"centre of mass moved {math.hypot(dx, dy):.4f} m over the ground "
+              f"(x {dx:+.4f} m, y {dy:+.4f} m; z {dz:+.4f} m)")
+    if not (isinstance(tensions, dict) and tensions):
+        return
+    if len(tensions) <= LISTED_CABLES:
         print(f"max system tension {summary['max_system_tension_N']} N; per cable [N]:")
         for name, value in tensions.items():
             print(f"  {name:<16} {value:8.3f}")
+        return
+    # hundreds of cables: the most loaded few, the rest in summary.json
+    values = [float(v) for v in tensions.values()]
+    print(f"max system tension {summary['max_system_tension_N']} N; {len(tensions)} cables, "
+          f"max tension median {statistics.median(values):.3f} N, least {min(values):.3f} N; the "
+          f"{TOP_CABLES} most loaded [N] (every cable's in summary.json):")
+    for name, value in sorted(tensions.items(), key=lambda kv: -kv[1])[:TOP_CABLES]:
+        print(f"  {name:<16} {value:8.3f}")
+
+
+LISTED_CABLES = 30  # robots with more cables get a summary of their tensions, not a list
+TOP_CABLES = 5
 
 
 def add_figures_option(parser: argparse.ArgumentParser, which: str = "") -> None:
@@ -160,10 +181,20 @@ def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None
                         help="the robot's bodies collide only with the ground, not with each "
                              "other: faster, but wrong wherever its parts touch (see "
                              "docs/speed.md)")
+    parser.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
+                        default="explicit",
+                        help="explicit (default: the paper's law under MuJoCo's Euler step), "
+                             "implicit (MuJoCo's discrete integrator takes each taut cable's "
+                             "stiffness and damping: stiff, damped cables at 1-10 ms) or "
+                             "implicitfast (cheaper, damping only; see docs/speed.md)")
     parser.add_argument("--contact", default=None, metavar="KEY=VALUE,...",
                         help="robot-ground friction model: cone=pyramidal|elliptic, "
                              "noslip=ITERATIONS, condim=3|4|6, torsional=COEFF [m], "
                              "rolling=COEFF [m] (see docs/speed.md)")
+    parser.add_argument("--inertia-floor", type=_fraction, default=None, metavar="RATIO",
+                        help="raise a rigid body's smallest principal inertia to RATIO of its "
+                             "largest (default 0.01: MuJoCo spins thin rods up); 0 turns the "
+                             "floor off")
 
 
 def add_terrain_option(parser: argparse.ArgumentParser | argparse._ArgumentGroup,
@@ -189,7 +220,18 @@ def world_from_args(args: argparse.Namespace) -> WorldOptions:
     return WorldOptions(timestep=args.dt,
                         terrain=parse_terrain(text) if text is not None else Flat(),
                         self_collision=not getattr(args, "no_self_collision", False),
-                        **contact_options(getattr(args, "contact", None)))
+                        cable_law=getattr(args, "cable_law", None) or "explicit",
+                        **contact_options(getattr(args, "contact", None)),
+                        **({} if getattr(args, "inertia_floor", None) is None else
+                           {"min_inertia_ratio": args.inertia_floor}))
+
+
+def _fraction(text: str) -> float:
+    """A number in [0, 1) (argparse type)."""
+    value = float(text)
+    if not 0 <= value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number in [0, 1), got {text}")
+    return value
 
 
 _CONTACT = {"cone": ("cone", str), "noslip": ("noslip_iterations", int),
@@ -304,3 +346,68 @@ def count(text: str) -> int:
 def natural(text: str) -> int:
     """A whole number >= 0."""
     return _int(text, 0)
+
+
+def output_option(parser: Any, flag: str, kind: str, **kwargs: Any) -> None:
+    """Adds ``flag``, the path of a ``kind`` ("file" or "folder") the command writes.
+
+    :func:`check_outputs` checks every such option before the command runs.
+    """
+    action = parser.add_argument(flag, **kwargs)
+    parser.set_defaults(outputs=(*(parser.get_default("outputs") or ()),
+                                 (action.dest, flag, kind)))
+
+
+def _input_paths(args: argparse.Namespace, skip: set[str]) -> list[str]:
+    """Every argument value that names an existing file or folder (the command's inputs)."""
+    found = []
+    for key, value in vars(args).items():
+        if key in skip or key == "outputs":
+            continue
+        for item in value if isinstance(value, (list, tuple)) else [value]:
+            if isinstance(item, str) and item and os.path.exists(item):
+                found.append(item)
+    return found
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Refuses output paths a command may not write, before it runs: a device, FIFO, socket,
+    a folder for a file (or a file for a folder), and the command's own input (a file it reads,
+    or a folder that holds one: replacing the folder would delete it).
+
+    Raises:
+        InputError: naming the option, its path and the reason.
+    """
+    from tensim._files import check_writable
+    from tensim._input import InputError
+
+    outputs = [(dest, flag, kind, getattr(args, dest, None))
+               for dest, flag, kind in getattr(args, "outputs", ())]
+    outputs = [(dest, flag, kind, value) for dest, flag, kind, value in outputs
+               if isinstance(value, str) and value]
+    for _, flag, kind, value in outputs:
+        check_writable(Path(value), kind, flag)
+    inputs = _input_paths(args, {dest for dest, _, _, _ in outputs})
+    for _, flag, kind, value in outputs:
+        if not os.path.exists(value):
+            continue
+        out = os.path.realpath(value)
+        for item in inputs:
+            real = os.path.realpath(item)
+            if real == out or (kind == "folder" and real.startswith(out + os.sep)):
+                what = "is" if real == out else "holds"
+                raise InputError(f"{flag} {value}: {what} the input {item} of this command; "
+                                 f"writing {flag} would replace what the command reads; choose "
+                                 f"another {flag}")
+
+
+def output_option_of(args: argparse.Namespace, filename: str) -> str | None:
+    """The output option whose path is ``filename`` or holds it, as ``"--out PATH"``."""
+    target = os.path.realpath(filename)
+    for dest, flag, _ in getattr(args, "outputs", ()):
+        value = getattr(args, dest, None)
+        if isinstance(value, str) and value:
+            real = os.path.realpath(value)
+            if target == real or target.startswith(real + os.sep):
+                return f"{flag} {value}"
+    return None

@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 from pathlib import Path
 from typing import Any
 
-from tensim.cli._common import count, natural, positive
+from tensim._input import InputError
+from tensim.cli._common import count, natural, output_option, positive
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="speed benchmark against MuJoCo alone")
-    p.add_argument("--json", default=None, help="also write the figures to this JSON file")
+    output_option(p, "--json", "file", default=None,
+                  help="also write the figures to this JSON file")
     p.add_argument("--duration", type=positive, default=10.0, help="simulated time per case [s]")
     p.add_argument("--repeats", type=count, default=5,
                    help="runs of each loop, tensim and MuJoCo alone taking turns")
@@ -23,31 +26,116 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--batch", type=natural, default=0, metavar="N",
                    help="also N Tetraspine3 CPG trials per batch on 1 and 2 threads, against "
                    "mujoco.rollout (e.g. 64)")
+    p.add_argument("--process", action="store_true",
+                   help="also whole commands as processes (experiment disturbance and cpg, "
+                   "with and without figures): CPU time, peak memory, the figures' share")
+    p.add_argument("--busy", action="store_true",
+                   help="run a busy loop on every core beside the benchmark, so that its "
+                   "figures are taken on a loaded machine")
+    p.add_argument("--cable-laws", action="store_true",
+                   help="instead of the cases: the cost of a step under each cable law "
+                   "(explicit, implicit, implicitfast), Tetraspine3 under impedance control at "
+                   "1 ms, the laws taking turns")
+    p.add_argument("--backend", choices=("cpu", "warp"), default="cpu",
+                   help="warp: aggregate steps/s of batches of worlds on MuJoCo Warp (a GPU "
+                   "where there is one) beside the CPU batch engine on every core")
+    p.add_argument("--worlds", default="256,1024,4096,16384", metavar="N,N,...",
+                   help="batch sizes of --backend warp")
+    p.add_argument("--record-dt", type=positive, default=0.01, metavar="S",
+                   help="recording period of --backend warp [s] (default 0.01)")
+    p.add_argument("--cases", default=None, metavar="NAME,...",
+                   help="cases of --backend warp (default all: tetraspine3_cpg, "
+                   "tetraspine_sidewind, superball, prism3)")
+    p.add_argument("--device", default=None, help="the Warp device of --backend warp "
+                   "(default: a GPU where there is one, e.g. cuda:0 or cpu)")
     p.set_defaults(run=run)
 
 
-def run(args: argparse.Namespace) -> int:
+def _worlds(text: str) -> list[int]:
+    try:
+        worlds = [int(w) for w in text.split(",")]
+    except ValueError:
+        worlds = []
+    if not worlds or min(worlds) < 1:
+        raise InputError(f"--worlds: expected batch sizes such as 256,1024, got {text!r}")
+    return worlds
+
+
+def _run_warp(args: argparse.Namespace) -> int:
     from tensim._files import write_json
-    from tensim.bench import machine_note, run_benchmarks
+    from tensim.benchmarks.warp import CASES, bench_warp, format_row
+    from tensim.sim._warp_batch import warp_available
+
+    worlds = _worlds(args.worlds)
+    if not warp_available():
+        raise InputError("--backend warp needs MuJoCo Warp: pip install 'tensim[gpu]'")
+    cases = CASES if args.cases is None else tuple(args.cases.split(","))
+    unknown = sorted(set(cases) - set(CASES))
+    if unknown:
+        raise InputError(f"--cases: unknown case {unknown[0]!r}; expected some of "
+                         f"{', '.join(CASES)}")
+    report = bench_warp(worlds, args.duration, cases, device=args.device,
+                        record_dt=args.record_dt,
+                        report=lambda row: print(format_row(row), flush=True))
+    print(f"device: {report['device']}; CPU engine on {report['host_cores']} cores")
+    if args.json:
+        write_json(Path(args.json), report)
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.backend == "warp":
+        return _run_warp(args)
+    from tensim._files import write_json
+    from tensim.benchmarks._machine import busy
     from tensim.limits import check_run
 
     check_run(args.duration, 1e-3, 0.01, force=args.force)  # the cases' step and recording
+    if args.cable_laws:
+        from tensim.benchmarks._machine import load_average, machine_note
+        from tensim.benchmarks.engine import bench_laws, format_laws
+
+        load = load_average()
+        laws = bench_laws(args.duration, args.repeats)
+        print(format_laws(laws))
+        print(machine_note({"cable laws": laws["core_share"]}, load))
+        if args.json:
+            write_json(Path(args.json), {"cable_laws": laws})
+        return 0
+    with contextlib.ExitStack() as stack:
+        loops = stack.enter_context(busy()) if args.busy else 0
+        if loops:
+            print(f"busy mode: {loops} busy-loop process(es) beside the benchmark")
+        report = _run(args)
+        report["busy_loops"] = loops
+    if args.json:
+        write_json(Path(args.json), report)
+    return 0
+
+
+def _run(args: argparse.Namespace) -> dict[str, Any]:
+    from tensim.benchmarks._machine import machine_note
+    from tensim.benchmarks.engine import run_benchmarks
+
     report = run_benchmarks(args.duration, args.repeats)
     print(format_table(report["cases"], args.repeats))
     print(machine_note(report["core_share"], report["load_average_before"]))
     if args.learning:
-        from tensim.learn.bench import bench_learning, format_learning
+        from tensim.benchmarks.learning import bench_learning, format_learning
 
         report["learning"] = bench_learning(args.duration, args.evaluations)
         print(format_learning(report["learning"]))
     if args.batch:
-        from tensim.bench_batch import bench_batch, format_batch
+        from tensim.benchmarks.batch import bench_batch, format_batch
 
         report["batch"] = bench_batch(args.batch, args.duration, args.repeats)
         print(format_batch(report["batch"]))
-    if args.json:
-        write_json(Path(args.json), report)
-    return 0
+    if args.process:
+        from tensim.benchmarks.process import bench_process, format_process
+
+        report["process"] = bench_process(args.repeats)
+        print(format_process(report["process"]))
+    return report
 
 
 def format_table(cases: list[dict[str, Any]], repeats: int) -> str:

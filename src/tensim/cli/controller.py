@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from tensim.cli._common import load_model, nonnegative, positive
+from tensim.cli._common import load_model, nonnegative, output_option, positive
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -15,7 +15,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "init", help="write impedance laws for every motorised cable that hold the build pose "
         "(T0 = build pretension, L* = build length, K = cable stiffness, B = 0.2 s x K)")
     init.add_argument("model", help="preset name or structure .yaml file")
-    init.add_argument("--out", required=True, help="controller file to write (.yaml or .json)")
+    output_option(init, "--out", "file", required=True,
+                  help="controller file to write (.yaml or .json)")
     init.add_argument("--stiffness-gain", type=nonnegative, default=None,
                       help="K for every cable [N/m] (default: each cable's stiffness)")
     init.add_argument("--damping-time", type=positive, default=None,

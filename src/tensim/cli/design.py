@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from tensim.cli._common import load_model, positive
+from tensim.cli._common import load_model, output_option, positive
 
 if TYPE_CHECKING:
     from tensim.design.motors import CableDuty
@@ -27,17 +28,213 @@ def register(sub: argparse._SubParsersAction) -> None:
     level.add_argument("--force-density", type=positive, metavar="Q",
                        help="mean cable force density t/L [N/m]")
     q.add_argument("--cable", default=None, help="the cable that --tension sets")
-    q.add_argument("--out", default=None, metavar="FILE.yaml",
+    output_option(q, "--out", "file", default=None, metavar="FILE.yaml",
                    help="write the prestressed structure here")
     q.set_defaults(run=run_prestress)
     s = steps.add_parser("stiffness", help="tangent stiffness, mechanisms stiffened by "
                          "prestress, natural frequencies and the softest modes")
     s.add_argument("model", help="preset name or structure .yaml file")
     s.add_argument("--modes", type=int, default=4, help="softest modes to list and draw")
-    s.add_argument("--out", default=None, help="output folder (modes.png, stiffness.json)")
+    output_option(s, "--out", "folder", default=None,
+                  help="output folder (modes.png, stiffness.json)")
     s.set_defaults(run=run_stiffness)
     register_size(steps)
     register_pull(steps)
+    register_form(steps)
+    register_members(steps)
+    register_loads(steps)
+
+
+def _load(text: str) -> tuple[str, tuple[float, float, float]]:
+    """``NODE:FX,FY,FZ`` as (node, force [N])."""
+    node, _, rest = text.partition(":")
+    try:
+        values = tuple(float(v) for v in rest.split(","))
+    except ValueError:
+        values = ()
+    if not node or len(values) != 3 or not all(map(math.isfinite, values)):
+        raise argparse.ArgumentTypeError(f"expected NODE:FX,FY,FZ in newtons, got {text!r}")
+    return node, values
+
+
+def register_loads(steps: argparse._SubParsersAction) -> None:
+    d = steps.add_parser("loads", help="static response to node loads; load factors at which "
+                         "the first cable slackens and the first rod buckles")
+    d.add_argument("model", help="preset name or structure .yaml file")
+    d.add_argument("--load", type=_load, action="append", required=True,
+                   metavar="NODE:FX,FY,FZ", help="world-frame force at NODE [N]; repeatable")
+    d.add_argument("--free", action="store_true", help="no feet: zero gravity, held only by "
+                   "the structure's fixed nodes (with none, the load must balance itself)")
+    d.set_defaults(run=run_loads)
+
+
+def run_loads(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from tensim.design.loading import load_response
+    from tensim.design.report import table
+
+    structure = load_model(args.model)
+    loads = dict(args.load)
+    result = load_response(structure, loads, supports=not args.free)
+    where = (f"standing on {', '.join(result.supports)} (pinned), under gravity"
+             if result.supports else "free, at zero gravity")
+    print(f"{structure.name} {where}; load " + ", ".join(
+        f"{n} ({', '.join(f'{v:g}' for v in f)}) N" for n, f in loads.items()))
+    def mm(values: np.ndarray) -> list[str]:  # to 0.01 mm: finer digits are round-off
+        return [f"{round(1e3 * float(v), 2) + 0.0:.2f}" for v in values]
+
+    print(table([(n, *mm(result.linear[n]), *mm(result.exact[n])) for n in result.linear
+                 if n not in result.supports],  # the pinned feet move by microns
+                ("node", "dx [mm]", "dy [mm]", "dz [mm]", "exact dx", "exact dy", "exact dz")))
+    print(table([(c.name, t0, t1) for c, t0, t1 in zip(
+        structure.cables, result.tensions[0], result.tensions[1], strict=True)],
+        ("cable", "tension [N]", "loaded [N]")))
+    if result.supports:
+        print(table([(n, f[0, 2], np.hypot(*f[0, :2]) / f[0, 2], f[1, 2],
+                      np.hypot(*f[1, :2]) / f[1, 2] if f[1, 2] > 0 else "lifts",
+                      result.friction[n]) for n, f in result.ground.items()],
+                    ("foot", "normal [N]", "friction used", "loaded [N]", "loaded used",
+                     "friction")))
+        for what, factor in (("a foot lifts (the ground cannot pull)", result.lift_factor),
+                             ("a foot needs all its friction", result.slip_factor)):
+            print(f"{what}: at load factor {factor:.4g}" if factor is not None else
+                  f"{what}: not below a load factor of 1e4")
+    if result.lost_factor is not None:
+        print(f"no static pose past load factor {result.lost_factor:.4g} (it folds or falls) "
+              "while every cable is still taut")
+    elif result.slack_factor is None:
+        print("no cable slackens below a load factor of 1e4")
+    else:
+        print(f"first cable to slacken: {result.slack_cable} at load factor "
+              f"{result.slack_factor:.4g} (linear estimate {result.slack_linear:.4g})")
+    if result.buckle_rod is not None:
+        print(f"first rod to buckle: {result.buckle_rod} at load factor "
+              f"{result.buckle_factor:.4g}")
+    elif result.buckle_factor is not None:
+        print(f"no rod buckles before the static pose is lost (it folds or falls) at load "
+              f"factor {result.buckle_factor:.4g}")
+    elif any(r.section is not None for r in structure.rods):
+        print("no rod buckles below a load factor of 1e4")
+    else:
+        print("rods without a section: no buckling check")
+    return 0
+
+
+def register_members(steps: argparse._SubParsersAction) -> None:
+    m = steps.add_parser("members", help="rods against Euler buckling and yield, cables "
+                         "against their breaking load, from the prestress or runs' peaks")
+    m.add_argument("model", help="preset name or structure .yaml file (rods with a section, "
+                   "cables with a breaking_load)")
+    m.add_argument("runs", nargs="*", metavar="RUN", help="run folders of this structure "
+                   "(trajectory.parquet): check the peaks of their forces instead of the "
+                   "prestress")
+    m.set_defaults(run=run_members)
+
+
+def _percent(value: float | None) -> str:
+    return "-" if value is None else f"{100 * value:.1f}"
+
+
+def run_members(args: argparse.Namespace) -> int:
+    """Prints the member checks; exits 1 when a member fails."""
+    import numpy as np
+
+    from tensim.design._bodies import cable_tensions
+    from tensim.design.members import (
+        bar_forces,
+        cable_checks,
+        rod_checks,
+        section_mass,
+        worst_margin,
+    )
+    from tensim.design.report import table
+    from tensim.sim import TimeSeries
+
+    structure = load_model(args.model)
+    if args.runs:
+        from tensim.design.member_peaks import run_peaks
+
+        tensions = np.zeros(len(structure.cables))
+        forces: dict[str, float | None] = {r.name: 0.0 for r in structure.rods}
+        for folder in map(Path, args.runs):
+            peak, peak_forces = run_peaks(structure, TimeSeries.from_parquet(
+                folder / "trajectory.parquet"))
+            tensions = np.maximum(tensions, peak)
+            for name, force in peak_forces.items():
+                held = forces[name]
+                forces[name] = None if force is None or held is None else \
+                    (force if abs(force) > abs(held) else held)
+        print(f"peak forces of {len(args.runs)} run(s)")
+    else:
+        tensions = cable_tensions(structure)
+        forces = bar_forces(structure, tensions)
+        print("forces of the prestress (build pose, gravity left out)")
+    rods = rod_checks(structure, forces)
+    cables = cable_checks(structure, tensions)
+    print(table([(r.rod, "-" if r.force is None else f"{r.force:.4g}", r.length,
+                  "-" if r.buckling_load is None else f"{r.buckling_load:.4g}",
+                  _percent(r.buckling_margin),
+                  "-" if r.yield_load is None else f"{r.yield_load:.4g}",
+                  _percent(r.yield_margin)) for r in rods],
+                ("rod", "force [N]", "length [m]", "buckling [N]", "margin [%]", "yield [N]",
+                 "margin [%]")))
+    print(table([(c.cable, c.tension, "-" if c.breaking_load is None else
+                  f"{c.breaking_load:.4g}", _percent(c.margin)) for c in cables],
+                ("cable", "tension [N]", "breaking [N]", "margin [%]")))
+    mass, modelled = section_mass(structure)
+    print(f"mass with the rods' sections {mass:.4g} kg (as modelled {modelled:.4g} kg)")
+    worst = worst_margin(rods, cables)
+    if worst < 0:
+        print(f"tensim: a member fails: the smallest margin is {100 * worst:.1f} %")
+        return 1
+    return 0
+
+
+def register_form(steps: argparse._SubParsersAction) -> None:
+    f = steps.add_parser("form", help="form finding: node positions and pretensions from a "
+                         "topology file (force density method)")
+    f.add_argument("topology", help="topology .yaml file (nodes, rods, cables, groups)")
+    f.add_argument("--min-tension", type=positive, default=None, metavar="N",
+                   help="smallest cable tension [N] (default: the file's min_tension, else "
+                        "the force densities as given, in N/m)")
+    f.add_argument("--out", required=True, metavar="FILE.yaml",
+                   help="write the formed structure here")
+    f.set_defaults(run=run_form)
+
+
+def run_form(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from tensim.design.form_finding import form
+    from tensim.design.report import table
+    from tensim.design.topology import load_topology
+    from tensim.structure import StructureError, save_structure
+
+    if Path(args.out).resolve() == Path(args.topology).resolve():
+        raise ValueError(f"--out {args.out}: is the topology file this command reads; "
+                         "give another path")
+    topology = load_topology(args.topology)
+    if args.min_tension is not None:
+        topology = dataclasses.replace(topology, min_tension=args.min_tension)
+    try:
+        result = form(topology)
+    except StructureError as err:  # a rod's or cable's own fields, checked once formed
+        raise err.with_source(args.topology) from None
+    structure = result.structure
+    print(f"{structure.name}: {result.nodes} nodes, {len(structure.rods)} rods, "
+          f"{len(structure.cables)} cables; force density matrix of rank {result.rank} (a 3D "
+          f"form needs <= {result.nodes - 4}), "
+          f"{'super-stable' if result.super_stable else 'not super-stable'}")
+    counts = {g: 0 for g in result.force_densities}
+    for member in topology.members:
+        counts[member.group] += 1
+    print(table([(g, counts[g], q, *result.lengths[g], q * result.lengths[g][1])
+                 for g, q in result.force_densities.items()],
+                ("group", "members", "q [N/m]", "shortest [m]", "longest [m]", "force [N]")))
+    save_structure(structure, Path(args.out))
+    print(f"wrote {args.out}")
+    return 0
 
 
 def run_prestress(args: argparse.Namespace) -> int:
@@ -120,7 +317,7 @@ def register_size(steps: argparse._SubParsersAction) -> None:
                    help="gait cycle [s]: report work per cycle (default: over the run)")
     z.add_argument("--motors", default=None, metavar="FILE.yaml",
                    help="catalogue: motors: [{name, stall_torque [N m], no_load_speed [rad/s]}]")
-    z.add_argument("--out", default="runs/size", help="output folder")
+    output_option(z, "--out", "folder", default="runs/size", help="output folder")
     z.set_defaults(run=run_size)
 
 
@@ -145,8 +342,9 @@ def run_size(args: argparse.Namespace) -> int:
             if (folder / STRUCTURE_FILE).exists():
                 limits = {c.name: (c.motor.max_speed, c.motor.max_tension)
                           for c in load_structure(folder / STRUCTURE_FILE).cables}
-            runs.append(motors.cable_duty(
-                TimeSeries.from_parquet(folder / "trajectory.parquet"), limits))
+            series = TimeSeries.from_parquet(folder / "trajectory.parquet")
+            motors.check_sampling(series, _tracked_peaks(folder), str(folder))
+            runs.append(motors.cable_duty(series, limits))
         duties = motors.merge(runs)
     needs = motors.requirements(duties, args.spool_radius, args.gear, args.safety)
     period = args.period
@@ -182,6 +380,19 @@ def run_size(args: argparse.Namespace) -> int:
     return 0
 
 
+def _tracked_peaks(folder: Path) -> dict[str, float]:
+    """The run's peak tension per cable over every physics step (its summary's
+    ``max_tension_N``; empty when the summary lacks it)."""
+    import json
+
+    try:
+        peaks = json.loads((folder / "summary.json").read_text()).get("max_tension_N")
+    except (OSError, ValueError):
+        return {}
+    return {str(k): float(v) for k, v in peaks.items()
+            if isinstance(v, (int, float))} if isinstance(peaks, dict) else {}
+
+
 def _move(text: str) -> tuple[str, tuple[float, float, float]]:
     """``NODE=DX,DY,DZ`` as (node, displacement [m])."""
     node, _, rest = text.partition("=")
@@ -207,8 +418,9 @@ def register_pull(steps: argparse._SubParsersAction) -> None:
     u.add_argument("--verify", action="store_true",
                    help="simulate the motors winding there slowly (0.01 m/s) and resting 2 s; "
                         "report each node's distance from the static answer")
-    u.add_argument("--out", default="runs/pull", help="output folder (controller.yaml: the "
-                   "commanded rest lengths, for simulate --controller; target.yaml; summary.json)")
+    output_option(u, "--out", "folder", default="runs/pull",
+                  help="output folder (controller.yaml: the "
+                  "commanded rest lengths, for simulate --controller; target.yaml; summary.json)")
     u.set_defaults(run=run_pull)
 
 
@@ -246,6 +458,14 @@ def run_pull(args: argparse.Namespace) -> int:
         print(f"simulated {duration:g} s (motors winding at 0.01 m/s, then resting); distance "
               "from the static answer [mm]: "
               + ", ".join(f"{n} {1e3 * e:.2f}" for n, e in errors.items()))
+        creep = max(errors[f] for f in result.feet)
+        miss = max(errors[n] for n in moves)
+        print(f"the feet crept up to {1e3 * creep:.2f} mm on MuJoCo's soft contacts (the "
+              f"statics pins them); the moved nodes missed their targets by up to "
+              f"{1e3 * miss:.2f} mm")
+    else:
+        print("the statics pins the feet; on MuJoCo's soft contacts they creep under sideways "
+              "load: --verify simulates by how much, and how far the targets are missed")
     passive = {c.name for c in structure.cables if c.motor.passive}  # keep their rest length
     rest = {n: float(r) for n, r in zip(result.cables, result.rest_lengths, strict=True)
             if n not in passive}
@@ -266,6 +486,8 @@ def run_pull(args: argparse.Namespace) -> int:
                            "tensions_N": dict(zip(result.cables, map(float, result.tensions),
                                                   strict=True)),
                            "verify_error_m": {n: float(e) for n, e in errors.items()},
+                           "feet_creep_m": max(float(errors[f]) for f in result.feet)
+                           if errors else None,
                            "max_verify_error_m": float(np.max(list(errors.values())))
                            if errors else None})
     print(f"wrote {args.out}/ (controller.yaml, target.yaml, summary.json)")

@@ -13,6 +13,7 @@ from tensim.cli._common import (
     add_figures_option,
     add_world_options,
     load_model,
+    output_option,
     parse_point,
     positive,
     print_summary,
@@ -114,6 +115,7 @@ def _disturbance(args: argparse.Namespace, out: Path) -> dict[str, Any]:
               f"({BEFORE[0]:g}-{BEFORE[1]:g} s) [N]:")
         for name, value in change.items():
             print(f"  {name:<16} {value:+8.3f}")
+    _print_stance(summary)
     return summary
 
 
@@ -128,6 +130,19 @@ def _timestep(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         print(f"  {hz:>5} Hz: worst cable's max-tension change {value:.2f} % vs 1000 Hz")
     for tc, value in summary["contact_max_change_percent"].items():
         print(f"  contact time constant {tc} s: worst change {value:.2f} %")
+    return summary
+
+
+def _laws(args: argparse.Namespace, out: Path) -> dict[str, Any]:
+    from tensim.experiments.laws import CASES, format_law_study, run_law_study
+    from tensim.runs import finish_run
+
+    cases = tuple(c.strip() for c in args.cases.split(",") if c.strip()) if args.cases \
+        else CASES + (("twelve_bar",) if args.ntrt else ())
+    bar = Progress("cable-law study", args.quiet)
+    summary = run_law_study(cases, Path(args.ntrt) if args.ntrt else None, bar.note)
+    finish_run(out, summary)
+    print("\n".join(format_law_study(summary, args.cpu)))
     return summary
 
 
@@ -184,7 +199,18 @@ def _drag(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     print(f"steady drag force {summary['drag_force_N']:.3f} N "
           f"(mu m g = {summary['coulomb_force_N']:.3f} N); "
           f"effective friction {summary['effective_friction']:.4f}")
+    _print_stance(summary)
     return summary
+
+
+def _print_stance(summary: dict[str, Any]) -> None:
+    """Says, after a protocol's figures, that they mean nothing when the robot left its stance."""
+    problems = summary.get("stance_problems") or []
+    if problems:
+        print("NOT VALID: the robot left its stance, so the figures above do not measure "
+              f"what the {summary.get('experiment', 'experiment')} test measures:")
+        for problem in problems:
+            print(f"  {problem}")
 
 
 def _scenario_args(args: argparse.Namespace, name: str) -> dict[str, Any]:
@@ -235,12 +261,41 @@ def _goal(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     return summary
 
 
+def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
+    import math
+
+    from tensim.experiments.roll import ROLL_DURATION, roll, write_roll
+
+    if args.model is None:
+        raise ValueError("roll: give the robot, a preset or a structure file: tensim experiment "
+                         "roll MODEL|FILE")
+    if args.heading is not None and not math.isfinite(args.heading):
+        raise ValueError(f"--heading {args.heading!r}: expected a finite angle in degrees")
+    structure = load_model(args.model)
+    goal = parse_point(args.goal, "--goal") if args.goal is not None else None
+    result, summary = roll(structure, args.duration or ROLL_DURATION,
+                           heading_deg=args.heading or 0.0, goal=goal,
+                           world=world_from_args(args), progress=Progress("roll", args.quiet))
+    summary = {"experiment": "roll", "model": args.model, **summary}
+    write_roll(out, result, summary, structure)
+    print(f"rolled {summary['distance_m']:.3f} m along the heading in {summary['duration_s']:g} s:"
+          f" {summary['body_lengths_per_s']:.3f} body lengths/s (body length "
+          f"{summary['body_length_m']:.3f} m), heading error {summary['heading_error_deg']:.1f}"
+          f" deg, {summary['rolls']} rolls over {summary['faces_visited']} faces")
+    if goal is not None:
+        before, after = summary["goal_distance_m"]
+        print(f"goal ({goal[0]:g}, {goal[1]:g}) m: distance {before:.3f} -> {after:.3f} m")
+    return summary
+
+
 # name -> (one-line help, runner(args, out) -> summary)
 EXPERIMENTS: dict[str, tuple[str, Callable[[argparse.Namespace, Path], dict[str, Any]]]] = {
     "disturbance": ("steady push on the front segment, held by the others (paper Fig. 3)",
                     _disturbance),
     "timestep": ("disturbance test at 250/1000/4000 Hz and three contact time constants",
                  _timestep),
+    "laws": ("the cable laws at 0.5-10 ms steps against a 0.05 ms explicit run (Tetraspine3, "
+             "SUPERball, a stiff 3-bar)", _laws),
     "sine": ("hand-tuned style sine gait on V* (paper Fig. 4)",
              _gait("sine", "tetraspine3_sine")),
     "cpg": ("simulator-tuned CPG gait, sideways locomotion (paper Fig. 5)",
@@ -249,6 +304,8 @@ EXPERIMENTS: dict[str, tuple[str, Callable[[argparse.Namespace, Path], dict[str,
     "climb": ("12-segment Tetraspine crawls at a wall and over it (paper Fig. 1)", _climb),
     "sidewind": ("12-segment Tetraspine sidewinding gait (paper Fig. 1)", _sidewind),
     "goal": ("12-segment Tetraspine toward a target point across rough ground", _goal),
+    "roll": ("a 3-bar, 6-bar or other closed robot rolls toward --heading or --goal "
+             "(punctuated statics gait)", _roll),
 }
 
 
@@ -263,6 +320,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("name", choices=list(EXPERIMENTS), metavar="NAME",
                    help=f"one of: {', '.join(EXPERIMENTS)}")
+    p.add_argument("model", nargs="?", default=None, metavar="MODEL|FILE",
+                   help="roll: the robot, a preset (e.g. three_bar) or a structure file")
+    p.add_argument("--heading", type=float, default=None, metavar="DEG",
+                   help="roll: direction to roll, counter-clockwise from +x [deg] (default 0)")
+    p.add_argument("--goal", default=None, metavar="X,Y",
+                   help="roll: a goal point [m] to roll toward instead of a heading "
+                        "(write --goal=-2,1 for a negative X)")
     add_world_options(p)
     add_controller_option(p)
     p.add_argument("--robot", default=None, metavar="FILE.yaml",
@@ -284,16 +348,28 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--target", default=None, metavar="X,Y",
                    help="goal: the target point in the world frame [m] (default 1.5,0, "
                         "2.7 m ahead of the robot; write --target=-2,1 for a negative X)")
-    p.add_argument("--out", default=None, help="output folder (default runs/NAME)")
+    p.add_argument("--cases", default=None, metavar="NAME,...",
+                   help="laws: tetraspine3, superball, three_bar, twelve_bar (default all)")
+    p.add_argument("--ntrt", default=None, metavar="NTRTSIM_DIR",
+                   help="laws: a checkout of the original toolkit, for its 12-bar cube")
+    p.add_argument("--cpu", action="store_true", help="laws: print the CPU time per step")
+    output_option(p, "--out", "folder", default=None, help="output folder (default runs/NAME)")
     add_figures_option(p, "disturbance, sine, cpg: ")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    for option in ("model", "heading", "goal"):
+        if getattr(args, option) is not None and args.name != "roll":
+            what = "a robot argument" if option == "model" else f"--{option}"
+            raise ValueError(f"{what} is for the roll experiment, not {args.name!r}")
+    if args.heading is not None and args.goal is not None:
+        raise ValueError("roll: give --heading or --goal, not both")
     if args.target is not None and args.name != "goal":
         raise ValueError(f"--target is for the goal experiment, not {args.name!r}")
     for option, names in (("push", ("disturbance",)), ("hold", ("disturbance",)),
-                          ("peak_force", ("disturbance",)), ("tow", ("drag",))):
+                          ("peak_force", ("disturbance",)), ("tow", ("drag",)),
+                          ("cases", ("laws",)), ("ntrt", ("laws",))):
         if getattr(args, option) is not None and args.name not in names:
             raise ValueError(f"--{option.replace('_', '-')} is for the {names[0]} experiment, "
                              f"not {args.name!r}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from tensim.cli._common import load_model, positive
+from tensim.cli._common import load_model, output_option, positive
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,7 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "TABLE` plays it back.")
     p.add_argument("controller", help="controller file (.yaml/.json) or a shipped name")
     p.add_argument("--model", default="tetraspine3", help="preset or structure .yaml file")
-    p.add_argument("--out", required=True, help="output text file")
+    output_option(p, "--out", "file", required=True, help="output text file")
     p.add_argument("--period", type=positive, default=0.01,
                    help="time between command packets [s] (the robot's PC: 0.01)")
     p.add_argument("--duration", type=positive, default=None,

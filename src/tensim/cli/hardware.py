@@ -22,6 +22,7 @@ from tensim.cli._common import (
     load_model,
     natural,
     nonnegative,
+    output_option,
     positive,
     world_from_args,
 )
@@ -63,7 +64,7 @@ def _register_calibrate(sub: argparse._SubParsersAction) -> None:
                        "'adc,force_N' pairs; writes calibration.json and calibration.png, and "
                        "converts raw logs' adc/ columns to tension_N/.")
     p.add_argument("pairs", help="CSV with the columns adc,force_N")
-    p.add_argument("--out", default="runs/calibration", help="output folder")
+    output_option(p, "--out", "folder", default="runs/calibration", help="output folder")
     p.add_argument("--max-force", type=positive, default=111.21,
                    help="largest measurable tension [N] (Tetraspine3: 111.21)")
     p.add_argument("--convert", nargs="*", default=[], metavar="LOG",
@@ -118,7 +119,7 @@ def _register_compare(sub: argparse._SubParsersAction) -> None:
                         "delay, else estimated by cross-correlation)")
     p.add_argument("--max-offset", type=positive, default=0.5,
                    help="largest lag the estimate tries [s]")
-    p.add_argument("--out", default="runs/compare", help="output folder")
+    output_option(p, "--out", "folder", default="runs/compare", help="output folder")
     p.set_defaults(run=_compare)
 
 
@@ -173,12 +174,21 @@ def _warn_jumps(log: HardwareLog) -> None:
     """Warns on standard error of tension jumps and drifts that no logged load explains."""
     from tensim.hardware.checklog import summarize_log
 
-    lines = _load_warnings(summarize_log(log))
+    summary = summarize_log(log)
+    lines = _load_warnings(summary)
     for line in lines:
         print(f"warning: {log.source}: {line}", file=sys.stderr)
     if lines:
-        print(f"warning: {log.source}: a push the log does not record? (load_N/<node>/<axis> "
-              "columns or an '# experiment:' header)", file=sys.stderr)
+        print(f"warning: {log.source}: {_jump_hint(summary)}", file=sys.stderr)
+
+
+def _jump_hint(summary: dict) -> str:
+    """What unexplained jumps suggest: a push the log lacks, or (it records its loads) noise
+    or an event between them."""
+    if summary["missing_push"]:
+        return ("a push the log does not record? (load_N/<node>/<axis> columns or an "
+                "'# experiment:' header)")
+    return "the log records its loads, so these are sensor noise or an event they leave out"
 
 
 def _load_warnings(s: dict) -> list[str]:
@@ -256,7 +266,7 @@ def _register_sysid(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-offset", type=nonnegative, default=0.5,
                    help="largest time offset the nominal model's alignment tries while "
                         "'delay' is not fitted [s] (0: the log's clock is the simulation's)")
-    p.add_argument("--out", default="runs/sysid", help="output folder")
+    output_option(p, "--out", "folder", default="runs/sysid", help="output folder")
     p.set_defaults(run=_sysid)
 
 
@@ -305,7 +315,9 @@ def _sysid(args: argparse.Namespace) -> int:
               f"correlation in time, sum |rho| = {u['residual_correlation']:.2f}; see "
               "docs/hardware.md)")
     v = summary["validation"]
-    where = "fit samples" if v["on_fit_data"] else f"validation samples {args.validate_window} s"
+    window = v["window_s"]
+    where = "fit samples" if v["on_fit_data"] else \
+        f"validation samples {window[0]:g}:{window[1]:g} s"
     print(f"RMSE on the {where}: nominal {v['nominal_rmse_N']:.3f} N, fitted "
           f"{v['fitted_rmse_N']:.3f} N")
     print(f"|error| on the max system tension after settling (mean over the logs; compare "
@@ -320,6 +332,11 @@ def _sysid(args: argparse.Namespace) -> int:
         return 0
     elif v["fitted_rmse_N"] > v["nominal_rmse_N"]:
         print("the fit is worse than the nominal model there; written because of --force")
+    if v["on_fit_data"]:
+        print("not checked on held-out samples (the fit window spans the whole log), so not "
+              "recommended: give a --fit-window that leaves samples out, or a "
+              "--validate-window")
+        return 0
     print(f"use it: tensim compare {args.logs[0]} --model {out}/fitted_structure.yaml "
           f"--sensor {out}/measurement.json (replays the log's V* and loads)")
     return 0
@@ -370,7 +387,7 @@ def _register_make_log(sub: argparse._SubParsersAction) -> None:
                    help="its parameters, e.g. peak=22.56,start=30,rise=5,hold=5,fall=5 "
                         "(the disturbance defaults)")
     add_world_options(p)
-    p.add_argument("--out", required=True, help="output CSV")
+    output_option(p, "--out", "file", required=True, help="output CSV")
     p.set_defaults(run=_make_log)
 
 
@@ -433,12 +450,14 @@ def _check_log(args: argparse.Namespace) -> int:
     from tensim.hardware.logs import check_items
 
     structure = load_model(args.model) if args.model else None
+    status = 0
     for path in args.logs:
         log = load_log(path)  # validated; adc/ columns converted (header calibration, eq. 7)
         if structure is not None:
             check_items(log, structure)
             loads_for(log, structure)
         s = summarize_log(log)
+        status = status if s["valid"] else 1  # a log missing its push: exit status 1
         if args.json:
             print(json.dumps(s))
             continue
@@ -457,5 +476,9 @@ def _check_log(args: argparse.Namespace) -> int:
                   f"(from the {s['loads_from']})")
         for line in _load_warnings(s):
             print(f"  warning: {line}")
+        if not s["valid"]:
+            print(f"  NOT valid: {_jump_hint(s)}; compare and sysid would replay it without "
+                  "its push")
+            continue
         print("  valid" + (f" for {args.model}" if structure is not None else ""))
-    return 0
+    return status

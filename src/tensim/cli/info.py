@@ -6,14 +6,14 @@ import argparse
 import json
 from pathlib import Path
 
-from tensim.cli._common import add_controller_option, load_model, motor_sources
+from tensim.cli._common import add_controller_option, load_model, motor_sources, output_option
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("info", help="list a model's nodes, rods, bodies, cables and motors")
     p.add_argument("model", help="preset name or structure .yaml file")
     add_controller_option(p)
-    p.add_argument("--json", default=None, metavar="FILE",
+    output_option(p, "--json", "file", default=None, metavar="FILE",
                    help="also write the listing as JSON to FILE")
     p.set_defaults(run=run)
 

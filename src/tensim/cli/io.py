@@ -1,12 +1,20 @@
-"""``tensim import-ntrt`` and ``tensim export-mjcf``: bring models in from the original toolkit's
-YAML files, send compiled models out as MuJoCo MJCF."""
+"""``tensim import-ntrt``, ``tensim import-mjcf`` and ``tensim export-mjcf``: bring models in
+from the original toolkit's YAML files and from MuJoCo MJCF, send compiled models out as
+MJCF."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from tensim.cli._common import add_world_options, load_model, nonnegative, world_from_args
+from tensim.cli._common import (
+    add_world_options,
+    load_model,
+    nonnegative,
+    output_option,
+    positive,
+    world_from_args,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,8 +34,25 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--keep-position", action="store_true",
                    help="keep the file's positions (no --clearance placement)")
     p.add_argument("--name", default=None, help="structure name (default: the file's stem)")
-    p.add_argument("--out", required=True, help="tensim structure .yaml to write")
+    output_option(p, "--out", "file", required=True, help="tensim structure .yaml to write")
     p.set_defaults(run=run_import)
+
+    p = sub.add_parser("import-mjcf", help="convert a tensegrity's MuJoCo MJCF file to a tensim "
+                       "structure",
+                       description="Reads an MJCF file with MuJoCo: bodies with capsule, "
+                       "cylinder and sphere geoms become rods, end caps and point masses (mass "
+                       "and inertia kept), the sites of spatial tendons nodes, the tendons "
+                       "cables, their actuators motors. Prints how each actuator maps and "
+                       "every difference from the file's semantics, and writes them as comments "
+                       "atop the structure file.")
+    p.add_argument("file", help="the MJCF .xml file")
+    p.add_argument("--name", default=None, help="structure name (default: the file's model name)")
+    output_option(p, "--out", "file", required=True, help="tensim structure .yaml to write")
+    p.add_argument("--compare", type=positive, default=None, metavar="SECONDS",
+                   help="also run the file in MuJoCo and its import in tensim for this long "
+                        "(passive, the file's initial controls) and print how far apart the "
+                        "nodes get")
+    p.set_defaults(run=run_import_mjcf)
 
     p = sub.add_parser("export-mjcf", help="write a preset or structure as MuJoCo MJCF",
                        description="Compiles the model and writes it as MJCF for other MuJoCo "
@@ -38,7 +63,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-springs", action="store_true",
                    help="leave the tendons without springs (tensim applies cable tension "
                         "through the actuators)")
-    p.add_argument("--out", required=True, help="MJCF .xml file to write")
+    output_option(p, "--out", "file", required=True, help="MJCF .xml file to write")
     p.set_defaults(run=run_export)
 
 
@@ -57,6 +82,31 @@ def run_import(args: argparse.Namespace) -> int:
           f"{s.total_mass():.4g} kg")
     for note in result.notes:
         print(f"note: {note}")
+    return 0
+
+
+def run_import_mjcf(args: argparse.Namespace) -> int:
+    from tensim.io import import_mjcf, save_import
+
+    result = import_mjcf(args.file, name=args.name, warn=False)
+    s = result.structure
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    save_import(result, out)
+    motors = sum(not c.motor.passive for c in s.cables)
+    print(f"wrote {out}: {len(s.nodes)} nodes, {len(s.rods)} rods in "
+          f"{len(s.rigid_groups())} rigid bodies, {len(s.cables)} cables ({motors} with "
+          f"motors), {s.total_mass():.4g} kg")
+    for line in result.header()[1:]:
+        print(line)
+    if args.compare is not None:
+        from tensim.io import compare_with_mujoco
+
+        agreement = compare_with_mujoco(args.file, args.compare)
+        print(f"compared with MuJoCo's own run of the file over {agreement.duration:g} s (the "
+              f"file's rod inertia kept): nodes within {agreement.max_difference:.2g} m "
+              f"({agreement.final_difference:.2g} m at the end); they moved up to "
+              f"{agreement.max_displacement:.2g} m")
     return 0
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import sys
@@ -17,6 +18,7 @@ from tensim.cli._common import (
     load_model,
     natural,
     nonnegative,
+    output_option,
     parse_point,
     positive,
     world_from_args,
@@ -125,7 +127,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help="run trials on Ray (a local Ray is started unless --ray-address)")
     run.add_argument("--ray-address", metavar="ADDR",
                      help="address of a running Ray cluster, e.g. ray://head:10001")
-    run.add_argument("--out", help=f"new run folder (default {d['out']})")
+    output_option(run, "--out", "folder", help=f"new run folder (default {d['out']})")
     run.add_argument("--resume", metavar="DIR", help="continue the run in DIR")
     p.set_defaults(run=run_learn)
 
@@ -191,6 +193,7 @@ def run_learn(args: argparse.Namespace) -> int:
         OptimizerSettings,
         RunStore,
         create_run,
+        discard_unstarted,
         make_executor,
         resume,
     )
@@ -215,6 +218,7 @@ def run_learn(args: argparse.Namespace) -> int:
             if getattr(args, name, None) is None:
                 setattr(args, name, value)
         out = Path(args.out)
+        existed = out.is_dir()
         settings = LearningSettings(
             OptimizerSettings(args.optimizer, args.step, args.batch, args.monte_carlo),
             args.evaluations, args.seed)
@@ -224,12 +228,15 @@ def run_learn(args: argparse.Namespace) -> int:
             print(f"note: ntrt asks {args.batch or 8} trials at a time, so at most that many "
                   f"of the {workers} workers are busy; raise --batch", file=sys.stderr)
     already = len(RunStore(out).evaluations())
+    fresh = discard_unstarted(out, existed) if not args.resume else contextlib.nullcontext()
     try:
-        result = resume(out, args.evaluations, progress=_LearningProgress(args.quiet, already),
-                        executor=lambda p: make_executor(p, workers, ray=args.ray,
-                                                         ray_address=args.ray_address,
-                                                         processes=args.processes,
-                                                         engine=args.backend))
+        with fresh:
+            result = resume(out, args.evaluations,
+                            progress=_LearningProgress(args.quiet, already),
+                            executor=lambda p: make_executor(p, workers, ray=args.ray,
+                                                             ray_address=args.ray_address,
+                                                             processes=args.processes,
+                                                             engine=args.backend))
     except KeyboardInterrupt:
         end = "\n" if sys.stderr.isatty() and not args.quiet else ""  # the progress bar's
         print(f"{end}tensim: interrupted; every finished evaluation is in "
@@ -237,6 +244,10 @@ def run_learn(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 130
     except ClusterError as err:
+        if not RunStore(out).exists():  # a fresh run that never started left no folder
+            print(f"tensim: {err}; the run never started, so no run folder was left",
+                  file=sys.stderr)
+            return 1
         print(f"tensim: {err}; every finished evaluation is in {out}/evaluations.jsonl; "
               f"continue with: tensim learn --resume {out}", file=sys.stderr)
         return 1
@@ -259,7 +270,9 @@ def _report(out: Path, summary: dict[str, Any]) -> int:
         return 1
     if summary["best_score"] is not None:
         what = problem.get("objective_text", "score")
-        print(f"best score {summary['best_score']:.4f} (evaluation {summary['best_index']} of "
+        unit = " m" if problem.get("kind") == "trial" else ""  # a trial's score is a distance
+        print(f"best score {summary['best_score']:.4f}{unit} (evaluation "
+              f"{summary['best_index']} of "
               f"{summary['evaluations']}; {what})")
     print(f"{summary['evaluations']} evaluations in {summary['wall_s']:.1f} s "
           f"({summary['evaluations_per_s'] or 0:.2f} per s); {summary['stop_reason'] or 'stopped'}")

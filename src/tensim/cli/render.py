@@ -15,6 +15,7 @@ from tensim.cli._common import (
     count,
     finite,
     load_model,
+    output_option,
     positive,
     world_from_args,
 )
@@ -32,7 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "simulate or experiment) is replayed from its recorded poses, not re-simulated.")
     p.add_argument("source", metavar="MODEL|RUN_DIR",
                    help="preset name, structure .yaml file, or run folder")
-    p.add_argument("--out", required=True, metavar="FILE.mp4", help="video file to write")
+    output_option(p, "--out", "file", required=True, metavar="FILE.mp4", help="video file to write")
     p.add_argument("--fps", type=count, default=60, help="frames per second (default 60)")
     p.add_argument("--camera", default="track", choices=("track", "top", "side", "fixed"),
                    help="track: follows the robot at 3/4 view (default); top: from above; "

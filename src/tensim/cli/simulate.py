@@ -14,6 +14,7 @@ from tensim.cli._common import (
     gains_summary,
     load_model,
     motor_summary,
+    output_option,
     positive,
     print_summary,
     world_from_args,
@@ -38,7 +39,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="loads file (YAML: a 'loads' list; see tensim.loads), e.g. the "
                         "loads.yaml of an earlier run folder")
     p.add_argument("--record-dt", type=positive, default=0.01, help="recording period [s]")
-    p.add_argument("--out", default="runs/simulate", help="output folder")
+    output_option(p, "--out", "folder", default="runs/simulate", help="output folder")
     add_figures_option(p)
     p.set_defaults(run=run)
 
@@ -115,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
             write_run(stage, result, {**summary, "figures": [p.file for p in plans
                                                              if drawer.enabled]},
                       structure=structure, controller=config, drawer=drawer)
-    print_summary(summary, out)
+    print_summary(summary, out, moved=True)
     return 0
 
 

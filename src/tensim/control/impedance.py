@@ -7,7 +7,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from tensim.sim import MODE_IMPEDANCE, CableSetup
+from tensim.sim import MODE_IMPEDANCE, CableSetup, load_cell_tension
 from tensim.structure import Structure
 
 
@@ -92,7 +92,8 @@ def default_impedance(structure: Structure, stiffness_gain: float | None = None,
                              "known only once compiled; write its impedance gains by hand")
         length = structure.cable_length(cable)
         k = cable.stiffness if stiffness_gain is None else stiffness_gain
-        pretension = max(0.0, cable.stiffness * (length - structure.rest_length(cable)))
+        pretension = float(load_cell_tension(length, structure.rest_length(cable),
+                                             cable.stiffness))
         gains[cable.name] = ImpedanceGains(round(pretension, 6), k, k * damping_time,
                                            round(length, 6))  # µN, µm: a file one reads
     if not gains:

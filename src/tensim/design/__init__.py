@@ -1,4 +1,4 @@
-"""Design analyses on structures: self-stress, stiffness, inverse statics, motor sizing, checks.
+"""Design analyses: form finding, self-stress, stiffness, inverse statics, motors, checks.
 
 Everything here works on plain :class:`tensim.structure.Structure` descriptions at their build
 pose (no MuJoCo), in SI units; figures and reports live in :mod:`tensim.design.report`, which
@@ -15,9 +15,11 @@ from tensim.design.equilibrium import (
     residuals,
     self_stress,
 )
+from tensim.design.form_finding import Form, form
 from tensim.design.inverse import InverseStatics, RestCommand, inverse_statics
 from tensim.design.motors import CableDuty, DriveMotor, cable_duty, load_catalogue
 from tensim.design.stiffness import StepBound, Stiffness, stable_timestep, step_bound, stiffness
+from tensim.design.topology import Topology, load_topology, topology_from_dict
 
 __all__ = [
     "CableDuty",
@@ -25,20 +27,25 @@ __all__ = [
     "DriveMotor",
     "Equilibrium",
     "Finding",
+    "Form",
     "InverseStatics",
     "RestCommand",
     "SelfStress",
     "StepBound",
     "Stiffness",
+    "Topology",
     "cable_duty",
     "check_structure",
     "equilibrium",
+    "form",
     "inverse_statics",
     "load_catalogue",
+    "load_topology",
     "prestressed",
     "residuals",
     "self_stress",
     "stable_timestep",
     "step_bound",
     "stiffness",
+    "topology_from_dict",
 ]

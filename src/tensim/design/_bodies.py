@@ -176,7 +176,8 @@ class CableGeometry:
         """(n_dof, n_dof) sum_c t_c d2L_c/dq2 for tensions (n_cables,) [N]."""
         full = np.zeros((self.basis.shape[0],) * 2)
         for cable, index, block in self.spans:
-            full[np.ix_(index, index)] += tensions[cable] * block
+            # np.add.at: a span with both ends on one body repeats its indices
+            np.add.at(full, np.ix_(index, index), tensions[cable] * block)
         return self.basis.T @ full @ self.basis
 
 
@@ -193,7 +194,7 @@ def cable_geometry(structure: Structure, body_set: Bodies) -> CableGeometry:
         for j in range(len(points) - 1):
             index, g, h, length, unit = _span(body_set, owners[j], points[j], owners[j + 1],
                                               points[j + 1])
-            grads[c, index] += g
+            np.add.at(grads[c], index, g)  # both ends on one body repeat indices
             spans.append((c, index, h))
             lengths[c] += length
             node_forces[cable.path[j]][:, c] += unit
@@ -230,6 +231,30 @@ def _span(body_set: Bodies, body_a: int, a: np.ndarray, body_b: int, b: np.ndarr
         hess_points[6 * k + 3:6 * k + 6, 6 * k + 3:6 * k + 6] = sign * block
     hess = jac.T @ (np.eye(3) - np.outer(unit, unit)) @ jac / length + hess_points
     return index, unit @ jac, hess, length, unit
+
+
+@dataclasses.dataclass(frozen=True)
+class BuildPose:
+    """A structure's free rigid bodies and cable geometry at its build pose, computed once per
+    analysis and handed to each of its parts.
+
+    Attributes:
+        bodies: the free rigid bodies.
+        geometry: the cables' lengths and derivatives on those bodies' coordinates.
+    """
+
+    bodies: Bodies
+    geometry: CableGeometry
+
+
+def build_pose(structure: Structure) -> BuildPose:
+    """The rigid bodies and cable geometry of ``structure`` at its build pose.
+
+    Raises:
+        StructureError: a cable wraps around rods (see :func:`bodies`).
+    """
+    body_set = bodies(structure)
+    return BuildPose(body_set, cable_geometry(structure, body_set))
 
 
 def cable_tensions(structure: Structure, lengths: np.ndarray | None = None) -> np.ndarray:

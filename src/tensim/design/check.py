@@ -10,9 +10,10 @@ Each finding names the item, what is wrong and the change that fixes it:
   above half of that bound it rings and damps wrongly;
 - thin rods: a rod body whose axial inertia is under 1e-4 of its transverse one;
 - slack cables at the build pose (rest length at or above the length);
-- a build pose far from equilibrium: the cables' net force on a body above 5 % of the mean
-  tension (the robot jumps when released);
-- cables whose file gives no motor (they inherit the default one), or a pretension above the
+- a build pose far from equilibrium: the cables' net force on a body above twice the robot's
+  weight (gravity and the ground cannot hold it: the robot springs to another pose); above
+  half the weight, a note (the robot settles into a nearby pose);
+- cables whose file gives no motor (a note: they are passive), or a pretension above the
   motor's tension limit;
 - sizes that look like centimetres or decimetres (tensim reads metres).
 """
@@ -27,15 +28,18 @@ from pathlib import Path
 import numpy as np
 
 from tensim._input import load_yaml_file
-from tensim.design._bodies import bodies, cable_tensions
+from tensim.design._blas import one_blas_thread
+from tensim.design._bodies import BuildPose, build_pose, cable_tensions
 from tensim.design.equilibrium import residuals
 from tensim.design.stiffness import step_bound, stiffness
-from tensim.structure import Motor, Structure, StructureError, mass_properties
+from tensim.structure import Structure, StructureError, mass_properties
 
 _log = logging.getLogger(__name__)
 
 INERTIA_RATIO = 1e-4  # smallest axial / transverse inertia of a rod body that integrates well
-RESIDUAL_FRACTION = 0.05  # net cable force on a body, of the mean tension, that counts as far
+RESIDUAL_NOTE = 0.5  # net cable force on a body, in robot weights, worth a note
+RESIDUAL_WEIGHTS = 2.0  # net cable force on a body, in robot weights, that counts as far
+GRAVITY = 9.81  # m/s^2
 LARGEST_SIZE = 10.0  # m: a robot larger than this was probably written in cm or dm
 MAX_DOF = 2000  # the time-step check solves a dense eigenproblem: skipped above this size
 
@@ -45,7 +49,8 @@ class Finding:
     """One problem the check found.
 
     Attributes:
-        severity: ``error`` (runs fail or are wrong) or ``warning`` (runs may mislead).
+        severity: ``error`` (runs fail or are wrong), ``warning`` (runs may mislead) or
+            ``note`` (true of the robot, worth knowing, harmless).
         item: the part concerned, e.g. ``cable 'top_0'`` or ``timestep``.
         message: what is wrong, with the numbers.
         fix: what to change.
@@ -69,6 +74,7 @@ def nice_step(limit: float) -> float:
     return float(10 ** (exponent - 1) * 5)
 
 
+@one_blas_thread
 def check_structure(structure: Structure, timestep: float = 1e-3,
                     source: str | os.PathLike[str] | None = None,
                     integrator: str = "euler") -> list[Finding]:
@@ -78,7 +84,7 @@ def check_structure(structure: Structure, timestep: float = 1e-3,
         structure: the structure.
         timestep: the physics step to check [s].
         source: the YAML file it was read from, if any: cables whose motor the file leaves out
-            (so they inherit tensim's default motor) are then named too.
+            (so they are passive) are then named in a note.
         integrator: how the step sees the cable forces, ``euler`` (explicit, as tensim's cable
             law today) or ``implicitfast`` (their damping implicit); see
             :func:`~tensim.design.stiffness.step_bound`.
@@ -86,20 +92,22 @@ def check_structure(structure: Structure, timestep: float = 1e-3,
     findings = (_units(structure) + _slack(structure) + _motors(structure, source)
                 + _thin(structure))
     try:
-        bodies(structure)
+        pose = build_pose(structure)  # once: every dynamic check reads it
     except StructureError as err:  # wrapped cables: the analyses need straight paths
         return [*findings, Finding("warning", "structure", f"dynamic checks skipped: {err}",
                                    "check the time step with `tensim experiment timestep`")]
-    return findings + _timestep(structure, timestep, integrator) + _equilibrium(structure)
+    return findings + _timestep(structure, timestep, pose, integrator) \
+        + _equilibrium(structure, pose)
 
 
-def _timestep(structure: Structure, timestep: float, integrator: str) -> list[Finding]:
+def _timestep(structure: Structure, timestep: float, pose: BuildPose,
+              integrator: str) -> list[Finding]:
     if not structure.cables:
         return []
-    if bodies(structure).n_dof > MAX_DOF:
+    if pose.bodies.n_dof > MAX_DOF:
         return [Finding("warning", "timestep", f"not checked: more than {MAX_DOF} degrees of "
                         "freedom", "compare runs at two values of --dt")]
-    bound = step_bound(stiffness(structure, count=False), integrator)
+    bound = step_bound(stiffness(structure, count=False, pose=pose), integrator)
     limit = bound.limit
     if not np.isfinite(limit):
         return []
@@ -144,8 +152,9 @@ def _slack(structure: Structure) -> list[Finding]:
             if structure.rest_length(c) >= structure.cable_length(c)]
 
 
-def _inherited(source: str | os.PathLike[str] | None) -> list[str]:
-    """Cables of a structure file that give no motor, here or in the file's defaults."""
+def _without_motor(source: str | os.PathLike[str] | None) -> list[str]:
+    """Cables of a structure file that give no motor, here or in the file's defaults (they are
+    passive: :func:`tensim.structure.motor_sources`)."""
     path = Path(source) if source is not None else None
     if path is None or path.suffix not in (".yaml", ".yml") or not path.is_file():
         return []
@@ -158,17 +167,16 @@ def _inherited(source: str | os.PathLike[str] | None) -> list[str]:
 
 
 def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list[Finding]:
-    default = _inherited(source)
+    passive = _without_motor(source)
     out = []
-    if default:
-        names = ", ".join(default[:4]) + (" ..." if len(default) > 4 else "")
+    if passive:
+        names = ", ".join(passive[:4]) + (" ..." if len(passive) > 4 else "")
         out.append(Finding(
-            "warning", f"{len(default)} cable(s)",
-            f"{names} give no motor, so they inherit the default one (max_speed "
-            f"{Motor().max_speed} m/s, max_tension {Motor().max_tension} N)",
-            "give each cable the motor it will have"))
+            "note", f"{len(passive)} cable(s)",
+            f"{names} give no motor, so they are passive (their rest lengths never change)",
+            "give a cable a motor if a controller should drive it"))
     for cable, tension in zip(structure.cables, cable_tensions(structure), strict=True):
-        if tension > cable.motor.max_tension:
+        if not cable.motor.passive and tension > cable.motor.max_tension:
             out.append(Finding(
                 "error", f"cable {cable.name!r}",
                 f"its build tension {tension:.4g} N exceeds its motor's max_tension "
@@ -176,23 +184,31 @@ def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list
     return out
 
 
-def _equilibrium(structure: Structure) -> list[Finding]:
-    tensions = cable_tensions(structure)
-    mean = float(np.mean(tensions)) if tensions.size else 0.0
-    if mean <= 0:
+def _equilibrium(structure: Structure, pose: BuildPose) -> list[Finding]:
+    # judged against the robot's weight: a net cable force of the order of the weight is taken
+    # up by gravity and the ground, and the robot settles near where it stands (Tetraspine3's
+    # end segments, pulled inward by 1.45 weights, slide 4 cm and stay down): a note; one
+    # several times the weight springs it into another pose (a prism3 cable at 2x its
+    # pretension, 3.8 weights, lifts a rod 6 mm; at 6x, 19 weights, 35 mm): a warning
+    weight = structure.total_mass() * GRAVITY
+    if weight <= 0:
         return []
-    forces = residuals(structure)
+    forces = residuals(structure, pose=pose)
     if not forces:  # every body is held by the world
         return []
     name, (force, _) = max(forces.items(), key=lambda kv: kv[1][0])
-    if force <= RESIDUAL_FRACTION * mean:
+    if force <= RESIDUAL_NOTE * weight:
         return []
-    return [Finding("warning", f"body {name!r}",
-                    f"the build pose is far from equilibrium: the cables' net force on it "
-                    f"(gravity left out) is "
-                    f"{force:.4g} N ({100 * force / mean:.0f} % of the mean tension "
-                    f"{mean:.4g} N), so the robot jumps when released",
-                    "run `tensim design prestress` for pretensions that balance")]
+    text = (f"the cables' net force on it at the build pose (gravity left out) is {force:.4g} N, "
+            f"{force / weight:.3g} times the robot's weight {weight:.4g} N")
+    fix = "run `tensim design prestress` for pretensions that balance"
+    if force <= RESIDUAL_WEIGHTS * weight:
+        return [Finding("note", f"body {name!r}", f"{text}: the build pose is not an "
+                        "equilibrium, and the robot settles into a nearby one when released",
+                        fix)]
+    return [Finding("warning", f"body {name!r}", f"{text}: the build pose is far from "
+                    "equilibrium, more than gravity and the ground can hold, so the robot "
+                    "springs to another pose when released", fix)]
 
 
 def _units(structure: Structure) -> list[Finding]:
@@ -207,6 +223,8 @@ def _units(structure: Structure) -> list[Finding]:
 
 def warn_findings(structure: Structure, timestep: float,
                   source: str | os.PathLike[str] | None = None) -> None:
-    """Logs every finding as a warning (``simulate`` runs the check before it starts)."""
+    """Logs every finding as a warning, notes at INFO (``simulate`` runs the check before it
+    starts)."""
     for finding in check_structure(structure, timestep, source):
-        _log.warning("%s: %s; %s", finding.item, finding.message, finding.fix)
+        level = logging.INFO if finding.severity == "note" else logging.WARNING
+        _log.log(level, "%s: %s; %s", finding.item, finding.message, finding.fix)

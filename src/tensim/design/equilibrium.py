@@ -27,7 +27,8 @@ import numpy as np
 from scipy.linalg import svd
 from scipy.optimize import linprog
 
-from tensim.design._bodies import Bodies, CableGeometry, bodies, cable_geometry, cable_tensions
+from tensim.design._blas import one_blas_thread
+from tensim.design._bodies import Bodies, BuildPose, CableGeometry, build_pose, cable_tensions
 from tensim.design._errors import DesignError
 from tensim.structure import Structure
 
@@ -86,15 +87,18 @@ def _row_scale(body_set: Bodies, geometry: CableGeometry) -> tuple[np.ndarray, f
     return np.where(rotation, 1.0 / scale, 1.0), scale
 
 
-def equilibrium(structure: Structure, tolerance: float = RANK_TOLERANCE) -> Equilibrium:
+@one_blas_thread
+def equilibrium(structure: Structure, tolerance: float = RANK_TOLERANCE, *,
+                pose: BuildPose | None = None) -> Equilibrium:
     """The equilibrium matrix at the build pose, its rank and the s and m of its null spaces.
 
     Args:
         structure: the structure; only its geometry and topology matter here.
         tolerance: singular values below ``tolerance`` x the largest count as zero [-].
+        pose: its bodies and cable geometry, where already computed.
     """
-    body_set = bodies(structure)
-    geometry = cable_geometry(structure, body_set)
+    pose = pose or build_pose(structure)
+    body_set, geometry = pose.bodies, pose.geometry
     rows, scale = _row_scale(body_set, geometry)
     matrix = geometry.gradients.T * rows[:, None]
     # one full SVD, A = U S V^T: the last columns of V span the self-stresses, of U the
@@ -153,6 +157,7 @@ def _rod_force_matrix(structure: Structure, geometry: CableGeometry) -> dict[str
     return out
 
 
+@one_blas_thread
 def self_stress(structure: Structure, *, min_tension: float | None = None,
                 cable: str | None = None, tension: float | None = None,
                 force_density: float | None = None,
@@ -185,9 +190,9 @@ def self_stress(structure: Structure, *, min_tension: float | None = None,
         raise DesignError(f"the prestress level must be > 0, got {level}")
     if cable is not None and cable not in names:
         raise DesignError(f"unknown cable {cable!r}; cables: {', '.join(names)}")
-    eq = equilibrium(structure, tolerance)
-    body_set = bodies(structure)
-    geometry = cable_geometry(structure, body_set)
+    pose = build_pose(structure)
+    eq = equilibrium(structure, tolerance, pose=pose)
+    geometry = pose.geometry
     rods = _rod_force_matrix(structure, geometry)
     if eq.s == 0:
         raise DesignError(
@@ -245,11 +250,13 @@ def prestressed(structure: Structure, stress: SelfStress) -> Structure:
     return dataclasses.replace(structure, cables=cables)
 
 
-def residuals(structure: Structure) -> dict[str, tuple[float, float]]:
+def residuals(structure: Structure, *, pose: BuildPose | None = None
+              ) -> dict[str, tuple[float, float]]:
     """Body name -> (|net force| [N], |net moment about its COM| [N m]) of the cables at the
-    build pose with their given pretensions or rest lengths, gravity left out."""
-    body_set = bodies(structure)
-    geometry = cable_geometry(structure, body_set)
+    build pose with their given pretensions or rest lengths, gravity left out (``pose``: its
+    bodies and cable geometry, where already computed)."""
+    pose = pose or build_pose(structure)
+    body_set, geometry = pose.bodies, pose.geometry
     full = body_set.basis @ (geometry.gradients.T @ cable_tensions(structure, geometry.lengths))
     return {name: (float(np.linalg.norm(full[6 * b:6 * b + 3])),
                    float(np.linalg.norm(full[6 * b + 3:6 * b + 6])))

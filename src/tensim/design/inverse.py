@@ -31,6 +31,7 @@ from scipy.optimize import linprog
 from scipy.spatial.transform import Rotation
 
 from tensim.control.rest import RestCommand
+from tensim.design._blas import one_blas_thread
 from tensim.design._bodies import GRAVITY, Bodies, bodies, cable_geometry, cable_tensions
 from tensim.design._errors import DesignError
 from tensim.structure import Structure
@@ -137,7 +138,8 @@ class _Linear:
         return tuple(self.anchors)
 
 
-def _linearise(pose: Structure, anchors: dict[str, np.ndarray], gravity: float) -> _Linear:
+def _linearise(pose: Structure, anchors: dict[str, np.ndarray], gravity: float,
+               loads: dict[str, np.ndarray] | None = None) -> _Linear:
     body_set = bodies(pose)
     geometry = cable_geometry(pose, body_set)
     rest = np.array([pose.rest_length(c) for c in pose.cables])
@@ -147,6 +149,9 @@ def _linearise(pose: Structure, anchors: dict[str, np.ndarray], gravity: float) 
     grads = geometry.gradients
     stiffness = (grads.T * (k * taut)) @ grads + geometry.geometric(tensions)
     force = grads.T @ tensions - body_set.gravity_force(gravity)
+    for name, load in (loads or {}).items():  # external node forces: -J^T F
+        force -= (body_set.point_jacobian(body_set.node_body[name], pose.position(name))
+                  @ body_set.basis).T @ load
     for name, anchor in anchors.items():
         jac = body_set.point_jacobian(body_set.node_body[name], pose.position(name)) \
             @ body_set.basis
@@ -155,26 +160,42 @@ def _linearise(pose: Structure, anchors: dict[str, np.ndarray], gravity: float) 
     return _Linear(pose, body_set, stiffness, grads, tensions, taut, force, anchors)
 
 
+def _newton_step(lin: _Linear) -> np.ndarray:
+    """-K^-1 dV/dq; a free structure (nothing pinned) takes no rigid-body motion (its load
+    balances itself, and K is singular along those motions)."""
+    rigid = lin.body_set.rigid_motions() if not lin.anchors else np.zeros((len(lin.force), 0))
+    if not rigid.shape[1]:
+        return -np.linalg.lstsq(lin.stiffness, lin.force, rcond=1e-12)[0]
+    keep = np.eye(len(lin.force)) - rigid @ rigid.T
+    scale = np.abs(lin.stiffness).max()
+    return -np.linalg.solve(keep @ lin.stiffness @ keep + scale * rigid @ rigid.T,
+                            keep @ lin.force)
+
+
+@one_blas_thread
 def settle(structure: Structure, pinned: tuple[str, ...], gravity: float = GRAVITY,
-           iterations: int = 100) -> _Linear:
-    """The static pose of ``structure`` (explicit rest lengths) with ``pinned`` nodes held.
+           iterations: int = 100, loads: dict[str, np.ndarray] | None = None,
+           start: Structure | None = None) -> _Linear:
+    """The static pose of ``structure`` (explicit rest lengths) with ``pinned`` nodes held
+    where ``structure`` has them, under gravity and external node ``loads`` (node -> (3,)
+    world-frame force [N]); Newton's method from ``start`` (default: ``structure``).
 
     Raises:
         DesignError: no static pose found (the structure folds or falls).
     """
     anchors = {n: structure.position(n) for n in pinned}
-    pose = structure
+    pose = structure if start is None else start
     size = float(np.ptp([n.position for n in structure.nodes], axis=0).max())
     for _ in range(iterations):
-        lin = _linearise(pose, anchors, gravity)
-        step = -np.linalg.lstsq(lin.stiffness, lin.force, rcond=1e-12)[0]
+        lin = _linearise(pose, anchors, gravity, loads)
+        step = _newton_step(lin)
         longest = np.abs(step).max()
         if longest > 0.05 * size:  # keep each step where the linearisation holds
             step *= 0.05 * size / longest
         pose = _move(pose, lin.body_set, lin.body_set.basis @ step)
         if longest < 1e-12 * max(size, 1.0):
-            return _linearise(pose, anchors, gravity)
-    lin = _linearise(pose, anchors, gravity)
+            return _linearise(pose, anchors, gravity, loads)
+    lin = _linearise(pose, anchors, gravity, loads)
     if np.abs(lin.force).max() > 1e-6 * max(np.abs(lin.tensions).max(), 1.0):
         raise DesignError(f"{structure.name}: no static pose found on its feet "
                           f"({', '.join(pinned)}): it folds or falls under gravity")
@@ -264,6 +285,7 @@ def _solve(structure: Structure, targets: dict[str, np.ndarray], pinned: tuple[s
     return rest, lin
 
 
+@one_blas_thread
 def inverse_statics(structure: Structure, displacements: dict[str, tuple[float, float, float]],
                     *, min_tension: float = 1.0, tolerance: float = TOLERANCE,
                     gravity: float = GRAVITY) -> InverseStatics:

@@ -67,6 +67,40 @@ class CableDuty:
         return self.work * period / self.duration
 
 
+PEAK_SHORTFALL = 0.01  # recorded peak tension this far below the tracked one: too coarse
+
+
+def check_sampling(series: TimeSeries, tracked: dict[str, float], source: str) -> None:
+    """Refuses a run recorded too coarsely for its gait: the simulation tracks each cable's
+    peak tension at every physics step (``max_tension_N`` in its summary); where the largest
+    recorded sample is more than :data:`PEAK_SHORTFALL` below it, the samples miss the peaks
+    of the tension and of the line speed, and a motor sized from them could fail on the same
+    gait (recorded every 0.25 s, a motor passed with +3.1 % margin that fails by 12 %).
+
+    Args:
+        series: the run's trajectory.
+        tracked: cable -> peak tension over every physics step [N].
+        source: the run, for the message.
+
+    Raises:
+        DesignError: naming the run, the cable and the figures, and what to do.
+    """
+    worst, cable, recorded = 0.0, "", 0.0
+    for name, peak in tracked.items():
+        if f"tension/{name}" not in series.channels or not peak > 0:
+            continue
+        sampled = float(np.max(series[f"tension/{name}"]))
+        if 1 - sampled / peak > worst:
+            worst, cable, recorded = 1 - sampled / peak, name, sampled
+    if worst > PEAK_SHORTFALL:
+        period = float(np.median(np.diff(series.time)))
+        raise DesignError(f"{source}: recorded every {period:g} s, too coarse for its gait: "
+                          f"cable {cable!r} peaked at {tracked[cable]:.4g} N between samples, "
+                          f"its largest sample reads {recorded:.4g} N ({100 * worst:.2g} % "
+                          f"low; limit {100 * PEAK_SHORTFALL:g} %), and its line speed peaks "
+                          "are missed too; rerun the simulation with a smaller --record-dt")
+
+
 def cable_duty(series: TimeSeries, limits: dict[str, tuple[float, float]] | None = None
                ) -> list[CableDuty]:
     """Each cable's duty in one recorded run.

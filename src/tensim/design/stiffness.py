@@ -20,7 +20,8 @@ import dataclasses
 import numpy as np
 from scipy.linalg import eigh
 
-from tensim.design._bodies import bodies, cable_geometry, cable_tensions
+from tensim.design._blas import blas_threads, one_blas_thread
+from tensim.design._bodies import BuildPose, build_pose, cable_tensions
 from tensim.design.equilibrium import RANK_TOLERANCE, equilibrium
 from tensim.structure import Structure
 
@@ -70,16 +71,19 @@ class Stiffness:
         return np.linalg.eigvalsh(self.matrix)
 
 
-def stiffness(structure: Structure, count: bool = True) -> Stiffness:
+@one_blas_thread
+def stiffness(structure: Structure, count: bool = True, *,
+              pose: BuildPose | None = None) -> Stiffness:
     """K_m, K_g, M and the natural frequencies at the build pose (slack cables carry nothing).
 
     Args:
         structure: the structure at its build pose.
         count: also count rigid motions and (stiffened) mechanisms (an SVD more); else they
             are reported as 0.
+        pose: its bodies and cable geometry, where already computed.
     """
-    body_set = bodies(structure)
-    geometry = cable_geometry(structure, body_set)
+    pose = pose or build_pose(structure)
+    body_set, geometry = pose.bodies, pose.geometry
     tensions = cable_tensions(structure, geometry.lengths)
     taut = np.array([structure.rest_length(c) <= L + 1e-12
                      for c, L in zip(structure.cables, geometry.lengths, strict=True)], dtype=bool)
@@ -93,7 +97,7 @@ def stiffness(structure: Structure, count: bool = True) -> Stiffness:
     frequencies = np.sqrt(np.clip(values, 0.0, None)) / (2 * np.pi)
     counts = (0, 0, 0)
     if count:
-        eq = equilibrium(structure, RANK_TOLERANCE)
+        eq = equilibrium(structure, RANK_TOLERANCE, pose=pose)
         counts = (eq.n_rigid, eq.internal_mechanisms,
                   _stiffened(eq.mechanisms, body_set.rigid_motions(), geometric))
     return Stiffness(body_set.names, body_set.dof_body, material, geometric, mass, damping,
@@ -190,6 +194,11 @@ def step_bound(result: Stiffness, integrator: str = "euler") -> StepBound:
     if integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got "
                          f"{integrator!r}")
+    with blas_threads(2 * result.mass.shape[0]):
+        return _step_bound(result, integrator)
+
+
+def _step_bound(result: Stiffness, integrator: str) -> StepBound:
     values, modes = eigh(result.matrix, result.mass)
     values = np.clip(values, 0.0, None)
     damping = modes.T @ result.damping @ modes

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from tensim.control import ControllerConfig, default_impedance
+from tensim.experiments.stance import MAX_MOVE_SIZES, robot_size, rod_axes, stance_problems
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.models.tetraspine import node_name
@@ -156,15 +157,26 @@ def run_disturbance(dt: float = 1e-3, duration: float = DURATION, backend: str =
                       loads=disturbance_loads(push=push), record_dt=record_period(dt),
                       backend=backend, progress=progress)
     name = model or ("tetraspine3" if structure is None else structure.name)
-    return result, {**summarize(result, name, label, push), **world_record(compiled.world)}
+    summary = summarize(result, name, label, push, size=robot_size(robot), axes=rod_axes(robot))
+    return result, {**summary, **world_record(compiled.world)}
 
 
 def summarize(result: SimulationResult, model: str = "tetraspine3",
-              controller: str = DEFAULT_CONTROLLER, push: Push | None = None) -> dict[str, Any]:
-    """Headline figures plus each cable's mean tension before and during the hold phase."""
+              controller: str = DEFAULT_CONTROLLER, push: Push | None = None,
+              size: float | None = None,
+              axes: dict[str, np.ndarray] | None = None) -> dict[str, Any]:
+    """Headline figures plus each cable's mean tension before and during the hold phase, and
+    whether the robot kept its stance (``stance_problems``, ``valid``: a robot that tipped
+    over, or whose centre of mass moved more than a quarter of its ``size`` [m], took no
+    steady push and its tension figures mean nothing; ``axes``: see
+    :func:`tensim.experiments.stance.rod_axes`)."""
     series = result.trajectory
     summary: dict[str, Any] = {"model": model, "experiment": "disturbance",
                                "controller": controller, **result.summary()}
+    problems = stance_problems(series, axes=axes, max_move_m=None if size is None
+                               else MAX_MOVE_SIZES * size)
+    summary["valid"] = not problems
+    summary["stance_problems"] = problems
     if series.time[-1] >= DURING[1]:
         before = series.between(*BEFORE).matrix("tension", result.cables).mean(axis=0)
         during = series.between(*DURING).matrix("tension", result.cables).mean(axis=0)

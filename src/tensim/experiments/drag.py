@@ -22,10 +22,11 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from tensim.control import ControllerConfig
+from tensim.experiments.stance import rod_axes, stance_problems
 from tensim.model import WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.runs import world_record, write_run
-from tensim.sim import Controller, Simulation, SimulationResult, TimeSeries
+from tensim.sim import Controller, Simulation, SimulationResult, TimeSeries, cable_tension
 from tensim.structure import Structure
 from tensim.viz import plot_cable_tensions
 from tensim.viz.plots import save_figure, thin
@@ -110,7 +111,9 @@ class _Tow:
                 self.start = point.copy()
             travelled = s.speed * (t - s.settle)
             stretch = travelled - float((point - self.start) @ self.d)
-            force = max(0.0, s.stiffness * stretch + s.damping * (s.speed - speed))
+            # the tow line is a cable: the one tension-only spring-damper law (rest length 0)
+            force = float(cable_tension(stretch, s.speed - speed, 0.0, s.stiffness,
+                                        s.damping)[1])
         f = force * self.d
         xfrc = sim.data.xfrc_applied[self.body]
         xfrc[:3] = f
@@ -195,11 +198,34 @@ def run_drag(model: str = "tetraspine3", settings: DragSettings | None = None, *
         "com_speed_m_per_s": round(steady_speed, 5),
         "settings": dataclasses.asdict(settings), **world_record(compiled.world),
     }
+    problems = stance_problems(trajectory, axes=rod_axes(structure)) \
+        + _unsteady(forces[window], steady_speed, settings.speed)
+    summary["valid"], summary["stance_problems"] = not problems, problems
     if times.size == trajectory.time.size and np.allclose(times, trajectory.time):
         # the line force, sampled with everything else, goes into trajectory.parquet
         trajectory = TimeSeries(trajectory.time, {**trajectory.channels, TOW_CHANNEL: forces})
         result = dataclasses.replace(result, trajectory=trajectory)
     return result, summary
+
+
+STEADY_CHANGE = 0.1  # the line force's change across the steady window, of its mean
+SPEED_MISMATCH = 0.2  # the centre of mass's speed off the tow's by more: not towed steadily
+
+
+def _unsteady(forces: np.ndarray, com_speed: float, tow_speed: float) -> list[str]:
+    """Why the steady window holds no steady sliding (empty: it does): the line force still
+    changing between its halves, or the robot not keeping up with the tow point."""
+    problems = []
+    if forces.size >= 4:
+        first, second = forces[:forces.size // 2].mean(), forces[forces.size // 2:].mean()
+        if abs(second - first) > STEADY_CHANGE * max(abs(forces.mean()), 1e-9):
+            problems.append(f"the line force was still changing in the steady window (mean "
+                            f"{first:.4g} N in its first half, {second:.4g} N in its second): "
+                            "the robot never slid steadily")
+    if not abs(com_speed - tow_speed) <= SPEED_MISMATCH * tow_speed:
+        problems.append(f"its centre of mass moved at {com_speed:.3g} m/s in the steady window, "
+                        f"not the tow's {tow_speed:g} m/s: it did not slide with the tow")
+    return problems
 
 
 def drag_figure(series: TimeSeries, summary: dict[str, Any]) -> Figure:

@@ -149,7 +149,10 @@ def _rate(times: np.ndarray) -> dict[str, float | None]:
 
 def summarize_log(log: HardwareLog) -> dict[str, Any]:
     """JSON-ready: duration, rows, per quantity its items, rate and largest gap, the loads
-    (node, peak force, window), the experiment, and unexplained tension jumps and drifts."""
+    (node, peak force, window), the experiment, unexplained tension jumps and drifts, and
+    the verdict ``valid``: a log that records no load but whose tensions jump or drift as
+    under a push is not (it would be replayed without the push: ``missing_push``); a log that
+    records its loads stays valid, its remaining jumps being noise or events between them."""
     quantities: dict[str, Any] = {}
     for quantity in dict.fromkeys(c.partition("/")[0] for c in log.series.channels):
         items = log.series.items(quantity)
@@ -159,7 +162,7 @@ def summarize_log(log: HardwareLog) -> dict[str, Any]:
     loads = column_loads(log)
     named = log_experiment(log)
     window = load_window(replay_loads(log))
-    return {"log": log.source, "duration_s": round(log.duration, 6),
+    summary: dict[str, Any] = {"log": log.source, "duration_s": round(log.duration, 6),
             "rows": int(log.series.time.size), "quantities": quantities,
             "experiment": None if named is None else {"name": named[0], "params": named[1]},
             "loads": {ld.node: round(float(np.linalg.norm(ld.forces, axis=1).max()), 6)
@@ -170,3 +173,8 @@ def summarize_log(log: HardwareLog) -> dict[str, Any]:
                                   for t, c in unexplained_jumps(log)],
             "unexplained_drifts": [{"start_s": s0, "end_s": e0, "cables": c, "largest_N": n}
                                    for s0, e0, c, n in unexplained_drifts(log)]}
+    summary["records_loads"] = bool(loads or named)
+    summary["missing_push"] = not summary["records_loads"] and bool(
+        summary["unexplained_jumps"] or summary["unexplained_drifts"])
+    summary["valid"] = not summary["missing_push"]
+    return summary

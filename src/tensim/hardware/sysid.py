@@ -66,10 +66,11 @@ class SysidSettings:
         skip: leave each log's first seconds out of the residual [s].
         threads: threads of the batch engine that runs the perturbed models (0: every core).
         fit_window: (start, end) of the samples the fit uses, from each log's start [s]
-            (None: all after ``skip``, or with a validation window, the samples before it, or
-            after it if it starts at 0).
-        validate_window: (start, end) of the samples that judge the fit [s] (None: the fit
-            window; then the verdict is on the fitted data).
+            (None: the first three quarters after ``skip``, or with a validation window, the
+            samples before it, or after it if it starts at 0).
+        validate_window: (start, end) of the samples that judge the fit [s] (None: samples
+            the fit does not use, after or before the fit window; only a fit window over
+            the whole log leaves none, and the verdict is then on the fitted data).
         force: keep a fit that is worse than the nominal model on the validation samples.
     """
 
@@ -380,7 +381,7 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
         raise ValueError("system identification needs at least one log")
     for log in logs:
         validate_log(log)
-    settings = _hold_out(settings or SysidSettings())
+    settings = _windows(settings or SysidSettings(), logs)
     _check_windows(settings)
     _check_informed(logs, names, settings)
     try:
@@ -424,14 +425,41 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
                        uncertainty)
 
 
-def _hold_out(settings: SysidSettings) -> SysidSettings:
-    """With a validation window and no fit window, fit on the samples before it (or after it,
-    when it starts at 0): validation samples are never fitted unless asked for."""
-    validate = settings.validate_window
-    if validate is None or settings.fit_window is not None:
-        return settings
-    fit = (0.0, validate[0]) if validate[0] > 0 else (validate[1], np.inf)
-    return dataclasses.replace(settings, fit_window=fit)
+HOLD_OUT = 0.25  # the share of the logs held out to judge a fit when no window is given
+
+
+def _windows(settings: SysidSettings, logs: Sequence[HardwareLog]) -> SysidSettings:
+    """The fit and validation windows, clipped to the logs (an open end such as ``0:inf``
+    ends with the longest log), with samples held out to judge the fit when no validation
+    window is given: those after the fit window (or before it), or without a fit window the
+    logs' last quarter. Only a fit window over the whole log leaves none (``on_fit_data``).
+    A validation window alone fits on the samples before it (or after it, when it starts
+    at 0): validation samples are never fitted unless asked for. A window past the logs'
+    end is left as given, for :func:`_check_informed` to refuse.
+    """
+    end = max(log.duration for log in logs)
+    start = settings.skip
+
+    def clip(window: tuple[float, float] | None) -> tuple[float, float] | None:
+        if window is None:
+            return None
+        clipped = (max(window[0], 0.0), min(window[1], end))
+        # a window past the logs' end is left for _check_informed to refuse by name
+        return clipped if clipped[0] < clipped[1] else window
+
+    fit = clip(settings.fit_window)
+    validate = clip(settings.validate_window)
+    if validate is None and fit is None:
+        cut = start + (1.0 - HOLD_OUT) * (end - start)
+        fit, validate = (start, cut), (cut, end)
+    elif validate is None and fit is not None:
+        if fit[1] < end:
+            validate = (fit[1], end)
+        elif fit[0] > start:
+            validate = (start, fit[0])
+    elif fit is None and validate is not None:
+        fit = (0.0, validate[0]) if validate[0] > 0 else (validate[1], end)
+    return dataclasses.replace(settings, fit_window=fit, validate_window=validate)
 
 
 def _check_windows(settings: SysidSettings) -> None:

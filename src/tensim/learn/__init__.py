@@ -17,7 +17,7 @@ from tensim.learn.nelder_mead import NelderMead
 from tensim.learn.objective import Objective, parse_direction
 from tensim.learn.optimizers import CMAES, OPTIMIZERS, NTRTSearch, OptimizerSettings
 from tensim.learn.problem import Evaluation, Outcome, SphereProblem, TrialProblem
-from tensim.learn.run import LearningSettings, create_run, learn, resume
+from tensim.learn.run import LearningSettings, create_run, discard_unstarted, learn, resume
 from tensim.learn.store import RunFolderError, RunStore
 
 __all__ = [
@@ -41,6 +41,7 @@ __all__ = [
     "TrialProblem",
     "create_run",
     "default_base",
+    "discard_unstarted",
     "gait_layout",
     "learn",
     "make_executor",

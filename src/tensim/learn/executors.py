@@ -21,6 +21,7 @@ import logging
 import multiprocessing
 import os
 import select
+import socket
 import threading
 import time
 from collections.abc import Iterator, Sequence
@@ -290,6 +291,29 @@ def _ray_task(problem: Problem, tasks: list[Task]) -> list[Evaluation]:
     return list(ThreadBatchExecutor(problem, 1).run(tasks))
 
 
+CONNECT_TIMEOUT_S = 10.0  # how long a Ray head may take to accept a connection
+
+
+def check_reachable(address: str, option: str, timeout: float = CONNECT_TIMEOUT_S) -> None:
+    """Refuses a Ray address whose head does not accept a connection within ``timeout`` [s]
+    (``ray.init`` itself retries an unreachable one for minutes). ``host:port`` and
+    ``ray://host:port`` are probed; ``auto``, ``local`` and the like are left to Ray.
+
+    Raises:
+        ClusterError: naming the option, the address and the cause.
+    """
+    host, sep, port = address.removeprefix("ray://").rpartition(":")
+    if not sep or not port.isdigit() or not host:
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+    except OSError as err:
+        cause = "no answer" if isinstance(err, TimeoutError) else (err.strerror or str(err))
+        raise ClusterError(f"{option} {address}: the Ray head cannot be reached ({cause} "
+                           f"within {timeout:g} s); check the address and that the cluster "
+                           "runs (ray status on its head)") from None
+
+
 class ClusterError(RuntimeError):
     """The cluster failed to run some trials, again and again, for reasons of its own (nodes
     or workers that died, results that were lost); those trials are not recorded, so resuming
@@ -309,6 +333,9 @@ def connect_ray(address: str | None, workers: int) -> bool:
 
     if ray.is_initialized():
         return False
+    named = address or os.environ.get("RAY_ADDRESS")
+    if named:
+        check_reachable(named, "--ray-address" if address else "RAY_ADDRESS")
     if address:
         ray.init(address=address, log_to_driver=False)
         return True
@@ -377,7 +404,11 @@ class RayExecutor:
         for k in range(0, len(tasks), share):
             submit(list(tasks[k:k + share]), 1)
         while pending:
-            done, _ = ray.wait(list(pending), num_returns=1)
+            try:
+                done, _ = ray.wait(list(pending), num_returns=1)
+            except (ConnectionError, ray.exceptions.RaySystemError) as err:
+                raise ClusterError(f"lost the Ray cluster ({_describe(err)}): its head node "
+                                   "stopped or cannot be reached") from None
             for ref in done:
                 chunk, tries = pending.pop(ref)
                 try:

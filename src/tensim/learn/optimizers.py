@@ -17,6 +17,9 @@ a fresh optimizer told the same costs asks exactly what the original would have 
 from __future__ import annotations
 
 import dataclasses
+import sys
+import warnings
+from types import ModuleType
 from typing import Any, Protocol
 
 import numpy as np
@@ -139,8 +142,7 @@ class CMAES:
 
     def __init__(self, dimension: int, seed: int, start: np.ndarray, *, sigma: float = 0.2,
                  batch: int | None = None):
-        import cma
-
+        cma = import_cma()
         if dimension < 2:
             raise ValueError("CMA-ES needs at least 2 parameters; use ntrt or nelder-mead")
         # seed NaN: cma must not reseed numpy's global state (it samples from randn only)
@@ -216,3 +218,29 @@ class OptimizerSettings:
         if self.name == "cma":
             return CMAES(dimension, seed, start, sigma=step, batch=self.batch)
         return NelderMead(dimension, start, step=min(step, 0.5))
+
+
+# What cma imports at its own import for features tensim never uses: plotting (pyplot, which
+# also chooses a plotting backend for the whole process, which a library must not) and its
+# surrogate fitness models' rank correlation (scipy.stats; cma has a fallback of its own).
+_CMA_UNUSED = ("matplotlib.pyplot", "scipy.stats")
+
+
+def import_cma() -> ModuleType:
+    """The ``cma`` package, imported without :data:`_CMA_UNUSED` (over a second of CPU per
+    learning run): while cma loads they are made unimportable, which cma accepts (the warning
+    it gives is silenced here); they import normally afterwards.
+    """
+    if "cma" in sys.modules:
+        return sys.modules["cma"]
+    blocked = [name for name in _CMA_UNUSED if name not in sys.modules]
+    for name in blocked:
+        sys.modules[name] = None  # type: ignore[assignment]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            import cma
+    finally:
+        for name in blocked:
+            del sys.modules[name]
+    return cma

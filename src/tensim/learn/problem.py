@@ -187,6 +187,11 @@ class TrialProblem:
     def __post_init__(self) -> None:
         check_family(self.family)
         names = {f.name for f in dataclasses.fields(PhysicsScale)}
+        given = [name for name, _, _ in self.randomize]
+        repeated = sorted({name for name in given if given.count(name) > 1})
+        if repeated:
+            raise ValueError(f"randomize {', '.join(repeated)}: given more than once; give each "
+                             "parameter one LOW:HIGH range")
         for name, low, high in self.randomize:
             if name not in names:
                 raise ValueError(f"cannot randomize {name!r}; choose from {sorted(names)}")

@@ -15,13 +15,14 @@ A run holds its folder's lock (:meth:`RunStore.acquire`) while it writes.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import datetime
 import logging
 import platform
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -71,22 +72,36 @@ class LearningSettings:
 
 
 def _versions() -> dict[str, str]:
-    import cma
+    import importlib.metadata
+
     import mujoco
 
+    # cma's version from its metadata: importing cma costs a second (see import_cma)
     return {"tensim": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
-            "cma": cma.__version__, "python": platform.python_version()}
+            "cma": importlib.metadata.version("cma"), "python": platform.python_version()}
 
 
 def create_run(out: str | Path, problem: Problem, settings: LearningSettings) -> RunStore:
     """Creates a run folder: resolved configuration, robot files, initial checkpoint.
 
+    A creation that fails (a problem that cannot be read back, a full disk) removes what it
+    wrote, so the folder is as it was (absent, or empty).
+
     Raises:
         RunFolderError: ``out`` already holds a run.
     """
     store = RunStore(out)
-    with store.locked():
-        _create(store, problem, settings)
+    existed = store.folder.is_dir()
+    checked = False
+    try:
+        with store.locked():
+            store.check_new()
+            checked = True
+            _create(store, problem, settings)
+    except BaseException:
+        if checked or not existed:
+            store.discard(keep_folder=existed)
+        raise
     return store
 
 
@@ -110,10 +125,32 @@ def _create(store: RunStore, problem: Problem, settings: LearningSettings) -> No
 def learn(problem: Problem, settings: LearningSettings, out: str | Path, *, workers: int = 1,
           executor: ExecutorFactory | None = None, progress: ProgressFn | None = None
           ) -> OptimizeResult:
-    """Learns from scratch into the new run folder ``out``; see :func:`resume`."""
+    """Learns from scratch into the new run folder ``out``; see :func:`resume`.
+
+    A run that fails before it starts evaluating (an executor that cannot start, a cluster
+    that cannot be reached) leaves no run folder.
+    """
+    existed = Path(out).is_dir()
     create_run(out, problem, settings)
-    return _run(RunStore(out), None, problem, workers=workers, executor=executor,
-                progress=progress)
+    with discard_unstarted(out, existed):
+        return _run(RunStore(out), None, problem, workers=workers, executor=executor,
+                    progress=progress)
+
+
+@contextlib.contextmanager
+def discard_unstarted(out: str | Path, existed: bool) -> Iterator[None]:
+    """Removes the new run folder ``out`` (or empties it, if it ``existed``) when the block
+    fails with an error before the run started evaluating (its executor could not start: no
+    evaluation log was opened). A run that started keeps its folder, to resume, even if it
+    recorded nothing (a cluster node that died under the first generation); so does an
+    interruption."""
+    try:
+        yield
+    except Exception:
+        store = RunStore(out)
+        if not store.path(EVALUATIONS).exists():
+            store.discard(keep_folder=existed)
+        raise
 
 
 def resume(out: str | Path, evaluations: int | None = None, *, workers: int = 1,

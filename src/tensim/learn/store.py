@@ -31,6 +31,7 @@ import hashlib
 import json
 import math
 import os
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +62,18 @@ LOCK = ".lock"
 MAX_DIMENSION = 1_000  # most parameters of a sphere problem read back from a folder
 FINGERPRINT = "defines_sha256"  # config.json: hashes of what defines the run's problem
 _DEFINING = ("problem", "optimizer", "seed")  # the configuration's part of it
+
+
+def _read_files(config: dict[str, Any]) -> tuple[str, ...]:
+    """The files outside the run folder that the configuration's problem reads."""
+    problem = config.get("problem")
+    terrain = problem.get("terrain") if isinstance(problem, dict) else None
+    if not isinstance(terrain, str):
+        return ()
+    try:
+        return parse_terrain(terrain).files()
+    except InputError:
+        return ()  # a damaged terrain string is refused where the problem is rebuilt
 
 
 class RunFolderError(InputError):
@@ -141,6 +154,20 @@ class RunStore:
         Raises:
             RunFolderError: the folder already holds a run, or other files.
         """
+        self.check_new()
+        self.folder.mkdir(parents=True, exist_ok=True)
+        if isinstance(problem, TrialProblem):
+            save_structure(problem.structure, self.path(STRUCTURE))
+            save_controller(problem.base, self.path(BASE_CONTROLLER))
+        self.write_config({**config, FINGERPRINT: self.fingerprint(config)})
+
+    def check_new(self) -> None:
+        """Refuses a folder that holds a run or other files (a new run needs a new or empty
+        folder).
+
+        Raises:
+            RunFolderError: naming what the folder holds.
+        """
         if self.exists() or self.path(EVALUATIONS).exists():
             raise RunFolderError(f"{self.folder}: already holds a learning run; continue it "
                                  "with --resume, or choose another --out")
@@ -150,21 +177,35 @@ class RunStore:
             raise RunFolderError(f"{self.folder}: is not empty ({', '.join(others[:4])}"
                                  f"{', ...' if len(others) > 4 else ''}); a learning run needs a "
                                  "new or empty folder: choose another --out")
-        self.folder.mkdir(parents=True, exist_ok=True)
-        if isinstance(problem, TrialProblem):
-            save_structure(problem.structure, self.path(STRUCTURE))
-            save_controller(problem.base, self.path(BASE_CONTROLLER))
-        self.write_config({**config, FINGERPRINT: self.fingerprint(config)})
+
+    def discard(self, keep_folder: bool) -> None:
+        """Removes a run that never started: the folder (or, with ``keep_folder``, what is in
+        it), so a refused or failed start leaves nothing that would refuse the next one."""
+        if not self.folder.is_dir():
+            return
+        if not keep_folder:
+            shutil.rmtree(self.folder, ignore_errors=True)
+            return
+        for item in self.folder.iterdir():
+            if item.is_dir() and not item.is_symlink():
+                shutil.rmtree(item, ignore_errors=True)
+            else:
+                item.unlink(missing_ok=True)
 
     def fingerprint(self, config: dict[str, Any]) -> dict[str, str]:
         """SHA-256 of each thing that defines the run's problem: the configuration's problem,
-        optimizer and seed, and the robot files (structure, base controller) byte for byte.
-        Stored in ``config.json`` when the run is created; a resume recomputes it."""
+        optimizer and seed, the robot files (structure, base controller) byte for byte, and
+        the contents of every other file the problem reads (a height field's file, keyed
+        ``terrain file PATH``; a missing one hashes as missing). Stored in ``config.json``
+        when the run is created; a resume recomputes it."""
         parts = {key: json.dumps(config.get(key), sort_keys=True, allow_nan=False)
                  .encode() for key in _DEFINING}
         for name in (STRUCTURE, BASE_CONTROLLER):
             if self.path(name).is_file():
                 parts[name] = self.path(name).read_bytes()
+        for file in _read_files(config):
+            path = Path(file)
+            parts[f"terrain file {file}"] = path.read_bytes() if path.is_file() else b"missing"
         return {key: hashlib.sha256(data).hexdigest() for key, data in parts.items()}
 
     def check_fingerprint(self, config: dict[str, Any]) -> None:

@@ -21,12 +21,18 @@ import numpy as np
 from tensim.model import _beads
 from tensim.model._law_layout import (
     ACTDIM,
+    CABLE_LAWS,
     DC_ACTDIM,
     GAIN,
+    IMPLICIT_EXTRA,
+    LAW_EXPLICIT,
+    LAW_IMPLICIT,
+    LAW_IMPLICITFAST,
     MODE_REST,
     LawParameters,
     biasprm,
     dynprm,
+    gainprm,
 )
 from tensim.structure import Cable, Rod, Structure, mass_properties
 from tensim.structure._mass import MassProperties
@@ -39,6 +45,11 @@ _ROBOT_PRIORITY = 1
 BUILD_KEY = "build"  # the keyframe of the build pose: rest lengths in act, commands in ctrl
 WORLD_FRAME_SITE = "world_frame"  # reference frame of the node-load inputs
 _CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
+# each cable law's MuJoCo integrator: the implicit laws' native gain term is what discrete
+# (stiffness and damping) and implicitfast (damping) integrate implicitly (docs/architecture.md)
+INTEGRATORS = {LAW_EXPLICIT: mujoco.mjtIntegrator.mjINT_EULER,
+               LAW_IMPLICIT: mujoco.mjtIntegrator.mjINT_DISCRETE,
+               LAW_IMPLICITFAST: mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
 
 
 class ModelError(ValueError):
@@ -56,7 +67,8 @@ class WorldOptions:
         min_inertia_ratio: a body whose smallest principal moment is below this fraction of
             its largest gets the small moments raised to it (thin single rods: MuJoCo spins up
             bodies with a tiny axial inertia); see ``thin_body``.
-        thin_body: ``"regularize"`` (raise the moments and log it) or ``"refuse"`` (raise an error).
+        thin_body: ``"regularize"`` (raise the moments and say so at WARNING, with the figures)
+            or ``"refuse"`` (raise an error). ``min_inertia_ratio=0`` turns the floor off.
         contact_timeconst: time constant of MuJoCo's soft contact [s] (0.02 is MuJoCo's default;
             keep it >= 2 timesteps).
         terrain: the ground (``tensim.terrain``; flat by default); the robot is lifted onto it
@@ -76,6 +88,14 @@ class WorldOptions:
             torsional friction about the contact normal) or 6 (plus rolling friction).
         torsional_friction: torsional friction coefficient [m] (condim 4 and 6).
         rolling_friction: rolling friction coefficient [m] (condim 6).
+        cable_law: ``"explicit"`` (the default: the law computes each cable's force and MuJoCo
+            integrates it with its semi-implicit Euler step, as the paper's figures were made),
+            ``"implicit"`` (MuJoCo's ``discrete`` integrator takes each taut cable's stiffness
+            and damping implicitly through a native actuator term, and solves the contacts in
+            the same metric: stiff, strongly damped cables at 1-10 ms steps) or
+            ``"implicitfast"`` (the same term under MuJoCo's cheaper ``implicitfast``, which
+            takes only the damping, and only each body's own share of it: right for cables
+            anchored to the world, poor for cables between free bodies); docs/speed.md.
     """
 
     timestep: float = 1e-3
@@ -92,6 +112,7 @@ class WorldOptions:
     condim: int = 3
     torsional_friction: float = 0.005
     rolling_friction: float = 0.0001
+    cable_law: str = LAW_EXPLICIT
 
     def __post_init__(self) -> None:
         if not 0 < self.timestep <= 0.05:
@@ -104,6 +125,9 @@ class WorldOptions:
             raise ValueError(f"contact_timeconst must be > 0 s, got {self.contact_timeconst}")
         if not self.ground and self.terrain != Flat():
             raise ValueError("a terrain needs ground=True")
+        if self.cable_law not in CABLE_LAWS:
+            raise ValueError(f"cable_law must be one of {', '.join(CABLE_LAWS)}, got "
+                             f"{self.cable_law!r}"[:200])
         if self.cone not in _CONES:
             raise ValueError(f"cone must be 'pyramidal' or 'elliptic', got {self.cone!r}")
         if isinstance(self.noslip_iterations, bool) or not isinstance(
@@ -156,10 +180,12 @@ class ModelIndex:
 
     def cable_act(self, act: np.ndarray, part: int = 0) -> np.ndarray:
         """Each cable's activation ``part`` (0: rest length, 1: peak tension) from ``act``
-        (..., na): a view where every cable has two activations, else a copy."""
+        (..., na): a view where every cable has as many activations (two, or three under the
+        implicit law), else a copy."""
         n = len(self.cables)
-        if np.array_equal(self.rest_act, np.arange(0, 2 * n, 2)):
-            return act[..., part:2 * n:2]
+        for stride in (2, 3):
+            if np.array_equal(self.rest_act, np.arange(0, stride * n, stride)):
+                return act[..., part:stride * n:stride]
         return act[..., self.rest_act + part]
 
     def cable_id(self, name: str) -> int:
@@ -232,9 +258,30 @@ def _regularize(name: str, props: MassProperties, world: WorldOptions) -> tuple[
             "bodies up. Use thin_body='regularize', thicken the rod, or join it to other rods."
         )
     raised = np.maximum(moments, floor)
-    log.info("rigid body %r: principal inertia raised from %s to %s kg m^2 (thin rod)",
-             name, moments, raised)
     return axes @ np.diag(raised) @ axes.T, True
+
+
+_WARNED: set[str] = set()  # thin-body warnings already given (each once per process)
+
+
+def _warn_thin(structure: Structure, raised: list[tuple[str, float, float]],
+               world: WorldOptions) -> None:
+    """One WARNING for the bodies whose smallest principal inertia was raised, with figures."""
+    if not raised:
+        return
+    names = ", ".join(n for n, _, _ in raised[:4]) + (" ..." if len(raised) > 4 else "")
+    low, high = min(r[1] for r in raised), max(r[2] for r in raised)
+    factor = max(new / old if old > 0 else np.inf for _, old, new in raised)
+    message = (f"{structure.name}: {len(raised)} rigid bod{'y' if len(raised) == 1 else 'ies'} "
+               f"({names}): smallest principal inertia raised to {world.min_inertia_ratio:g} of "
+               f"the largest (from {low:.3g} to {high:.3g} kg m^2, up to {factor:.3g}x; MuJoCo "
+               "spins thin rods up), which slows their spin about their axis; give the rods their "
+               "axial_inertia in the structure file (kept as given), a larger radius or point "
+               "masses, or turn the floor off with --inertia-floor 0 "
+               "(WorldOptions(min_inertia_ratio=0))")
+    if message not in _WARNED:
+        _WARNED.add(message)
+        log.warning(message)
 
 
 def compile_structure(structure: Structure, world: WorldOptions | None = None,
@@ -257,7 +304,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     spec.modelname = structure.name
     spec.option.timestep = world.timestep
     spec.option.gravity = list(world.gravity)
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    spec.option.integrator = INTEGRATORS[world.cable_law]
     if not world.midphase:
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_MIDPHASE
     spec.option.cone = _CONES[world.cone]
@@ -276,14 +323,19 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     masses = {p.node: p for p in structure.point_masses}
     node_body: dict[str, str] = {}
     node_local: dict[str, np.ndarray] = {}
-    adjusted = []
+    adjusted: list[str] = []
+    raised: list[tuple[str, float, float]] = []  # (body, smallest moment, raised) [kg m^2]
     moving_mass = 0.0
     for group in structure.rigid_groups():
         props = mass_properties(structure, group)
         moving_mass += 0.0 if group.fixed else props.mass
-        inertia, changed = _regularize(group.name, props, world)
+        given = bool(group.rods) and all(rods[r].axial_inertia is not None for r in group.rods)
+        inertia, changed = (props.inertia, False) if given else \
+            _regularize(group.name, props, world)
         if changed:
             adjusted.append(group.name)
+            raised.append((group.name, float(np.linalg.eigvalsh(props.inertia)[0]),
+                           float(np.linalg.eigvalsh(inertia)[0])))
         body = spec.worldbody.add_body(name=group.name, pos=props.com.tolist())
         if not group.fixed:
             body.add_freejoint(name=f"{group.name}_free")
@@ -323,6 +375,7 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
         if anchor.name not in node_body:  # a fixed anchor point in the world
             node_body[anchor.name] = "world"
             node_local[anchor.name] = structure.position(anchor.name)
+    _warn_thin(structure, raised, world)
     _beads.check_beads(structure, world.timestep, moving_mass)
     bodies = {b.name: b for b in spec.bodies}
     bead_paths: dict[str, list[str]] = {}  # contact cables: every site along the path
@@ -353,13 +406,15 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
                                                       f"{cable.name}_side{j}", side, node_body,
                                                       node_local))
     for cable in structure.cables:  # cable actuators first: ids 0..n_cables-1
-        _add_cable_actuator(spec, cable, structure.rest_length(cable))
+        _add_cable_actuator(spec, cable, structure.rest_length(cable), world.cable_law)
     _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
     _add_bead_springs(spec, structure, world, bead_paths)
     rest = [structure.rest_length(c) for c in structure.cables]
-    # per cable: rest length, peak tension 0 (and a DC motor's spool at rest)
+    # per cable: rest length, peak tension 0 (and a DC motor's spool at rest; the implicit
+    # law's pull: the law sets it in the first step)
+    pull = (0.0,) * (IMPLICIT_EXTRA if world.cable_law != LAW_EXPLICIT else 0)
     act = [v for c, r in zip(structure.cables, rest, strict=True)
-           for v in ((r, 0.0) if c.motor.dc is None else (r, 0.0, 0.0))]
+           for v in ((r, 0.0) if c.motor.dc is None else (r, 0.0, 0.0)) + pull]
     spec.add_key(name=BUILD_KEY, act=act, ctrl=rest + [0.0] * (3 * len(load_nodes)))
     model = _compile_spec(spec)
     _check_wraps(structure, model)
@@ -395,7 +450,10 @@ def without_cable_law(compiled: CompiledModel) -> mujoco.MjSpec:
     for actuator in spec.actuators[:compiled.n_cables]:
         actuator.dyntype = mujoco.mjtDyn.mjDYN_NONE
         actuator.actdim = -1
-        actuator.gainprm[0] = 1.0
+        actuator.actearly = False
+        actuator.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        actuator.gainprm[:] = [1.0] + [0.0] * 9
+        actuator.forcelimited = False
         actuator.biastype = mujoco.mjtBias.mjBIAS_NONE
         actuator.dynprm[:] = [1.0] + [0.0] * 9
         actuator.biasprm[:] = [0.0] * 10
@@ -459,25 +517,36 @@ def _side_site(spec: mujoco.MjSpec, structure: Structure, bodies: dict[str, mujo
     return name
 
 
-def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -> None:
-    """The cable's actuator: user dynamics (motor, peak), zero gain, user bias (tension).
+def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float,
+                        law: str = LAW_EXPLICIT) -> None:
+    """The cable's actuator: user dynamics (motor, peak), a gain, user bias (tension).
 
     Its parameters go into the slots that ``tensim.model._law_layout`` names (every body of the
     law reads them from there): rest mode, the motor's limits, L* = the build rest length;
-    act = [rest length, peak tension]; ctrl = the command. A DC motor adds its line speed to
-    act (actdim 3) and its parameters, in cable coordinates, to biasprm.
+    k and b in gainprm; act = [rest length, peak tension]; ctrl = the command. A DC motor adds
+    its line speed to act (actdim 3) and its parameters, in cable coordinates, to biasprm.
+    The explicit law's gain is fixed at zero. The implicit law's is MuJoCo's affine one
+    (k x + b xdot) times the pull, a last activation the law keeps at -1 while the cable is
+    taut (read after this step's update: ``actearly``), and its force is limited to <= 0
+    (tension only), so that MuJoCo drops the term's derivatives while it clamps.
     """
     actuator = spec.add_actuator(name=cable.name, target=cable.name,
                                  trntype=mujoco.mjtTrn.mjTRN_TENDON)
     actuator.dyntype = mujoco.mjtDyn.mjDYN_USER
-    actuator.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    actuator.gainprm[:] = gainprm(cable.stiffness, cable.damping)
     actuator.gainprm[0] = GAIN
     actuator.biastype = mujoco.mjtBias.mjBIAS_USER
+    implicit = law != LAW_EXPLICIT
+    actuator.gaintype = mujoco.mjtGain.mjGAIN_AFFINE if implicit else mujoco.mjtGain.mjGAIN_FIXED
+    if implicit:
+        actuator.actearly = True
+        actuator.forcelimited = True
+        actuator.forcerange = [-np.inf, 0.0]
     motor, dc = cable.motor, cable.motor.dc
     actuator.dynprm[:] = dynprm(MODE_REST, motor.max_speed, motor.max_tension,
                                 motor.min_rest_length, motor.min_length, 0.0, 0.0, 0.0,
                                 rest_length)
-    actuator.actdim = ACTDIM if dc is None else DC_ACTDIM
+    actuator.actdim = (ACTDIM if dc is None else DC_ACTDIM) + (IMPLICIT_EXTRA if implicit else 0)
     slots = None
     if dc is not None:
         line = dc.line()
@@ -485,7 +554,8 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float) -
                  "mass": line["mass"], "viscous": line["viscous"], "coulomb": line["coulomb"],
                  "position_time": dc.position_time,
                  "back_drivable": 1.0 if dc.back_drivable else 0.0}
-    actuator.biasprm[:] = biasprm(cable.stiffness, cable.damping, slots)
+    actuator.biasprm[:] = biasprm({**(slots or {}), "lag_time": motor.lag_time,
+                                   "saturate": 1.0 if motor.saturate else 0.0})
 
 
 def _add_bead_springs(spec: mujoco.MjSpec, structure: Structure, world: WorldOptions,

@@ -1,10 +1,15 @@
 """The cable law's parameter layout: the one specification every body of the law reads.
 
 A tensim cable is one MuJoCo actuator whose law parameters live in the ``MjModel``
-(``actuator_dynprm``, ``actuator_biasprm``; ``actuator_gainprm`` is zero: the law writes the
-whole force as bias) and whose state lives in ``act``. This module names each slot once. The
-compiler writes the parameters through these names, the Python reference law and the MuJoCo
-Warp kernel read them through these names, and the compiled law reads them from
+(``actuator_dynprm``, ``actuator_gainprm``, ``actuator_biasprm``) and whose state lives in
+``act``. Under the explicit law (``LAW_EXPLICIT``) the gain is fixed at zero and the law writes
+the whole force as bias; under the implicit laws (``LAW_IMPLICIT``, ``LAW_IMPLICITFAST``) the
+gain is MuJoCo's affine one, ``k x + b xdot`` from ``gainprm``'s stiffness and damping, times
+the last activation (``pull``: -1 while the cable is taut, else 0), so MuJoCo's implicit
+integrators see the cable's stiffness and damping (``discrete``) or damping (``implicitfast``);
+the bias then makes the force exactly the law's (docs/architecture.md). This module names each
+slot once. The compiler writes the parameters through these names, the Python reference law and
+the MuJoCo Warp kernel read them through these names, and the compiled law reads them from
 ``_cable_layout.h``, which :func:`c_header` generates from this module (``python
 tools/law_header.py`` rewrites it; a test checks the committed header equals its output).
 
@@ -37,9 +42,14 @@ DYNPRM = (
     ("gain_b", "impedance law B [N s/m]"),
     ("target_length", "impedance law L* [m]"),
 )
+GAINPRM = (
+    ("gain", "stays 0: the constant of the gain (the explicit law's whole gain)"),
+    ("stiffness", "cable k [N/m]: the implicit law's gain per metre of length"),
+    ("damping", "cable b [N s/m]: the implicit law's gain per m/s of lengthening"),
+)
 BIASPRM = (
-    ("stiffness", "cable k [N/m]"),
-    ("damping", "cable b [N s/m]"),
+    ("lag_time", "kinematic motor's first-order lag [s] (0: none)"),
+    ("saturate", "1.0: max_tension back-drives the kinematic motor (a force cap), 0.0: stops it"),
     ("reserved", "stays 0: MuJoCo's compiler reads a positive one as a damping ratio"),
     # DC motors only (actdim 3), in cable coordinates (tensim.structure.DCMotor.line)
     ("stall_force", "DC motor stall force F_s [N]"),
@@ -54,13 +64,22 @@ ACT = (
     ("rest", "the motor's rest length l [m]"),
     ("peak", "running maximum of the load-cell tension [N]"),
     ("speed", "DC motors only: the spool's line speed dl/dt [m/s]"),
+    ("pull", "implicit law only, always the last: -1.0 while the cable is taut after this "
+             "step's motor update, else 0.0 (the gain's input)"),
 )
-GAIN = 0.0  # actuator_gainprm[0]: the law returns the whole force as bias
+GAIN = 0.0  # actuator_gainprm[0]
+
+# the cable laws, each with its MuJoCo integrator (tensim.model.INTEGRATORS)
+LAW_EXPLICIT = "explicit"  # the law writes the whole force (Euler)
+LAW_IMPLICIT = "implicit"  # MuJoCo's affine gain carries the law's stiffness and damping (discrete)
+LAW_IMPLICITFAST = "implicitfast"  # the same law; implicitfast takes the damping, per body
+CABLE_LAWS = (LAW_EXPLICIT, LAW_IMPLICIT, LAW_IMPLICITFAST)
 
 MODE_REST = 0  # the motor follows a commanded rest length (ctrl: the rest length [m])
 MODE_IMPEDANCE = 1  # the motor realises the impedance law's setpoint (ctrl: V* [m/s])
 ACTDIM = 2  # a kinematic motor's activations: rest length, peak tension
 DC_ACTDIM = 3  # a DC motor's: rest length, peak tension, line speed
+IMPLICIT_EXTRA = 1  # the implicit law adds the pull after them
 
 
 def _slot(table: tuple[tuple[str, str], ...], name: str) -> int:
@@ -72,12 +91,15 @@ P_MAX_SPEED, P_MAX_TENSION = _slot(DYNPRM, "max_speed"), _slot(DYNPRM, "max_tens
 P_MIN_REST, P_MIN_LENGTH = _slot(DYNPRM, "min_rest"), _slot(DYNPRM, "min_length")
 P_OFFSET, P_GAIN_K = _slot(DYNPRM, "offset_tension"), _slot(DYNPRM, "gain_k")
 P_GAIN_B, P_TARGET_LENGTH = _slot(DYNPRM, "gain_b"), _slot(DYNPRM, "target_length")
-B_STIFFNESS, B_DAMPING = _slot(BIASPRM, "stiffness"), _slot(BIASPRM, "damping")
+G_STIFFNESS, G_DAMPING = _slot(GAINPRM, "stiffness"), _slot(GAINPRM, "damping")
 B_STALL_FORCE, B_NO_LOAD_SPEED = _slot(BIASPRM, "stall_force"), _slot(BIASPRM, "no_load_speed")
 B_MASS, B_VISCOUS, B_COULOMB = (_slot(BIASPRM, n) for n in ("mass", "viscous", "coulomb"))
 B_POSITION_TIME = _slot(BIASPRM, "position_time")
 B_BACK_DRIVABLE = _slot(BIASPRM, "back_drivable")
+B_LAG_TIME, B_SATURATE = _slot(BIASPRM, "lag_time"), _slot(BIASPRM, "saturate")
 A_REST, A_PEAK, A_SPEED = (_slot(ACT, n) for n in ("rest", "peak", "speed"))
+# the pull is the last activation (MuJoCo's gain reads the last): slot actdim - 1, not A_PULL
+A_PULL = _slot(ACT, "pull")
 
 
 def dynprm(mode: int, max_speed: float, max_tension: float, min_rest: float, min_length: float,
@@ -94,25 +116,51 @@ def dynprm(mode: int, max_speed: float, max_tension: float, min_rest: float, min
     return row
 
 
-def biasprm(stiffness: float, damping: float, dc: dict[str, float] | None = None) -> list[float]:
+def gainprm(stiffness: float, damping: float) -> list[float]:
+    """A cable actuator's ``gainprm`` row (MuJoCo's mjNGAIN = 10 values)."""
+    row = [0.0] * 10
+    row[G_STIFFNESS], row[G_DAMPING] = float(stiffness), float(damping)
+    return row
+
+
+def biasprm(dc: dict[str, float] | None = None) -> list[float]:
     """A cable actuator's ``biasprm`` row; ``dc`` holds a DC motor's slots by name."""
     row = [0.0] * len(BIASPRM)
-    row[B_STIFFNESS], row[B_DAMPING] = float(stiffness), float(damping)
     for name, value in (dc or {}).items():
         row[_slot(BIASPRM, name)] = float(value)
     return row
 
 
+def implicit(model: mujoco.MjModel) -> np.ndarray:
+    """(nu,) whether each actuator runs the implicit law (MuJoCo's affine gain)."""
+    return model.actuator_gaintype == mujoco.mjtGain.mjGAIN_AFFINE
+
+
+def motor_actdim(model: mujoco.MjModel) -> np.ndarray:
+    """(nu,) each actuator's activations without the implicit law's pull: ACTDIM for a
+    kinematic motor, DC_ACTDIM for a DC motor."""
+    return model.actuator_actnum - IMPLICIT_EXTRA * implicit(model)
+
+
 def is_cable(model: mujoco.MjModel) -> np.ndarray:
     """(nu,) whether each actuator of ``model`` is a tensim cable."""
     return np.isin(model.actuator_dynprm[:, P_MARKER], (CABLE_MARKER, REFERENCE_MARKER)) \
-        & np.isin(model.actuator_actnum, (ACTDIM, DC_ACTDIM))
+        & np.isin(motor_actdim(model), (ACTDIM, DC_ACTDIM))
+
+
+def law_of(model: mujoco.MjModel, n: int) -> str:
+    """The cable law of a model's first ``n`` actuators (its cables), one of CABLE_LAWS (a
+    model without cables counts as explicit)."""
+    if not (n and bool(implicit(model)[:n].all())):
+        return LAW_EXPLICIT
+    fast = model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    return LAW_IMPLICITFAST if fast else LAW_IMPLICIT
 
 
 class LawParameters:
     """The law parameters of a model's first ``n`` actuators (its cables), as live views.
 
-    Each attribute is a (n,) view of ``actuator_dynprm``/``actuator_biasprm``: reading it
+    Each attribute is a (n,) view of ``actuator_dynprm``/``actuator_gainprm``: reading it
     gives what the physics uses now, writing it edits the model.
 
     Attributes:
@@ -124,8 +172,8 @@ class LawParameters:
     """
 
     def __init__(self, model: mujoco.MjModel, n: int):
-        p, b = model.actuator_dynprm[:n], model.actuator_biasprm[:n]
-        self.stiffness, self.damping = b[:, B_STIFFNESS], b[:, B_DAMPING]
+        p, g = model.actuator_dynprm[:n], model.actuator_gainprm[:n]
+        self.stiffness, self.damping = g[:, G_STIFFNESS], g[:, G_DAMPING]
         self.mode = p[:, P_MODE]
         self.max_speed, self.max_tension = p[:, P_MAX_SPEED], p[:, P_MAX_TENSION]
         self.min_rest, self.min_length = p[:, P_MIN_REST], p[:, P_MIN_LENGTH]
@@ -138,8 +186,9 @@ def _definitions() -> list[str]:
              f"#define TENSIM_REFERENCE_MARKER {REFERENCE_MARKER!r}",
              f"#define TENSIM_MODE_REST {float(MODE_REST)!r}",
              f"#define TENSIM_MODE_IMPEDANCE {float(MODE_IMPEDANCE)!r}",
-             f"#define TENSIM_ACTDIM {ACTDIM}", f"#define TENSIM_DC_ACTDIM {DC_ACTDIM}"]
-    for prefix, table in (("P", DYNPRM), ("B", BIASPRM), ("A", ACT)):
+             f"#define TENSIM_ACTDIM {ACTDIM}", f"#define TENSIM_DC_ACTDIM {DC_ACTDIM}",
+             f"#define TENSIM_IMPLICIT_EXTRA {IMPLICIT_EXTRA}"]
+    for prefix, table in (("P", DYNPRM), ("G", GAINPRM), ("B", BIASPRM), ("A", ACT)):
         lines.append("")
         lines += [f"#define TENSIM_{prefix}_{name.upper()} {k} /* {doc} */"
                   for k, (name, doc) in enumerate(table)]

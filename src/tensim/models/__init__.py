@@ -9,6 +9,7 @@ from tensim.models.prisms import prism, prism4, prism5
 from tensim.models.six_bar import six_bar
 from tensim.models.superball import superball
 from tensim.models.tetraspine import tetraspine, tetraspine3
+from tensim.models.three_bar import three_bar
 
 __all__ = [
     "PRESETS",
@@ -27,4 +28,5 @@ __all__ = [
     "tetrahedral_complex",
     "tetraspine",
     "tetraspine3",
+    "three_bar",
 ]

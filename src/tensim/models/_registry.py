@@ -14,6 +14,7 @@ from tensim.models.prisms import prism4, prism5
 from tensim.models.six_bar import six_bar
 from tensim.models.superball import superball
 from tensim.models.tetraspine import impedance_controller, tetraspine, tetraspine3
+from tensim.models.three_bar import three_bar
 from tensim.structure import Structure, load_structure
 
 
@@ -50,6 +51,8 @@ PRESETS: dict[str, Preset] = {
                "cables", prism5),
         Preset("superball", "SUPERball scale six-bar: 1.68 m, 3.5 kg struts, 24 cables of "
                "613 N/m at 245 N", superball),
+        Preset("three_bar", "3-bar rolling robot: 1.376 m, 4 kg bars, 6 motorised end-triangle "
+               "cables and 3 passive verticals of 10 kN/m", three_bar),
         Preset("tetrahedral_complex", "6-vertebra tetrahedral-complex spine (4 rods from a "
                "centre), 40 motorised cables", tetrahedral_complex),
         Preset("octahedral_complex", "6-vertebra octahedral-complex spine (6 rods from a "

@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from tensim.model import CompiledModel
+from tensim.sim import load_cell_tension
 
 
 class Renders:
@@ -15,25 +16,24 @@ class Renders:
 
     Args:
         compiled: the robot.
-        stiffness: (n_cables,) cable stiffness [N/m], for the load-cell tensions.
 
     Raises:
         tensim.viz._gl.OffscreenUnavailable: no offscreen OpenGL backend works here.
     """
 
-    def __init__(self, compiled: CompiledModel, stiffness: np.ndarray, width: int = 480,
-                 height: int = 360):
+    def __init__(self, compiled: CompiledModel, width: int = 480, height: int = 360):
         from tensim.viz.render import OffscreenRenderer  # OpenGL only when images are asked
 
-        self.compiled, self.stiffness = compiled, stiffness
+        self.compiled = compiled
         self.renderer = OffscreenRenderer(compiled, width, height)
 
-    def image(self, data: mujoco.MjData | Any) -> np.ndarray:
-        """(height, width, 3) uint8 image of ``data``."""
+    def image(self, model: mujoco.MjModel, data: mujoco.MjData | Any) -> np.ndarray:
+        """(height, width, 3) uint8 image of ``data``, its cables coloured by the load-cell
+        tension with the stiffness of ``model`` (the robot's own, randomised, model)."""
         idx = self.compiled.index
         rest = idx.cable_act(data.act)
-        length = data.ten_length[idx.tendon]
-        tension = np.where(length > rest, self.stiffness * (length - rest), 0.0)
+        tension = load_cell_tension(data.ten_length[idx.tendon], rest,
+                                    self.compiled.law(model).stiffness)
         return self.renderer.render(data, tension, rest, f"t = {data.time:.2f} s")
 
     def close(self) -> None:

@@ -40,15 +40,21 @@ def default_controller(model: str, structure: Structure) -> Controller | None:
 
 
 class _Configure:
-    """Sets the law's gains (from the controller) and every cable's mode for the actions."""
+    """Sets the law's gains (from the controller) and the mode of the motorised cables (all
+    cables when ``motors`` is None) for the actions; the others hold their rest length."""
 
-    def __init__(self, controller: Controller | None, mode: int):
-        self.controller, self.mode = controller, mode
+    def __init__(self, controller: Controller | None, mode: int,
+                 motors: np.ndarray | None = None):
+        self.controller, self.mode, self.motors = controller, mode, motors
 
     def configure(self, setup: Any) -> None:
         if self.controller is not None:
             self.controller.configure(setup)
-        setup.drive.mode[:] = self.mode
+        if self.motors is None:
+            setup.drive.mode[:] = self.mode
+        else:
+            setup.drive.mode[:] = MODE_REST
+            setup.drive.mode[self.motors] = self.mode
 
 
 class Robot:
@@ -78,47 +84,56 @@ class Robot:
             raise InputError(f"model {config.model!r} has no impedance controller, so V* "
                              "actions would do nothing: use action='rest_length'")
         mode = MODE_IMPEDANCE if self.action == "vstar" else MODE_REST
-        with Simulation(self.compiled, controller=_Configure(controller, mode)) as sim:
+        self.motors = motorised(config.model, structure)
+        with Simulation(self.compiled, controller=_Configure(controller, mode,
+                                                             self.motors)) as sim:
             self.model = sim.model
             self.initial_state = sim.get_state()
             rest0 = sim.drive.rest.copy()
         drive = CableDrive(self.compiled, self.model)  # parameters read from the MjModel
         self.n = self.compiled.n_cables
         self.n_bodies = len(self.compiled.index.bodies)
-        speed = drive.max_speed.astype(float).copy()
-        if not (speed > 0).any():  # no cables, or (in a model edited by hand) no motor speed
+        self.cables = tuple(self.compiled.index.cables[i] for i in self.motors)
+        speed = drive.max_speed.astype(float)[self.motors]
+        if not (speed > 0).any():  # (in a model edited by hand) no motor speed
             raise InputError(f"model {config.model!r}: no cable has a motor that moves, so "
                              "no action can change the robot")
-        self.stiffness = drive.stiffness.copy()
         if self.action == "vstar":
             self.low, self.high = -speed, speed.copy()
         else:
-            span = config.rest_span * rest0
-            self.low = np.maximum(drive.min_rest, rest0 - span)
-            self.high = rest0 + span
+            span = config.rest_span * rest0[self.motors]
+            self.low = np.maximum(drive.min_rest[self.motors], rest0[self.motors] - span)
+            self.high = rest0[self.motors] + span
         self.rest0 = rest0
+        self.hold = rest0.copy()  # passive cables keep their rest length (MODE_REST)
+        if self.action == "vstar":
+            self.hold[self.motors] = 0.0
+        m = self.motors.size
         if config.normalize_actions:
-            self.action_space = gym.spaces.Box(-1.0, 1.0, (self.n,), dtype=np.float32)
+            self.action_space = gym.spaces.Box(-1.0, 1.0, (m,), dtype=np.float32)
         else:
             self.action_space = gym.spaces.Box(self.low.astype(np.float32),
                                                self.high.astype(np.float32), dtype=np.float32)
-        self.layout = observation_layout(config.observation, self.n, self.n_bodies)
-        size = sum(stop - start for start, stop in self.layout.values())
+        self.rods = rod_ends(structure, self.compiled)
+        self.layout = observation_layout(config.observation, self.n, self.n_bodies, m,
+                                         len(structure.rods), config.history)
+        size = max(stop for _, stop in self.layout.values())
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (size,), dtype=np.float64)
 
     def command(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray, Any]:
-        """(n_robots, n_cables) actions -> the ``ctrl`` commands in SI units, the actions as
-        applied (in the action space's units) and whether each robot's action was clipped.
+        """(n_robots, n_motors) actions -> the (n_robots, n_cables) ``ctrl`` commands in SI
+        units (passive cables hold their build value), the actions as applied (in the action
+        space's units) and whether each robot's action was clipped.
 
         Raises:
             InputError: an action of the wrong shape, non-finite, or out of range with
                 ``clip_actions=False``; naming the robot.
         """
         action = np.asarray(action, dtype=float)
-        box = self.action_space
-        if action.ndim != 2 or action.shape[1] != self.n:
-            raise InputError(f"actions must have shape (n_robots, {self.n}), "
-                             f"got {action.shape}")
+        box, m = self.action_space, self.motors.size
+        if action.ndim != 2 or action.shape[1] != m:
+            raise InputError(f"actions must have shape (n_robots, {m}) (one per motorised "
+                             f"cable), got {action.shape}")
         bad = ~np.isfinite(action).all(axis=1)
         if bad.any():
             raise InputError(f"robot {int(np.argmax(bad))}: action holds NaN or infinite "
@@ -130,24 +145,55 @@ class Robot:
             raise InputError(f"robot {i}: action outside the box [{low.min()}, {high.max()}]"
                              f" (clip_actions=False): {action[i]}")
         applied = np.clip(action, low, high)
-        if not self.config.normalize_actions:
-            return applied, applied, out
-        if self.action == "vstar":
-            return applied * self.high, applied, out
-        return np.clip(self.rest0 * (1.0 + applied * self.config.rest_span), self.low,
-                       self.high), applied, out
+        command = applied
+        if self.config.normalize_actions and self.action == "vstar":
+            command = applied * self.high
+        elif self.config.normalize_actions:
+            command = np.clip(self.rest0[self.motors] * (1.0 + applied * self.config.rest_span),
+                              self.low, self.high)
+        commands = np.empty((action.shape[0], self.n))
+        commands[:] = self.hold
+        commands[:, self.motors] = command
+        return commands, applied, out
 
 
-def observation_layout(terms: tuple[str, ...], n: int, n_bodies: int
-                       ) -> dict[str, tuple[int, int]]:
-    """Each observation term's slice (start, stop) in the flat vector."""
+def motorised(model: str, structure: Structure) -> np.ndarray:
+    """Indices of the cables that have a motor (the action space's cables).
+
+    Raises:
+        InputError: a robot with no motorised cable.
+    """
+    motors = np.flatnonzero([not c.motor.passive for c in structure.cables])
+    if motors.size == 0:
+        raise InputError(f"model {model!r} has no motorised cable (every cable is passive), "
+                         "so a policy has nothing to act on: give some cables a 'motor'")
+    return motors
+
+
+def rod_ends(structure: Structure, compiled: CompiledModel) -> dict[str, np.ndarray]:
+    """Each rod's end nodes as (body id, position in that body's frame): arrays ``body``
+    (n_rods, 2) and ``local`` (n_rods, 2, 3) [m]."""
+    idx = compiled.index
+    ends = [rod.nodes for rod in structure.rods]
+    body = np.array([[idx.node_body[a] for a in e] for e in ends], dtype=int).reshape(-1, 2)
+    local = np.array([[idx.node_local[a] for a in e] for e in ends], float).reshape(-1, 2, 3)
+    return {"body": body, "local": local}
+
+
+def observation_layout(terms: tuple[str, ...], n: int, n_bodies: int, n_motors: int | None = None,
+                       n_rods: int = 0, history: int = 0) -> dict[str, tuple[int, int]]:
+    """Each observation term's slice (start, stop) in the flat vector; with ``history`` the
+    previous observations follow under the key ``"history"``."""
     sizes = {"height": 1, "pose": 7 * n_bodies, "velocity": 3 + 6 * n_bodies,
-             "cable_length": n, "rest_length": n, "tension": n, "contact": n_bodies,
-             "task": 2, "previous_action": n, "position": 2}
+             "rod_axis": 3 * n_rods, "cable_length": n, "rest_length": n, "tension": n,
+             "contact": n_bodies, "end_contact": 2 * n_rods, "task": 2,
+             "previous_action": n if n_motors is None else n_motors, "position": 2}
     layout, start = {}, 0
     for term in terms:
         layout[term] = (start, start + sizes[term])
         start += sizes[term]
+    if history:
+        layout["history"] = (start, start * (1 + history))
     return layout
 
 

@@ -11,14 +11,14 @@ import numpy as np
 from mujoco import batch as mjbatch
 
 from tensim.rl._robot import Robot
-from tensim.sim import PhysicsScale, StabilityLimits, Trial
+from tensim.sim import PhysicsScale, StabilityLimits, Trial, load_cell_tension
 from tensim.sim._batch import setup_trial
 from tensim.sim._loop import RING_EVERY, ForceHistory, prestress_band, split_steps
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
-_FIELDS = ("ten_length", "xipos", "xquat", "subtree_com", "cvel", "qvel", "actuator_force",
-           "act", "ctrl")
+_FIELDS = ("ten_length", "xpos", "xmat", "xipos", "xquat", "subtree_com", "cvel", "qvel",
+           "actuator_force", "act", "ctrl")
 
 
 class Worlds:
@@ -29,15 +29,14 @@ class Worlds:
     """
 
     def __init__(self, robot: Robot, n: int, threads: int = 1):
-        self.robot, self.n = robot, n
+        self.robot, self.n, self.threads = robot, n, threads
         c = robot.config
-        self.batch = mjbatch.Batch(robot.model, n, nthread=threads, persistent=True)
-        self.f = {k: self.batch.bind(k) for k in _FIELDS}
+        self._open_batch([robot.model] * n)
         self.rngs = [np.random.default_rng() for _ in range(n)]
-        self.models = [robot.model] * n
         self._randomize_physics = any(getattr(c.randomization, k) != (1.0, 1.0)
                                       for k in _SCALED)
         self._scratch = mujoco.MjData(robot.model)
+        self._scratch_contacts = mujoco.MjData(robot.model)  # a robot's data, for its contacts
         idx = robot.compiled.index
         self._body = idx.body
         self._root = robot.model.body_rootid[idx.body]
@@ -49,18 +48,51 @@ class Worlds:
         self._body_qpos = np.array([robot.model.jnt_qposadr[robot.model.body_jntadr[b]]
                                     for b in idx.body if robot.model.body_jntadr[b] >= 0
                                     and free[robot.model.body_jntadr[b]]], dtype=int)
-        k = robot.n
-        hold = np.zeros(k) if robot.action == "vstar" else robot.rest0
-        self.hold = hold
-        self.pending = np.zeros((n, c.randomization.action_delay, k)) + hold
-        self.previous = np.zeros((n, k))
+        self.hold = robot.hold
+        self.pending = np.zeros((n, c.randomization.action_delay, robot.n)) + self.hold
+        self.previous = np.zeros((n, robot.motors.size))
         self.steps = np.zeros(n, dtype=int)
         self.start_xipos = np.zeros((n, len(idx.body), 3))
         self.target = np.zeros((n, 2))  # a unit direction or a goal position, world frame
+        base = robot.layout.get("history", (0, 0))[0]
+        self.past = np.zeros((n, c.history, base))
         self.limits = StabilityLimits()
         # the cable forces of the last steps, for the ringing check
         self.forces = ForceHistory(n, prestress_band(robot.compiled.structure))
         self._calls = 0
+        self._robot_body = np.zeros(robot.model.nbody, dtype=bool)
+        self._robot_body[idx.body] = True
+        self._slot = np.full(robot.model.nbody, -1)  # MuJoCo body id -> rigid body number
+        self._slot[idx.body] = np.arange(idx.body.size)
+
+    def _open_batch(self, models: list[mujoco.MjModel]) -> None:
+        """The batch engine over ``models`` (one per robot) and its field views."""
+        self.models = list(models)
+        self.batch = mjbatch.Batch(self.models[0], self.n, nthread=self.threads,
+                                   persistent=True)
+        if any(m is not self.models[0] for m in self.models):
+            self.batch.set_models(self.models)
+        self.f = {k: self.batch.bind(k) for k in _FIELDS}
+
+    # -- copies ----------------------------------------------------------------------------
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Everything but the batch engine, whose robots' states are saved instead."""
+        state = {k: v for k, v in self.__dict__.items() if k not in ("batch", "f")}
+        state["_states"] = np.array([self.batch.state[i] for i in range(self.n)])
+        state["_warnings"] = np.array(self.batch.warning)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        states, warnings = state.pop("_states"), state.pop("_warnings")
+        self.__dict__.update(state)
+        self._open_batch(self.models)
+        ids = np.arange(self.n, dtype=np.int32)
+        self.batch.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)
+        for i in range(self.n):
+            self.batch.state[i] = states[i]
+        self.batch.forward(ids)
+        self.batch.warning[:] = warnings
 
     # -- episodes --------------------------------------------------------------------------
 
@@ -92,6 +124,7 @@ class Worlds:
         self.start_xipos[ids] = self.f["xipos"][ids][:, self._body]
         self.pending[ids] = self.hold
         self.previous[ids] = 0.0
+        self.past[ids] = 0.0
         self.steps[ids] = 0
         self.forces.count[ids] = 0
 
@@ -157,6 +190,7 @@ class Worlds:
             commands = now
         self.f["ctrl"][ids, :n] = commands
         before = self.f["subtree_com"][ids, 0, :2].copy()
+        bodies_before = self.f["xipos"][ids][:, self._body, :2]
         failed = np.zeros(ids.size, dtype=bool)
         self._calls += 1  # every RING_EVERY-th period, its last steps' forces tell ringing
         calls = split_steps(c.control_steps) if self._calls % RING_EVERY == 0 \
@@ -178,19 +212,30 @@ class Worlds:
         unstable = failed | ~(speed < self.limits.max_speed) | \
             ~(force < self.limits.max_tension) | bad | ringing
         after = f["subtree_com"][ids, 0, :2]
-        progress, reached = self._progress(ids, before, after)
+        progress, reached = self._progress(ids, before, after, bodies_before)
         control = -c.control_cost * np.mean(applied ** 2, axis=1) * c.control_dt
+        contact = np.zeros(ids.size)
+        if c.bar_contact_cost:
+            contact = -c.bar_contact_cost * self.bar_contacts(ids) * c.control_dt
         terms = {"progress": np.where(unstable, 0.0, progress),
-                 "control": np.where(unstable, 0.0, control)}
+                 "control": np.where(unstable, 0.0, control),
+                 "contact": np.where(unstable, 0.0, contact)}
         terms["unstable"] = unstable
-        return terms["progress"] + terms["control"], unstable | reached, terms
+        reward = terms["progress"] + terms["control"] + terms["contact"]
+        return reward, unstable | reached, terms
 
-    def _progress(self, ids: np.ndarray, before: np.ndarray, after: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
+    def _progress(self, ids: np.ndarray, before: np.ndarray, after: np.ndarray,
+                  bodies_before: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         c = self.robot.config
         if c.task == "direction":
             return np.einsum("ij,ij->i", after - before, self.target[ids]), np.zeros(
                 ids.size, dtype=bool)
+        if c.task == "turn":
+            bodies = self.f["xipos"][ids][:, self._body, :2]
+            turned = _yaw_change(bodies_before - before[:, None], bodies - after[:, None],
+                                 self._mass)
+            drift = np.linalg.norm(after - before, axis=1)
+            return (-turned if c.clockwise else turned) - drift, np.zeros(ids.size, bool)
         if c.task == "goal":
             far_before = np.linalg.norm(self.target[ids] - before, axis=1)
             far = np.linalg.norm(self.target[ids] - after, axis=1)
@@ -209,16 +254,22 @@ class Worlds:
         ahead = xipos[:, 0, :2] - com[:, :2]  # the robot frame's x axis: toward body 0
         yaw = np.arctan2(ahead[:, 1], ahead[:, 0])
         terms: dict[str, np.ndarray] = {"height": com[:, 2:3]}
-        rel = _to_frame(xipos - com[:, None], yaw)
-        terms["pose"] = np.concatenate([rel, _quat_to_frame(f["xquat"][ids][:, self._body],
-                                                            yaw)], axis=2).reshape(ids.size, -1)
-        terms["velocity"] = self._velocity(ids, xipos, yaw)
+        if "pose" in robot.layout:
+            rel = _to_frame(xipos - com[:, None], yaw)
+            quat = _quat_to_frame(f["xquat"][ids][:, self._body], yaw)
+            terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(ids.size, -1)
+        if "velocity" in robot.layout:
+            terms["velocity"] = self._velocity(ids, xipos, yaw)
         length = f["ten_length"][ids][:, robot.compiled.index.tendon]
         rest = robot.compiled.index.cable_act(f["act"][ids])
         terms["cable_length"], terms["rest_length"] = length, rest
-        terms["tension"] = np.where(length > rest, robot.stiffness * (length - rest), 0.0)
-        if "contact" in robot.layout:
-            terms["contact"] = self._contact(ids)
+        if "tension" in robot.layout:  # the load cells, with each robot's own stiffness
+            stiffness = np.stack([robot.compiled.law(self.models[i]).stiffness for i in ids])
+            terms["tension"] = load_cell_tension(length, rest, stiffness)
+        if "rod_axis" in robot.layout:
+            terms["rod_axis"] = _to_frame(self._rod_axes(ids), yaw)
+        if "contact" in robot.layout or "end_contact" in robot.layout:
+            terms["contact"], terms["end_contact"] = self._contact(ids)
         if robot.config.task == "direction":
             terms["task"] = _to_frame(self.target[ids, None], yaw)[:, 0, :2]
         elif robot.config.task == "goal":
@@ -227,27 +278,74 @@ class Worlds:
             terms["task"] = np.zeros((ids.size, 2))
         terms["previous_action"] = self.previous[ids]
         terms["position"] = com[:, :2]
-        obs = np.concatenate([terms[t].reshape(ids.size, -1) for t in robot.layout], axis=1)
-        return self._noisy(ids, obs)
+        obs = self._noisy(ids, np.concatenate([terms[t].reshape(ids.size, -1)
+                                               for t in robot.layout if t != "history"], axis=1))
+        if not robot.config.history:
+            return obs
+        out = np.concatenate([obs, self.past[ids].reshape(ids.size, -1)], axis=1)
+        self.past[ids] = np.concatenate([obs[:, None], self.past[ids][:, :-1]], axis=1)
+        return out
+
+    def _rod_axes(self, ids: np.ndarray) -> np.ndarray:
+        """(k, n_rods, 3) unit vectors from each rod's first end to its second (world)."""
+        ends = self._end_positions(ids).reshape(ids.size, -1, 2, 3)
+        axis = ends[:, :, 1] - ends[:, :, 0]
+        return axis / np.linalg.norm(axis, axis=2, keepdims=True)
 
     def _velocity(self, ids: np.ndarray, xipos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
         cvel = self.f["cvel"][ids][:, self._body]  # (rotation, translation) at the root's com
         root_com = self.f["subtree_com"][ids][:, self._root]
-        linear = cvel[..., 3:] + np.cross(cvel[..., :3], xipos - root_com)
+        linear = cvel[..., 3:] + _cross(cvel[..., :3], xipos - root_com)
         com_velocity = np.einsum("b,kbj->kj", self._mass, linear)
         parts = [_to_frame(com_velocity[:, None], yaw), _to_frame(linear, yaw),
                  _to_frame(cvel[..., :3], yaw)]
         return np.concatenate([p.reshape(ids.size, -1) for p in parts], axis=1)
 
-    def _contact(self, ids: np.ndarray) -> np.ndarray:
-        """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground)."""
+    def _contact(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground), and
+        (k, 2 n_rods) 1 where the ground touches a rod nearer that end than the other."""
+        m, rods = self.robot.model, self.robot.rods
+        rows, bodies, points = [], [], []
+        for row, i in enumerate(ids):  # MuJoCo's contact list of each robot
+            d = self.batch.get_data(int(i), self._scratch_contacts)
+            if d.ncon:
+                pair = m.geom_bodyid[d.contact.geom[:d.ncon]]
+                ground = (pair == 0).any(axis=1)
+                bodies.append(pair[ground].max(axis=1))
+                points.append(d.contact.pos[:d.ncon][ground])
+                rows.append(np.full(bodies[-1].size, row))
+        touch = np.zeros((ids.size, self._body.size))
+        ends = np.zeros((ids.size, rods["body"].size))
+        if not rows:
+            return touch, ends
+        at, body, point = np.concatenate(rows), np.concatenate(bodies), np.concatenate(points)
+        slot = self._slot[body]
+        touch[at[slot >= 0], slot[slot >= 0]] = 1.0
+        if ends.shape[1]:  # the nearest end of the touching rod's body
+            where = self._end_positions(ids)[at]  # (c, 2 n_rods, 3)
+            far = np.linalg.norm(where - point[:, None], axis=2)
+            far[rods["body"].ravel()[None] != body[:, None]] = np.inf
+            hit = np.isfinite(far).any(axis=1)
+            ends[at[hit], np.argmin(far[hit], axis=1)] = 1.0
+        return touch, ends
+
+    def _end_positions(self, ids: np.ndarray) -> np.ndarray:
+        """(k, 2 n_rods, 3) world positions of the rod ends."""
+        rods = self.robot.rods
+        body = rods["body"].ravel()
+        xmat = self.f["xmat"][ids].reshape(ids.size, -1, 3, 3)[:, body]
+        return self.f["xpos"][ids][:, body] + np.einsum("kexy,ey->kex", xmat,
+                                                        rods["local"].reshape(-1, 3))
+
+    def bar_contacts(self, ids: np.ndarray) -> np.ndarray:
+        """(k,) contacts between two of the robot's rigid bodies, per robot."""
         m = self.robot.model
-        out = np.zeros((ids.size, self._body.size))
+        out = np.zeros(ids.size)
         for row, i in enumerate(ids):
-            d = self.batch.get_data(int(i))
-            bodies = m.geom_bodyid[d.contact.geom[:d.ncon]] if d.ncon else np.zeros((0, 2), int)
-            touching = bodies[(bodies == 0).any(axis=1)].ravel()
-            out[row] = np.isin(self._body, touching)
+            d = self.batch.get_data(int(i), self._scratch_contacts)
+            bodies = m.geom_bodyid[d.contact.geom[:d.ncon]]
+            both = self._robot_body[bodies].all(axis=1) & (bodies[:, 0] != bodies[:, 1])
+            out[row] = both.sum()
         return out
 
     def _noisy(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
@@ -273,6 +371,24 @@ class Worlds:
     def data(self, i: int) -> Any:
         """Robot ``i``'s whole MjData (for rendering)."""
         return self.batch.get_data(i)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b over the last axis (np.cross's result, without its per-call overhead)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
+def _yaw_change(before: np.ndarray, after: np.ndarray, mass: np.ndarray) -> np.ndarray:
+    """(k,) rotation about the vertical [rad] of (k, b, 2) body positions relative to the
+    centre of mass, each body weighted by m r^2 (a rigid turn gives its angle)."""
+    turn = np.arctan2(before[..., 0] * after[..., 1] - before[..., 1] * after[..., 0],
+                      np.einsum("kbj,kbj->kb", before, after))
+    weight = mass * np.einsum("kbj,kbj->kb", after, after)
+    return np.einsum("kb,kb->k", weight, turn) / np.maximum(weight.sum(axis=1), 1e-12)
 
 
 def _to_frame(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:

@@ -10,9 +10,11 @@ from tensim._input import InputError
 from tensim.model import WorldOptions
 
 ACTIONS = ("auto", "vstar", "rest_length")
-TASKS = ("direction", "goal", "hold")
-OBSERVATIONS = ("height", "pose", "velocity", "cable_length", "rest_length", "tension",
-                "contact", "task", "previous_action", "position")
+TASKS = ("direction", "turn", "goal", "hold")
+OBSERVATIONS = ("height", "pose", "velocity", "rod_axis", "cable_length", "rest_length",
+                "tension", "contact", "end_contact", "task", "previous_action", "position")
+ROLLING_OBSERVATION = ("height", "velocity", "rod_axis", "cable_length", "end_contact", "task",
+                       "previous_action")
 DEFAULT_OBSERVATION = ("height", "pose", "velocity", "cable_length", "rest_length", "tension",
                        "task", "previous_action")
 
@@ -67,6 +69,12 @@ class Randomization:
                              f"periods in 0..100, got {self.action_delay!r}")
 
     @classmethod
+    def start(cls) -> Randomization:
+        """The default: each episode starts at a random heading with 2 mm pose noise (as
+        Gymnasium's MuJoCo environments perturb their start), so seeds differ."""
+        return cls(yaw=True, pose_noise_m=0.002)
+
+    @classmethod
     def standard(cls) -> Randomization:
         """A moderate set for sim-to-real training: +-20 % physics, any heading, 5 mm."""
         return cls(friction=(0.7, 1.3), stiffness=(0.8, 1.2), damping=(0.8, 1.2),
@@ -91,7 +99,9 @@ class EnvConfig:
             length.
         control_dt: control period [s], a whole number of physics steps.
         episode_s: episode length [s].
-        task: ``"direction"`` (reward: metres walked along ``direction``), ``"goal"``
+        task: ``"direction"`` (reward: metres walked along ``direction``), ``"turn"``
+            (reward: radians turned about the vertical, counter-clockwise unless
+            ``clockwise``, less metres the centre of mass moved), ``"goal"``
             (reward: metres closer to a goal ``goal_m`` away from the start; the episode
             ends within ``goal_radius_m``) or ``"hold"`` (reward: minus the mean body
             displacement from the start shape [m] per second).
@@ -99,9 +109,13 @@ class EnvConfig:
             frame when ``randomization.yaw`` turns the robot, else in the world.
         goal_m: (2,) goal position from the start centre of mass, same frame [m].
         goal_radius_m: distance at which the goal counts as reached [m].
+        clockwise: the ``turn`` task rewards clockwise turning.
         control_cost: weight of the mean squared normalised action, per second.
+        bar_contact_cost: penalty per rod-rod contact, per second.
         observation: the observation terms, in order (see :data:`OBSERVATIONS` and docs/rl.md).
-        randomization: domain randomisation and sensor/actuator imperfections.
+        history: previous observations appended to each observation (0: none).
+        randomization: domain randomisation and sensor/actuator imperfections (default:
+            :meth:`Randomization.start`, a random heading and 2 mm pose noise).
         threads: the batch engine's worker threads (vector env).
         world: physics step, gravity, ground.
     """
@@ -117,9 +131,12 @@ class EnvConfig:
     direction: tuple[float, float] = (0.0, 1.0)
     goal_m: tuple[float, float] = (0.0, 1.0)
     goal_radius_m: float = 0.1
+    clockwise: bool = False
     control_cost: float = 0.0
+    bar_contact_cost: float = 0.0
     observation: tuple[str, ...] = DEFAULT_OBSERVATION
-    randomization: Randomization = dataclasses.field(default_factory=Randomization)
+    history: int = 0
+    randomization: Randomization = dataclasses.field(default_factory=Randomization.start)
     threads: int = 1
     world: WorldOptions = dataclasses.field(default_factory=WorldOptions)
 
@@ -146,9 +163,13 @@ class EnvConfig:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise InputError(f"{name} must be a finite number > 0, got {value!r}")
-        if not (math.isfinite(self.control_cost) and self.control_cost >= 0):
-            raise InputError(f"control_cost must be a finite number >= 0, "
-                             f"got {self.control_cost!r}")
+        for name in ("control_cost", "bar_contact_cost"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise InputError(f"{name} must be a finite number >= 0, got {value!r}")
+        if not (isinstance(self.history, int) and 0 <= self.history <= 100):
+            raise InputError(f"history must be an integer number of observations in 0..100, "
+                             f"got {self.history!r}")
         unknown = [t for t in self.observation if t not in OBSERVATIONS]
         if unknown or not self.observation or len(set(self.observation)) != len(
                 self.observation):

@@ -71,6 +71,7 @@ class TensegrityEnv(gym.Env):
         truncated = bool(self.worlds.steps[0] >= self.robot.config.max_steps) and not terminated
         info = {"reward_progress": float(terms["progress"][0]),
                 "reward_control": float(terms["control"][0]),
+                "reward_contact": float(terms["contact"][0]),
                 "unstable": bool(terms["unstable"][0]), "action_clipped": bool(clipped[0])}
         return self.worlds.observe(self._one)[0], float(reward[0]), terminated, truncated, info
 
@@ -79,8 +80,8 @@ class TensegrityEnv(gym.Env):
         if self.render_mode is None:
             return None
         if self._renders is None:
-            self._renders = Renders(self.robot.compiled, self.robot.stiffness)
-        return self._renders.image(self.worlds.data(0))
+            self._renders = Renders(self.robot.compiled)
+        return self._renders.image(self.worlds.models[0], self.worlds.data(0))
 
     def close(self) -> None:
         """Frees the offscreen renderer."""

@@ -13,12 +13,16 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 from tensim.rl.config import EnvConfig
 from tensim.rl.vector import TensegrityVectorEnv
 
+_TERMS = ("reward_progress", "reward_control", "reward_contact", "unstable")
+
 
 class SB3VecEnv(VecEnv):
     """``num_envs`` robots as one Stable-Baselines3 vector env.
 
-    An episode's last observation is in ``infos[i]["terminal_observation"]`` and a time-limit
-    end sets ``infos[i]["TimeLimit.truncated"]``, as SB3's own vector envs do.
+    Each robot's info holds its reward terms (``reward_progress``, ``reward_control``,
+    ``reward_contact``) and ``unstable``. An episode's last observation is in
+    ``infos[i]["terminal_observation"]`` and a time-limit end sets
+    ``infos[i]["TimeLimit.truncated"]``, as SB3's own vector envs do.
 
     Args:
         num_envs: robots.
@@ -49,10 +53,11 @@ class SB3VecEnv(VecEnv):
     def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
         obs, reward, terminated, truncated, info = self.env.step(self._actions)
         done = terminated | truncated
-        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        infos: list[dict[str, Any]] = [{k: info[k][i].item() for k in _TERMS}
+                                       for i in range(self.num_envs)]
         for i in np.flatnonzero(done):
-            infos[i] = {"terminal_observation": info["final_obs"][i],
-                        "TimeLimit.truncated": bool(truncated[i] and not terminated[i])}
+            infos[i]["terminal_observation"] = info["final_obs"][i]
+            infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
         return obs, reward.astype(np.float32), done, infos
 
     def close(self) -> None:

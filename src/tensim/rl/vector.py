@@ -16,8 +16,9 @@ from tensim.rl._worlds import Worlds
 from tensim.rl.config import EnvConfig
 
 _MODES = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP,
-          AutoresetMode.NEXT_STEP: AutoresetMode.NEXT_STEP,
-          AutoresetMode.SAME_STEP: AutoresetMode.SAME_STEP}
+          "disabled": AutoresetMode.DISABLED, AutoresetMode.NEXT_STEP: AutoresetMode.NEXT_STEP,
+          AutoresetMode.SAME_STEP: AutoresetMode.SAME_STEP,
+          AutoresetMode.DISABLED: AutoresetMode.DISABLED}
 
 
 class TensegrityVectorEnv(VectorEnv):
@@ -31,7 +32,9 @@ class TensegrityVectorEnv(VectorEnv):
             resets that robot, ignores its action and returns reward 0) or ``"same_step"``
             (the ending step already returns the new episode's observation, with the last
             one in ``info["final_obs"]`` and its info in ``info["final_info"]``, masked by
-            ``info["_final_obs"]`` / ``info["_final_info"]``).
+            ``info["_final_obs"]`` / ``info["_final_info"]``) or ``"disabled"`` (no
+            autoreset: reset ended robots with ``reset(options={"reset_mask": ...})``;
+            stepping a robot whose episode ended is refused).
         render_mode: None or ``"rgb_array"`` (one offscreen image per robot).
         max_episode_steps: overrides ``config.episode_s`` (Gymnasium's registration passes it).
 
@@ -50,8 +53,8 @@ class TensegrityVectorEnv(VectorEnv):
             raise InputError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         mode = _MODES.get(autoreset_mode)
         if mode is None:
-            raise InputError(f"autoreset_mode must be 'next_step' or 'same_step' (or an "
-                             f"AutoresetMode of those), got {autoreset_mode!r}")
+            raise InputError(f"autoreset_mode must be 'next_step', 'same_step' or 'disabled' "
+                             f"(or an AutoresetMode of those), got {autoreset_mode!r}")
         config = _with_steps(config or EnvConfig(), max_episode_steps)
         self.robot = Robot(config)
         self.worlds = Worlds(self.robot, num_envs, config.threads)
@@ -67,6 +70,7 @@ class TensegrityVectorEnv(VectorEnv):
                                                               num_envs)
         self._all = np.arange(num_envs, dtype=np.int32)
         self._autoreset = np.zeros(num_envs, dtype=bool)
+        self._ended = np.zeros(num_envs, dtype=bool)
         self._renders: Renders | None = None
         self._obs = np.zeros((num_envs, *self.robot.observation_space.shape))
         self._started = False
@@ -94,6 +98,7 @@ class TensegrityVectorEnv(VectorEnv):
         self.worlds.reset(ids)
         self._started = True
         self._autoreset[ids] = False
+        self._ended[ids] = False
         self._obs[ids] = self.worlds.observe(ids)
         return self._obs.copy(), {}
 
@@ -107,6 +112,11 @@ class TensegrityVectorEnv(VectorEnv):
         """
         if not self._started:
             raise gym.error.ResetNeeded("call reset() before step()")
+        if self._ended.any():
+            raise gym.error.ResetNeeded(
+                f"robots {self._all[self._ended].tolist()} ended their episodes "
+                "(autoreset_mode='disabled'): reset them with "
+                "reset(options={'reset_mask': mask}) before stepping")
         commands, applied, clipped = self.robot.command(actions)
         n = self.num_envs
         reward, terminated, truncated = np.zeros(n), np.zeros(n, bool), np.zeros(n, bool)
@@ -132,6 +142,8 @@ class TensegrityVectorEnv(VectorEnv):
             info["_final_obs"] = info["_final_info"] = ended.copy()
             self.worlds.reset(self._all[ended])
             self._obs[ended] = self.worlds.observe(self._all[ended])
+        elif self.autoreset_mode == AutoresetMode.DISABLED:
+            self._ended = ended
         else:
             self._autoreset = ended
         return self._obs.copy(), reward, terminated, truncated, info
@@ -141,8 +153,9 @@ class TensegrityVectorEnv(VectorEnv):
         if self.render_mode is None:
             return None
         if self._renders is None:
-            self._renders = Renders(self.robot.compiled, self.robot.stiffness)
-        return tuple(self._renders.image(self.worlds.data(i)) for i in range(self.num_envs))
+            self._renders = Renders(self.robot.compiled)
+        return tuple(self._renders.image(self.worlds.models[i], self.worlds.data(i))
+                     for i in range(self.num_envs))
 
     def close_extras(self, **kwargs: Any) -> None:
         """Frees the offscreen renderer."""
@@ -158,7 +171,8 @@ def _step_info(n: int, live: np.ndarray, terms: dict[str, np.ndarray], clipped: 
     mask[live] = True
     info: dict[str, Any] = {}
     for key, values in (("reward_progress", terms["progress"]),
-                        ("reward_control", terms["control"]), ("unstable", terms["unstable"]),
+                        ("reward_control", terms["control"]),
+                        ("reward_contact", terms["contact"]), ("unstable", terms["unstable"]),
                         ("action_clipped", clipped[live])):
         full = np.zeros(n, dtype=values.dtype)
         full[live] = values

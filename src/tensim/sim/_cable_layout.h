@@ -8,6 +8,7 @@
 #define TENSIM_MODE_IMPEDANCE 1.0
 #define TENSIM_ACTDIM 2
 #define TENSIM_DC_ACTDIM 3
+#define TENSIM_IMPLICIT_EXTRA 1
 
 #define TENSIM_P_MARKER 0 /* CABLE_MARKER or REFERENCE_MARKER: a tensim cable, and its law's body */
 #define TENSIM_P_MODE 1 /* MODE_REST or MODE_IMPEDANCE */
@@ -20,8 +21,12 @@
 #define TENSIM_P_GAIN_B 8 /* impedance law B [N s/m] */
 #define TENSIM_P_TARGET_LENGTH 9 /* impedance law L* [m] */
 
-#define TENSIM_B_STIFFNESS 0 /* cable k [N/m] */
-#define TENSIM_B_DAMPING 1 /* cable b [N s/m] */
+#define TENSIM_G_GAIN 0 /* stays 0: the constant of the gain (the explicit law's whole gain) */
+#define TENSIM_G_STIFFNESS 1 /* cable k [N/m]: the implicit law's gain per metre of length */
+#define TENSIM_G_DAMPING 2 /* cable b [N s/m]: the implicit law's gain per m/s of lengthening */
+
+#define TENSIM_B_LAG_TIME 0 /* kinematic motor's first-order lag [s] (0: none) */
+#define TENSIM_B_SATURATE 1 /* 1.0: max_tension back-drives the kinematic motor (a force cap), 0.0: stops it */
 #define TENSIM_B_RESERVED 2 /* stays 0: MuJoCo's compiler reads a positive one as a damping ratio */
 #define TENSIM_B_STALL_FORCE 3 /* DC motor stall force F_s [N] */
 #define TENSIM_B_NO_LOAD_SPEED 4 /* DC motor no-load line speed v0 [m/s] */
@@ -34,7 +39,8 @@
 #define TENSIM_A_REST 0 /* the motor's rest length l [m] */
 #define TENSIM_A_PEAK 1 /* running maximum of the load-cell tension [N] */
 #define TENSIM_A_SPEED 2 /* DC motors only: the spool's line speed dl/dt [m/s] */
+#define TENSIM_A_PULL 3 /* implicit law only, always the last: -1.0 while the cable is taut after this step's motor update, else 0.0 (the gain's input) */
 
-#define TENSIM_LAYOUT_ID 118594802u
+#define TENSIM_LAYOUT_ID 2735707902u
 
 #endif

@@ -31,15 +31,17 @@ from tensim.model._law_layout import (
     A_SPEED,
     B_BACK_DRIVABLE,
     B_COULOMB,
-    B_DAMPING,
+    B_LAG_TIME,
     B_MASS,
     B_NO_LOAD_SPEED,
     B_POSITION_TIME,
+    B_SATURATE,
     B_STALL_FORCE,
-    B_STIFFNESS,
     B_VISCOUS,
     CABLE_MARKER,
     DC_ACTDIM,
+    G_DAMPING,
+    G_STIFFNESS,
     MODE_IMPEDANCE,
     MODE_REST,
     P_GAIN_B,
@@ -53,8 +55,10 @@ from tensim.model._law_layout import (
     P_OFFSET,
     P_TARGET_LENGTH,
     REFERENCE_MARKER,
+    implicit,
     is_cable,
     layout_id,
+    motor_actdim,
 )
 from tensim.sim import _laws
 
@@ -71,13 +75,16 @@ class LawRates(NamedTuple):
         rest_rate: (n,) d(rest length)/dt [m/s].
         peak_rate: (n,) d(peak tension)/dt [N/s].
         speed_rate: (n,) d(line speed)/dt of DC motors [m/s^2] (0 for kinematic motors).
-        force: (n,) the actuator force -f [N].
+        force: (n,) the actuator force -f [N] (under the implicit law, MuJoCo's sum of the
+            gain term and the law's bias, clamped to <= 0, as MuJoCo forms it).
+        pull_rate: (n,) d(pull)/dt of implicit-law cables [1/s] (0 for the explicit law).
     """
 
     rest_rate: np.ndarray
     peak_rate: np.ndarray
     speed_rate: np.ndarray
     force: np.ndarray
+    pull_rate: np.ndarray
 
 _ACT = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)
 _MARKERS = (CABLE_MARKER, REFERENCE_MARKER)
@@ -138,9 +145,10 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     if ids is None:
         ids = cable_actuators(m)
     p, b = m.actuator_dynprm[ids], m.actuator_biasprm[ids]
+    g = m.actuator_gainprm[ids]
     adr, tendon = m.actuator_actadr[ids], m.actuator_trnid[ids, 0]
     x, v = d.ten_length[tendon], d.ten_velocity[tendon]
-    k, damping = b[:, B_STIFFNESS], b[:, B_DAMPING]
+    k, damping = g[:, G_STIFFNESS], g[:, G_DAMPING]
     rest, peak = d.act[adr + A_REST], d.act[adr + A_PEAK]
     command = d.ctrl[m.actuator_ctrladr[ids]]
     dt = m.opt.timestep
@@ -151,23 +159,36 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     target = np.where(impedance, _laws.impedance_rest_target(rest, setpoint, measured, k),
                       command)
     new = _laws.motor_step(rest, target, x, k, p[:, P_MAX_SPEED], p[:, P_MAX_TENSION],
-                           p[:, P_MIN_REST], p[:, P_MIN_LENGTH], dt)
+                           p[:, P_MIN_REST], p[:, P_MIN_LENGTH], dt,
+                           _laws.lag_share(b[:, B_LAG_TIME], dt), b[:, B_SATURATE])
     speed_rate = np.zeros(len(ids))
-    dc = m.actuator_actnum[ids] == DC_ACTDIM
+    dc = motor_actdim(m)[ids] == DC_ACTDIM
     if dc.any():
-        new[dc], speed_rate[dc] = _dc_step(p[dc], b[dc], d.act[adr[dc] + A_SPEED], rest[dc],
-                                           target[dc], x[dc], v[dc], dt)
+        new[dc], speed_rate[dc] = _dc_step(p[dc], g[dc], b[dc], d.act[adr[dc] + A_SPEED],
+                                           rest[dc], target[dc], x[dc], v[dc], dt)
     rest_rate = (new - rest) / dt
-    spring, applied = _laws.cable_tension(x, v, rest + rest_rate * dt, k, damping)
+    next_rest = rest + rest_rate * dt
+    spring, applied = _laws.cable_tension(x, v, next_rest, k, damping)
     peak_rate = (np.maximum(peak, spring) - peak) / dt
-    return LawRates(rest_rate, peak_rate, speed_rate, -applied)
+    force, pull_rate = -applied, np.zeros(len(ids))
+    native = implicit(m)[ids]
+    if native.any():
+        # the pull, and MuJoCo's force: its gain term plus the law's bias, clamped
+        last = adr[native] + m.actuator_actnum[ids][native] - 1
+        pull_rate[native] = (_laws.pull(x[native], next_rest[native]) - d.act[last]) / dt
+        pull = d.act[last] + pull_rate[native] * dt
+        out = m.actuator_outadr[ids][native]
+        term = _laws.gain_term(d.actuator_length[out], d.actuator_velocity[out], k[native],
+                               damping[native], pull)
+        force[native] = np.minimum(term + (force[native] - term), 0.0)
+    return LawRates(rest_rate, peak_rate, speed_rate, force, pull_rate)
 
 
-def _dc_step(p: np.ndarray, b: np.ndarray, speed: np.ndarray, rest: np.ndarray,
-             target: np.ndarray, x: np.ndarray, v: np.ndarray, dt: float
+def _dc_step(p: np.ndarray, g: np.ndarray, b: np.ndarray, speed: np.ndarray,
+             rest: np.ndarray, target: np.ndarray, x: np.ndarray, v: np.ndarray, dt: float
              ) -> tuple[np.ndarray, np.ndarray]:
     """DC motors: (new rest length [m], rate of the line speed [m/s^2])."""
-    measured, applied = _laws.cable_tension(x, v, rest, b[:, B_STIFFNESS], b[:, B_DAMPING])
+    measured, applied = _laws.cable_tension(x, v, rest, g[:, G_STIFFNESS], g[:, G_DAMPING])
     drive = _laws.dc_drive(rest, target, b[:, B_NO_LOAD_SPEED], b[:, B_POSITION_TIME])
     # the controller's limits: no reeling in at max_tension or at min_length
     stop = (drive < 0.0) & ((measured >= p[:, P_MAX_TENSION]) | (x <= p[:, P_MIN_LENGTH]))
@@ -195,8 +216,10 @@ def _python_dyn(m: Any, d: Any, i: int) -> float:
     rates = cable_law(m, d, ids)
     adr = m.actuator_actadr[i]
     d.act_dot[adr + A_REST], d.act_dot[adr + A_PEAK] = rates.rest_rate[0], rates.peak_rate[0]
-    if m.actuator_actnum[i] == DC_ACTDIM:
+    if motor_actdim(m)[i] == DC_ACTDIM:
         d.act_dot[adr + A_SPEED] = rates.speed_rate[0]
+    if implicit(m)[i]:
+        d.act_dot[adr + m.actuator_actnum[i] - 1] = rates.pull_rate[0]
     return float(rates.peak_rate[0])
 
 
@@ -205,11 +228,20 @@ def _python_bias(m: Any, d: Any, i: int) -> float:
         return 0.0
     adr, tendon = m.actuator_actadr[i] + A_REST, m.actuator_trnid[i, 0]
     rest = d.act[adr] + d.act_dot[adr] * m.opt.timestep
-    b = m.actuator_biasprm[i]
+    g = m.actuator_gainprm[i]
+    k, damping = g[G_STIFFNESS:G_STIFFNESS + 1], g[G_DAMPING:G_DAMPING + 1]
     _, applied = _laws.cable_tension(d.ten_length[tendon:tendon + 1],
                                      d.ten_velocity[tendon:tendon + 1], np.array([rest]),
-                                     b[B_STIFFNESS:B_STIFFNESS + 1], b[B_DAMPING:B_DAMPING + 1])
-    return -float(applied[0])
+                                     k, damping)
+    if not implicit(m)[i]:
+        return -float(applied[0])
+    # the implicit law: less MuJoCo's gain term, on the pull as actearly reads it
+    last = m.actuator_actadr[i] + m.actuator_actnum[i] - 1
+    pull = d.act[last] + d.act_dot[last] * m.opt.timestep
+    out = m.actuator_outadr[i]
+    term = _laws.gain_term(d.actuator_length[out:out + 1], d.actuator_velocity[out:out + 1],
+                           k, damping, np.array([pull]))
+    return float(-applied[0] - term[0])
 
 
 # -- the law's body, per model ---------------------------------------------------------------

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 
-def load_cell_tension(length: np.ndarray, rest_length: np.ndarray, stiffness: np.ndarray
-                      ) -> np.ndarray:
+def load_cell_tension(length: np.ndarray | float, rest_length: np.ndarray | float,
+                      stiffness: np.ndarray | float) -> np.ndarray:
     """The load cell's reading k max(0, x - l) [N] (the spring part of :func:`cable_tension`).
 
     Args:
@@ -22,8 +22,9 @@ def load_cell_tension(length: np.ndarray, rest_length: np.ndarray, stiffness: np
     return np.where(stretch > 0.0, stiffness * stretch, 0.0)
 
 
-def cable_tension(length: np.ndarray, velocity: np.ndarray, rest_length: np.ndarray,
-                  stiffness: np.ndarray, damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def cable_tension(length: np.ndarray | float, velocity: np.ndarray | float,
+                  rest_length: np.ndarray | float, stiffness: np.ndarray | float,
+                  damping: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
     """Paper eq. (1)-(2): a tension-only Hooke spring with linear damping.
 
     f = k (x - l) + b xdot while x > l, else 0, and never negative.
@@ -61,26 +62,39 @@ def impedance_rest_target(rest_length: np.ndarray, setpoint: np.ndarray, measure
     return rest_length - (setpoint - measured) / stiffness
 
 
+def lag_share(lag_time: np.ndarray, dt: float) -> np.ndarray:
+    """The share of the way to its target that a motor's rest length moves in one step:
+    1 - exp(-dt / lag_time) under a first-order lag, 1.0 without one (lag_time 0)."""
+    lagged = lag_time > 0.0
+    return np.where(lagged, 1.0 - np.exp(-dt / np.where(lagged, lag_time, 1.0)), 1.0)
+
+
 def motor_step(rest_length: np.ndarray, target: np.ndarray, length: np.ndarray,
                stiffness: np.ndarray, max_speed: np.ndarray, max_tension: np.ndarray,
-               min_rest_length: np.ndarray, min_length: np.ndarray, dt: float) -> np.ndarray:
+               min_rest_length: np.ndarray, min_length: np.ndarray, dt: float,
+               share: np.ndarray | float = 1.0,
+               saturate: np.ndarray | float = 0.0) -> np.ndarray:
     """One motor update: the rest length moves toward ``target`` under the motor's limits.
 
+    - lag: it moves ``share`` of the way (:func:`lag_share`; 1: all of it);
     - speed: it changes by at most max_speed * dt;
     - force: it does not reel in past the rest length x - max_tension/k at which the static
       tension k (x - l) reaches max_tension (and never lets out because of this rule);
-    - floors: it does not reel in while x <= min_length, and stays >= min_rest_length.
+    - floors: it does not reel in while x <= min_length, and stays >= min_rest_length;
+    - a saturating force cap (``saturate`` 1.0): it pays out, at any speed, to no shorter than
+      x - max_tension/k, where the static tension is max_tension.
 
     Returns:
         (n,) the new rest lengths [m].
     """
     reach = max_speed * dt
-    step = np.minimum(np.maximum(target - rest_length, -reach), reach)
+    step = np.minimum(np.maximum((target - rest_length) * share, -reach), reach)
     new = rest_length + step
     reel = step < 0.0
     force_floor = np.minimum(rest_length, length - max_tension / stiffness)
     new = np.where(reel, np.maximum(new, force_floor), new)
     new = np.where(reel & (length <= min_length), rest_length, new)
+    new = np.where(saturate != 0.0, np.maximum(new, length - max_tension / stiffness), new)
     return np.maximum(new, min_rest_length)
 
 
@@ -130,3 +144,24 @@ def dc_motor_speed(speed: np.ndarray, drive: np.ndarray, tension: np.ndarray,
     held = np.where(drive > 0.0, np.maximum(new, 0.0),
                     np.where(drive < 0.0, np.minimum(new, 0.0), 0.0))
     return np.where(back_drivable != 0.0, new, held)
+
+
+def pull(length: np.ndarray, rest_length: np.ndarray) -> np.ndarray:
+    """The implicit law's pull: -1.0 where the cable is taut (x > l), else 0.0.
+
+    Args:
+        length: (n,) anchor-to-anchor length x [m].
+        rest_length: (n,) rest length l after this step's motor update [m].
+    """
+    return np.where(length - rest_length > 0.0, -1.0, 0.0)
+
+
+def gain_term(length: np.ndarray, velocity: np.ndarray, stiffness: np.ndarray,
+              damping: np.ndarray, pull_: np.ndarray) -> np.ndarray:
+    """The implicit law's native term, MuJoCo's affine gain times the pull:
+    (0 + k x + b xdot) * pull [N], in MuJoCo's order of operations.
+
+    Its derivatives, -k pull and -b pull, are what MuJoCo's implicit integrator sees; the bias
+    that the law returns beside it (the force less this term) makes the total exactly the law's.
+    """
+    return (0.0 + stiffness * length + damping * velocity) * pull_

@@ -29,8 +29,10 @@ class NodeLoad:
         if times.size == 0 or forces.shape[0] != times.size:
             raise ValueError(f"load at {self.node!r}: need k >= 1 times and (k, 3) forces, got "
                              f"{times.size} times and {forces.shape[0]} forces")
-        if np.any(np.diff(times) <= 0) or not np.all(np.isfinite(forces)):
-            raise ValueError(f"load at {self.node!r}: times must increase, forces be finite")
+        if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0) \
+                or not np.all(np.isfinite(forces)):
+            raise ValueError(f"load at {self.node!r}: times must be finite and increase, forces "
+                             "be finite")
         if np.abs(forces).max(initial=0.0) > MAX_FORCE:
             raise ValueError(f"load at {self.node!r}: a force component of "
                              f"{np.abs(forces).max():.3g} N is past {MAX_FORCE:g} N (MuJoCo "

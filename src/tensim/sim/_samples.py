@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import mujoco
 import numpy as np
 
 from tensim.model import CompiledModel, ModelIndex
@@ -58,12 +59,13 @@ class SampleBuffers:
         return SampleBuffers(**{f.name: getattr(self, f.name)[:k]
                                 for f in dataclasses.fields(self)})
 
-    def put(self, ids: np.ndarray, k: np.ndarray, time: np.ndarray,
+    def put(self, ids: np.ndarray | slice, k: np.ndarray | int, time: np.ndarray,
             fields: dict[str, np.ndarray], index: ModelIndex) -> None:
         """Stores sample k[j] of trial ids[j] from MjData fields, one row per trial.
 
         Args:
-            ids, k: (m,) trials and their sample positions.
+            ids, k: (m,) trials and their sample positions (or every trial, ``slice(None)``,
+                at one position).
             time: (m,) the samples' times [s].
             fields: ten_length, ten_velocity, act, ctrl, xpos, xquat, subtree_com, (m, ...).
             index: the model's ids.
@@ -86,19 +88,98 @@ class SampleBuffers:
                                 for f in dataclasses.fields(self)})
 
 
+class SampleRows:
+    """Samples of one MjData as rows of one preallocated array, each row filled by one gather.
+
+    Every value a sample holds (cable lengths, rates, rest lengths, commands, body poses, the
+    centre of mass, beads) sits in MjData's one buffer of ``mjtNum``, so a single flat view
+    over the span of those fields and one index array fetch a whole sample with one
+    ``np.take``: no Python per cable or per field while the run records. The columns are
+    split into :class:`SampleBuffers` once, at the end.
+
+    Args:
+        data: the MjData sampled (kept alive with this object).
+        compiled: its compiled model (the cables', bodies' and beads' ids).
+        n: samples to hold.
+    """
+
+    def __init__(self, data: mujoco.MjData, compiled: CompiledModel, n: int):
+        index, c = compiled.index, compiled.n_cables
+        self._data, self.k = data, 0
+        parts = [("length", data.ten_length, index.tendon),
+                 ("velocity", data.ten_velocity, index.tendon),
+                 ("rest", data.act, index.rest_act), ("command", data.ctrl, np.arange(c)),
+                 ("pos", data.xpos, index.body), ("com", data.subtree_com, np.zeros(1, int)),
+                 ("quat", data.xquat, index.body), ("bead", data.xpos, index.bead)]
+        self._flat, starts = _flat_view([field for _, field, _ in parts])
+        columns, self._spans, at = [], {}, 0
+        for (name, field, ids), start in zip(parts, starts, strict=True):
+            width = field.shape[1] if field.ndim == 2 else 1
+            flat_ids = start + (np.asarray(ids, np.intp)[:, None] * width
+                                + np.arange(width)).ravel()
+            columns.append(flat_ids)
+            self._spans[name] = (at, at + flat_ids.size, width)
+            at += flat_ids.size
+        self._columns = np.concatenate(columns)
+        self._rows = np.empty((n, at))
+        self._time = np.empty(n)
+
+    def take(self) -> None:
+        """Stores the data's current sample as the next row."""
+        np.take(self._flat, self._columns, out=self._rows[self.k])
+        self._time[self.k] = self._data.time
+        self.k += 1
+
+    def buffers(self, dt: float) -> SampleBuffers:
+        """The rows taken so far as :class:`SampleBuffers` (sample times from the data's
+        times and the physics step ``dt`` [s], see :func:`tensim.sim._loop.sample_time`)."""
+        k = self.k
+
+        def part(name: str) -> np.ndarray:
+            start, stop, width = self._spans[name]
+            block = self._rows[:k, start:stop]
+            return block.reshape(k, (stop - start) // width, width) if width > 1 else block
+
+        time = (np.rint(self._time[:k] / dt) - 1) * dt
+        pos = np.concatenate([part("pos"), part("com")], axis=1)
+        return SampleBuffers(time, part("length"), part("velocity"), part("rest"),
+                             part("command"), pos, part("quat"), part("bead"))
+
+
+def _flat_view(fields: list[np.ndarray]) -> tuple[np.ndarray, list[int]]:
+    """One read-only float64 view spanning ``fields`` (arrays in one buffer of float64s, as
+    MjData's are) and each field's first element's position in it.
+
+    Raises:
+        ValueError: a field is not a C-contiguous float64 array on an 8-byte offset from the
+            first (MuJoCo built with another ``mjtNum``).
+    """
+    held = [f for f in fields if f.size] or [np.zeros(1)]  # an empty field has no place
+    first = min(held, key=lambda f: f.ctypes.data)
+    base = first.ctypes.data
+    end = max(f.ctypes.data + f.nbytes for f in held)
+    for f in held:
+        if f.dtype != np.float64 or not f.flags.c_contiguous or (f.ctypes.data - base) % 8:
+            raise ValueError("MjData's sampled fields must be contiguous float64 arrays in one "
+                             "buffer")
+    flat = np.lib.stride_tricks.as_strided(first.reshape(-1), shape=((end - base) // 8,),
+                                           strides=(8,), writeable=False)
+    return flat, [(f.ctypes.data - base) // 8 if f.size else 0 for f in fields]
+
+
 def sample_channels(samples: SampleBuffers, index: ModelIndex, dynprm: np.ndarray,
-                    biasprm: np.ndarray) -> TimeSeries:
+                    gainprm: np.ndarray) -> TimeSeries:
     """The named channels of recorded samples.
 
     Args:
         samples: the samples.
         index: the model's names.
-        dynprm, biasprm: (n_cables, 10) the cable actuators' law parameters.
+        dynprm, gainprm: (n_cables, 10) the cable actuators' law parameters.
     """
-    p, b = dynprm, biasprm
+    p, g = dynprm, gainprm
     x, v = samples.length, samples.velocity
-    tension, applied = _laws.cable_tension(x, v, samples.rest, b[:, layout.B_STIFFNESS],
-                                           b[:, layout.B_DAMPING])
+    tension, applied = _laws.cable_tension(x, v, samples.rest, g[:, layout.G_STIFFNESS],
+                                           g[:, layout.G_DAMPING])
     setpoint = _laws.impedance_setpoint(x, v, p[:, layout.P_OFFSET], p[:, layout.P_GAIN_K],
                                         p[:, layout.P_GAIN_B], p[:, layout.P_TARGET_LENGTH],
                                         samples.command)

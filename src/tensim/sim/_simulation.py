@@ -33,7 +33,7 @@ from tensim.sim._loop import (
     watched,
     whole_steps,
 )
-from tensim.sim._samples import COM, SampleBuffers, sample_channels
+from tensim.sim._samples import COM, SampleRows, sample_channels
 from tensim.sim._timeseries import TimeSeries
 
 _BLOCK_STEPS = 20_000  # physics steps of inputs computed at once
@@ -111,7 +111,7 @@ class Simulation:
         self.limits = limits or StabilityLimits()
         self.drive = CableDrive(compiled, self.model, data=self.data)
         self._loads = tuple(loads)
-        self._qvel = self.data.qvel
+        self._qvel, self._ctrl = self.data.qvel, self.data.ctrl  # views, looked up once
         self._bad_acc = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
         self._contact = ContactCheck(compiled) \
             if any(c.contact for c in compiled.structure.cables) else None
@@ -291,12 +291,12 @@ class _Segments:
 
     def run(self, sim: Simulation, start: int, stop: int) -> None:
         """Takes steps start .. stop - 1 of the block (in order, without gaps)."""
-        m, d, cuts = sim.model, sim.data, self.cuts
+        m, d, cuts, ctrl = sim.model, sim.data, self.cuts, sim._ctrl
         while start < stop:
             while cuts[self._i] <= start:
                 self._i += 1
             end = min(cuts[self._i], stop)
-            d.ctrl[:] = self.control[start]
+            ctrl[:] = self.control[start]
             mujoco.mj_step(m, d, nstep=end - start)
             start = end
 
@@ -328,50 +328,27 @@ class _SingleRun:
         return True
 
     def take(self) -> None:
-        self.recorder.take(self.sim)
+        self.recorder.take()
 
     def check(self) -> None:
         self.sim.check()
 
 
 class _Recorder:
-    """Preallocated sample buffers for one :meth:`Simulation.run`; channels are derived from
-    the recorded state at the end (:func:`sample_channels`)."""
+    """Preallocated sample rows for one :meth:`Simulation.run`, one gather of MjData each
+    (:class:`SampleRows`); channels are derived from the recorded state at the end
+    (:func:`sample_channels`)."""
 
     def __init__(self, sim: Simulation, n: int):
-        self.k, self._sim = 0, sim
-        self.buffers = SampleBuffers.empty(sim.compiled, n)
-        d, n_cables = sim.data, sim.compiled.n_cables
-        b = self.buffers
-        rest = sim.index.cable_act(d.act)  # a view unless some cable has a DC motor
-        self._copies = [(b.command, d.ctrl[:n_cables])]
-        self._takes = [(b.length, d.ten_length, sim.index.tendon),
-                       (b.velocity, d.ten_velocity, sim.index.tendon),
-                       (b.quat, d.xquat, sim.index.body)]
-        if np.shares_memory(rest, d.act):
-            self._copies.append((b.rest, rest))
-        else:
-            self._takes.append((b.rest, d.act, sim.index.rest_act))
-        if sim.index.beads:
-            self._takes.append((b.bead, d.xpos, sim.index.bead))
-        self._xpos, self._com, self._body = d.xpos, d.subtree_com, sim.index.body
-
-    def take(self, sim: Simulation) -> None:
-        k, b = self.k, self.buffers
-        b.time[k] = sim.time
-        for buffer, source in self._copies:
-            buffer[k] = source
-        for buffer, source, ids in self._takes:
-            np.take(source, ids, axis=0, out=buffer[k])
-        np.take(self._xpos, self._body, axis=0, out=b.pos[k, :-1])
-        b.pos[k, -1] = self._com[0]
-        self.k += 1
+        self._sim = sim
+        self.rows = SampleRows(sim.data, sim.compiled, n)
+        self.take = self.rows.take
 
     def series(self) -> TimeSeries:
         n = self._sim.compiled.n_cables
-        return sample_channels(self.buffers.head(self.k), self._sim.index,
+        return sample_channels(self.rows.buffers(self._sim.dt), self._sim.index,
                                self._sim.model.actuator_dynprm[:n],
-                               self._sim.model.actuator_biasprm[:n])
+                               self._sim.model.actuator_gainprm[:n])
 
 
 @dataclasses.dataclass(frozen=True)

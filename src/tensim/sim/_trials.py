@@ -122,7 +122,8 @@ def setup_trial(compiled: CompiledModel, model: mujoco.MjModel, trial: Trial,
     if trial.controller is not None:
         trial.controller.configure(_TrialSetup(compiled, drive, dt))
     bad = ~np.isfinite(model.actuator_dynprm[:n]).all(axis=1) | \
-        ~np.isfinite(model.actuator_biasprm[:n]).all(axis=1)
+        ~np.isfinite(model.actuator_biasprm[:n]).all(axis=1) | \
+        ~np.isfinite(model.actuator_gainprm[:n]).all(axis=1)
     if bad.any():
         raise ValueError(f"cable {compiled.index.cables[int(np.argmax(bad))]!r} has "
                          "non-finite law parameters")
@@ -143,7 +144,7 @@ def trial_results(samples: SampleBuffers, count: np.ndarray, models: Sequence[mu
             out.append(TrialResult(None, errors[i]))
             continue
         series = sample_channels(samples.trial(i).head(int(count[i])), index,
-                                 model.actuator_dynprm[:n], model.actuator_biasprm[:n])
+                                 model.actuator_dynprm[:n], model.actuator_gainprm[:n])
         # wall_s: the trial's share of the batch's wall time
         out.append(TrialResult(SimulationResult(series, np.array(peak[i], dtype=float),
                                                 wall / len(models), duration, dt,
@@ -170,8 +171,8 @@ def _scale(compiled: CompiledModel, model: mujoco.MjModel, physics: PhysicsScale
         return
     n = compiled.n_cables
     model.geom_friction[model.geom_bodyid != 0, 0] *= physics.friction
-    model.actuator_biasprm[:n, layout.B_STIFFNESS] *= physics.stiffness
-    model.actuator_biasprm[:n, layout.B_DAMPING] *= physics.damping
+    model.actuator_gainprm[:n, layout.G_STIFFNESS] *= physics.stiffness
+    model.actuator_gainprm[:n, layout.G_DAMPING] *= physics.damping
     model.actuator_dynprm[:n, layout.P_MAX_SPEED] *= physics.motor_speed
     # DC motors (kinematic motors hold zeros in these slots)
     dc = model.actuator_biasprm[:n]

@@ -1,12 +1,20 @@
 """Batches on MuJoCo Warp: one world per trial, on a GPU or on Warp's CPU device.
 
-The same trials as :func:`tensim.sim.run_batch`: each world gets its trial's law parameters
-and friction as per-world model fields, its commands through ``ctrl``, and is recorded into the
-same channels. The cable law runs as a Warp kernel in MuJoCo Warp's step
+The same trials as :func:`tensim.sim.run_batch`: each world steps its trial's model (law
+parameters, friction, masses, or a whole recompiled structure of the same layout): every model
+field in which any trial differs from the batch's model becomes a per-world field of MuJoCo
+Warp's model, filled from the trials' own model copies (with the constants MuJoCo derived for
+each, as ``mj_setConst`` leaves them). Commands go through ``ctrl`` and each world is recorded
+into the same channels. The cable law runs as a Warp kernel in MuJoCo Warp's step
 (:mod:`tensim.sim._warp_law`). MuJoCo Warp computes in float32 and its constraint solver is
 its own, so a world agrees with the CPU engine to a tolerance, not bit for bit (see
-``docs/gpu.md``). Not yet here: per-trial compiled models and mass scaling (they need MuJoCo
-Warp's ``set_const`` per world), and CUDA graph capture of the record loop.
+``docs/gpu.md``).
+
+Every world's inputs (V* commands, commanded rest lengths, node loads: its ``ctrl`` rows) are
+computed on the host once per stretch of steps and held on the device, where a kernel copies
+the current row into ``ctrl`` before each step, so no Python runs between the steps of a
+record interval. On a CUDA device the record interval (its steps, the law and the input
+copies) is captured once as a CUDA graph and replayed per record.
 """
 
 from __future__ import annotations
@@ -15,6 +23,7 @@ import copy
 import logging
 import time as _time
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -23,7 +32,6 @@ from tensim.model import BUILD_KEY, CompiledModel
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import InputPlan
 from tensim.sim._loop import (
-    RING_STEPS,
     ForceHistory,
     StabilityLimits,
     bad_acceleration,
@@ -32,16 +40,21 @@ from tensim.sim._loop import (
     record_loop,
     ring_message,
     sample_time,
+    split_steps,
     stable,
     tunnel_message,
     watched,
 )
 from tensim.sim._samples import SampleBuffers
 from tensim.sim._simulation import diagnose
-from tensim.sim._trials import PhysicsScale, Trial, TrialResult, setup_trial, trial_results
+from tensim.sim._trials import Trial, TrialResult, setup_trial, trial_models, trial_results
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
-_PER_WORLD = ("actuator_dynprm", "actuator_biasprm", "geom_friction")
+# a trial's model may differ from the batch's in values, never in these sizes
+# fields MuJoCo Warp holds once but reads only for island sleeping, which tensim leaves off
+_SLEEP_ONLY = frozenset({"dof_length"})
+_SIZES = ("nq", "nv", "nu", "na", "nbody", "ngeom", "nsite", "ntendon", "nwrap", "neq",
+          "nkey")
 
 
 def warp_available() -> bool:
@@ -61,39 +74,85 @@ def warp_available() -> bool:
 def run_batch_warp(compiled: CompiledModel, trials: Sequence[Trial], duration: float, *,
                    record_steps: int, n_samples: int, limits: StabilityLimits,
                    progress: Callable[[float, float], None] | None = None,
-                   device: str | None = None, njmax: int = 256, nconmax: int = 64
-                   ) -> list[TrialResult]:
+                   device: str | None = None, njmax: int | None = None,
+                   nconmax: int | None = None) -> list[TrialResult]:
     """:func:`tensim.sim.run_batch` with ``backend="warp"`` (see there; ``compiled`` already
     has every trial's load nodes).
 
     Args:
         device: the Warp device (None: Warp's default, a GPU when there is one).
-        njmax, nconmax: constraint rows and contacts MuJoCo Warp allocates per world.
+        njmax, nconmax: constraint rows and contacts MuJoCo Warp allocates per world (None:
+            sized from the model by :func:`world_capacity`). A world that needs more fails
+            with a message that says so (MuJoCo Warp would drop the rest and go on).
 
     Raises:
         ImportError: MuJoCo Warp is not installed.
-        ValueError: a trial the Warp backend cannot run (its own compiled model, a mass
-            scale, a mix of fresh and restored initial states).
+        ValueError: trials the Warp backend cannot run together (models of other sizes, a
+            field that differs and MuJoCo Warp holds once for all worlds, a mix of fresh and
+            restored initial states).
     """
     if not warp_available():
         raise ImportError("the warp backend needs MuJoCo Warp: pip install 'tensim[gpu]'")
     import warp as wp
 
-    for i, trial in enumerate(trials):
-        if trial.compiled is not None and trial.compiled is not compiled:
-            raise ValueError(f"trial {i}: per-trial compiled models are not supported on the "
-                             "warp backend; use PhysicsScale multipliers")
-        if trial.physics.mass != PhysicsScale().mass:
-            raise ValueError(f"trial {i}: mass scaling is not supported on the warp backend")
     restored = {t.initial_state is not None for t in trials}
     if len(restored) > 1:
         raise ValueError("on the warp backend either every trial or none has an initial state")
+    rows, contacts = world_capacity(compiled.model)
     with wp.ScopedDevice(device):
-        run = _WarpRun(compiled, trials, record_steps, limits, njmax, nconmax)
+        run = _WarpRun(compiled, trials, record_steps, limits, njmax or rows, nconmax or contacts)
         started = _time.perf_counter()
         run.run(n_samples, duration, progress, fresh=not restored.pop())
         wall = _time.perf_counter() - started
     return run.results(duration, wall)
+
+
+def per_world_fields(batch: mujoco.MjModel, models: Sequence[mujoco.MjModel]) -> list[str]:
+    """The model fields MuJoCo Warp must hold per world: those in which any of ``models``
+    differs from ``batch``.
+
+    Raises:
+        ValueError: a model of other sizes, or one that differs in a field MuJoCo Warp holds
+            once for all worlds.
+    """
+    import dataclasses
+
+    from mujoco_warp._src import types
+    from mujoco_warp._src.warp_util import is_array_spec
+
+    for i, m in enumerate(models):
+        other = [s for s in _SIZES if getattr(m, s) != getattr(batch, s)]
+        if other:
+            raise ValueError(f"trial {i}: its model differs in size ({other[0]} "
+                             f"{getattr(m, other[0])} against {getattr(batch, other[0])}); a "
+                             "batch's trials share one layout")
+    known = {f.name: f.type for f in dataclasses.fields(types.Model)}
+    batched = {name for name, kind in known.items()
+               if is_array_spec(kind) and getattr(kind, "shape", ("",))[0] == "*"}
+    fields = []
+    for name in dir(batch):
+        value = getattr(batch, name, None)
+        if name.startswith("_") or not isinstance(value, np.ndarray) or value.size == 0:
+            continue
+        differs = next((i for i, m in enumerate(models)
+                        if not np.array_equal(getattr(m, name), value)), None)
+        if differs is None or name not in known or name in _SLEEP_ONLY \
+                or name.startswith("key_"):  # each world starts from its own keyframe
+            continue  # equal, or a field MuJoCo Warp's step does not read
+        if name not in batched:
+            raise ValueError(f"trial {differs}: its model differs in {name}, which MuJoCo Warp "
+                             "holds once for all worlds; run it on the CPU engine")
+        fields.append(name)
+    return fields
+
+
+def world_capacity(model: mujoco.MjModel) -> tuple[int, int]:
+    """(constraint rows, contacts) to allocate per MuJoCo Warp world for ``model``: two
+    contacts per geom (a rod's two end caps, each on the ground and on one other part),
+    each taking the rows of its friction cone, plus the tendon and equality rows."""
+    contacts = max(64, 2 * model.ngeom)
+    cone = 2 * 2 if model.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL else 3
+    return max(256, cone * contacts + model.ntendon + 6 * model.neq), contacts
 
 
 class _WarpRun:
@@ -109,18 +168,30 @@ class _WarpRun:
         self.record_steps, self.dt = record_steps, float(compiled.model.opt.timestep)
         n = len(trials)
         self.error: list[str | None] = [None] * n
-        self.models = [copy.copy(compiled.model) for _ in trials]
+        self.compileds = trial_models(compiled, trials)
+        # each trial steps its own copy of its model: its controller's gains, its physics
+        self.models = [copy.copy(c.model) for c in self.compileds]
         self.plans = [self._setup(i, t) for i, t in enumerate(trials)]
         host = warp_host_model(compiled.model)
         data = mujoco.MjData(host)
         mujoco.mj_resetDataKeyframe(host, data, host.key(BUILD_KEY).id)
-        self.m = mjw.put_model(host, batch_sizes=dict.fromkeys(_PER_WORLD, n))
-        for name in _PER_WORLD:
-            getattr(self.m, name).assign(np.stack([getattr(m, name) for m in self.models]))
+        fields = per_world_fields(compiled.model, self.models)
+        self.m = mjw.put_model(host, batch_sizes=dict.fromkeys(fields, n))
+        for name in fields:
+            rows = np.stack([getattr(m, name) for m in self.models])
+            try:
+                target = getattr(self.m, name)
+                target.assign(rows.reshape(target.numpy().shape))
+            except (ValueError, RuntimeError) as exc:
+                raise ValueError(f"the trials' models differ in {name}, which MuJoCo Warp "
+                                 f"cannot hold per world here ({exc}); run them on the CPU "
+                                 "engine") from None
         install_warp_law(self.m)
+        self.m.opt.warn_overflow = 0  # overflows fail their world in check(), with a message
         self.d = mjw.put_data(host, data, nworld=n, nconmax=nconmax, njmax=njmax)
         self._restore(host, trials)
         self._step = mjw.step
+        self._graph: Any = None
         self.samples = SampleBuffers.empty(compiled, 0, (n,))
         self.count = np.zeros(n, dtype=int)
         self.steps = np.zeros(n, dtype=np.int64)
@@ -130,7 +201,7 @@ class _WarpRun:
 
     def _setup(self, i: int, trial: Trial) -> InputPlan | None:
         try:
-            return setup_trial(self.compiled, self.models[i], trial, self.dt)
+            return setup_trial(self.compileds[i], self.models[i], trial, self.dt)
         except (ValueError, KeyError, TypeError) as exc:
             self.error[i] = f"trial {i}: {exc}"
             # a failed trial's world still steps (worlds cannot be left out): keep it harmless
@@ -143,8 +214,11 @@ class _WarpRun:
         rows: dict[str, list[np.ndarray]] = {f: [] for f in fields}
         times = []
         data = mujoco.MjData(host)
-        for trial in trials:
+        for model, trial in zip(self.models, trials, strict=True):
             mujoco.mj_resetDataKeyframe(host, data, host.key(BUILD_KEY).id)
+            # the trial's own build pose (a recompiled structure may stand otherwise)
+            data.qpos[:] = model.key(BUILD_KEY).qpos
+            data.act[:] = model.key(BUILD_KEY).act
             if trial.initial_state is not None and trial.initial_state.shape == (
                     mujoco.mj_stateSize(host, _STATE),):
                 mujoco.mj_setState(host, data, trial.initial_state, _STATE)
@@ -166,28 +240,41 @@ class _WarpRun:
                 out[i] = plan.control(int(first[i]), count)
         return out
 
-    def _advance(self, control: np.ndarray, watch_from: int | None = None) -> None:
-        """Steps every world through ``control``'s rows, one ``mjw.step`` per step; keeps the
-        cable forces of the steps from ``watch_from`` on for the ringing check."""
+    def _advance(self, nstep: int) -> None:
+        """Steps every world ``nstep`` steps on its held inputs: a replay of the captured
+        record interval where there is one, else one launch sequence per step."""
         import warp as wp
 
-        ctrl, n = self.d.ctrl, self.compiled.n_cables
-        for k in range(control.shape[1]):
-            if k == 0 or (control[:, k] != control[:, k - 1]).any():
-                ctrl.assign(control[:, k])
-            self._step(self.m, self.d)
-            if watch_from is not None and k >= watch_from:
-                self.forces.push(slice(None), self.d.actuator_force.numpy()[:, :n])
+        if self.inputs.left() < nstep:
+            self.inputs.load(self._control(self.steps, self.inputs.next_rows(nstep)))
+        if nstep == self.record_steps and self.inputs.device.is_cuda:
+            if self._graph is None:
+                with wp.ScopedCapture() as capture:
+                    self._launch(nstep)
+                self._graph = capture.graph
+            wp.capture_launch(self._graph)
+        else:
+            self._launch(nstep)
         wp.synchronize()
-        self.steps += control.shape[1]
+        self.inputs.consumed(nstep)
+        self.steps += nstep
+
+    def _launch(self, nstep: int) -> None:
+        for _ in range(nstep):
+            self.inputs.apply(self.d.ctrl)
+            self._step(self.m, self.d)
 
     def run(self, n_samples: int, duration: float,
             progress: Callable[[float, float], None] | None, fresh: bool) -> None:
+        from tensim.sim._warp_inputs import HeldInputs
+
         self.samples = SampleBuffers.empty(self.compiled, n_samples + 1, (len(self.trials),))
         self.n_samples = n_samples
         self.forces = ForceHistory(len(self.trials), prestress_band(self.compiled.structure))
+        self.inputs = HeldInputs(len(self.trials), self.compiled.model.nu, self.record_steps,
+                                 n_samples * self.record_steps + int(fresh))
         if fresh:
-            self._advance(self._control(self.steps, 1))  # the motor update at t = 0
+            self._advance(1)  # the motor update at t = 0
         else:
             import mujoco_warp as mjw
 
@@ -198,8 +285,14 @@ class _WarpRun:
     # trials are no longer sampled or checked
 
     def advance(self, k: int, nstep: int) -> bool:
-        watch = max(0, nstep - RING_STEPS) if watched(k, self.n_samples, nstep) else None
-        self._advance(self._control(self.steps, nstep), watch)
+        if not watched(k, self.n_samples, nstep):
+            self._advance(nstep)
+            return any(e is None for e in self.error)
+        for count, push in split_steps(nstep):  # the last steps' cable forces, for ringing
+            self._advance(count)
+            if push:
+                self.forces.push(slice(None),
+                                 self.d.actuator_force.numpy()[:, :self.compiled.n_cables])
         return any(e is None for e in self.error)
 
     def take(self) -> None:
@@ -233,8 +326,21 @@ class _WarpRun:
                 time = float(self.samples.time[i, self.count[i] - 1])
                 self.error[i] = f"trial {i}: " + ring_message(
                     self.compiled.index.cables, ring[i], self.forces.force[i], time, self.dt)
+        self._check_room(fine)  # after: a diverging world also overflows; instability first
         if self._contact is not None:
             self._check_contact(np.flatnonzero(fine))
+
+    def _check_room(self, fine: np.ndarray) -> None:
+        """Fails the worlds MuJoCo Warp ran out of room for (contacts or constraint rows
+        dropped: their physics is wrong from then on)."""
+        overflow = self.d.overflow.numpy()
+        for i in np.flatnonzero(overflow != 0):
+            fine[i] = False
+            if self.error[i] is None:
+                time = float(self.samples.time[i, self.count[i] - 1])
+                self.error[i] = (f"trial {i}: at t = {time:.3f} s MuJoCo Warp ran out of room "
+                                 f"for contacts or constraint rows (overflow flags "
+                                 f"{int(overflow[i])}); rerun with more (njmax, nconmax)")
 
     def _check_contact(self, worlds: np.ndarray) -> None:
         """Fails the worlds whose contact cables went through an obstacle: each world's
@@ -256,3 +362,4 @@ class _WarpRun:
         return trial_results(self.samples, self.count, self.models, self.error,
                              self.compiled.index.cable_act(self.d.act.numpy(), 1),
                              self.compiled.index, self.dt, duration, wall)
+

@@ -7,11 +7,13 @@ MuJoCo Warp calls a model's ``act_dyn`` callback once per step for all worlds, a
 actuator stage; :func:`install_warp_law` sets it to launch :func:`cable_law` over worlds x
 actuators. The kernel is the law of ``_cable.c`` and :mod:`tensim.sim._laws`, operation for
 operation, on the same layout (rest length and peak tension in ``act``, then a DC motor's line
-speed; the command in ``ctrl``, the parameters in ``actuator_dynprm``/``actuator_biasprm``, per
-world where MuJoCo Warp holds them per world), so a batch moves between the CPU engine and the
-GPU unchanged. It writes the motor rates into ``act_dot`` and the cable force into
-``actuator_force`` (MuJoCo Warp leaves user actuators at zero force for this callback to
-fill). MuJoCo Warp computes in float32.
+speed and the implicit law's pull; the command in ``ctrl``, the parameters in
+``actuator_dynprm``/``actuator_gainprm``/``actuator_biasprm``, per world where MuJoCo Warp holds
+them per world), so a batch moves between the CPU engine and the GPU unchanged. It writes the
+motor rates into ``act_dot`` and the cable force into ``actuator_force`` (this callback runs
+after MuJoCo Warp's actuator stage and replaces its force: under the implicit law the force is
+the law's own, while MuJoCo Warp's implicit integrator takes the derivatives of the affine gain
+times the pull, as MuJoCo does). MuJoCo Warp computes in float32.
 """
 
 from __future__ import annotations
@@ -29,30 +31,34 @@ from tensim.model import _law_layout as layout
 _MARKER = wp.constant(float(layout.CABLE_MARKER))
 _IMPEDANCE = wp.constant(float(layout.MODE_IMPEDANCE))
 _ACTDIM, _DC_ACTDIM = wp.constant(layout.ACTDIM), wp.constant(layout.DC_ACTDIM)
+_EXTRA = wp.constant(layout.IMPLICIT_EXTRA)
+_AFFINE = wp.constant(int(mujoco.mjtGain.mjGAIN_AFFINE))
 _P_MARKER, _P_MODE = wp.constant(layout.P_MARKER), wp.constant(layout.P_MODE)
 _P_MAX_SPEED, _P_MAX_TENSION = wp.constant(layout.P_MAX_SPEED), wp.constant(layout.P_MAX_TENSION)
 _P_MIN_REST, _P_MIN_LENGTH = wp.constant(layout.P_MIN_REST), wp.constant(layout.P_MIN_LENGTH)
 _P_OFFSET, _P_GAIN_K = wp.constant(layout.P_OFFSET), wp.constant(layout.P_GAIN_K)
 _P_GAIN_B, _P_TARGET = wp.constant(layout.P_GAIN_B), wp.constant(layout.P_TARGET_LENGTH)
-_B_K, _B_DAMPING = wp.constant(layout.B_STIFFNESS), wp.constant(layout.B_DAMPING)
+_G_K, _G_DAMPING = wp.constant(layout.G_STIFFNESS), wp.constant(layout.G_DAMPING)
 _B_STALL, _B_V0 = wp.constant(layout.B_STALL_FORCE), wp.constant(layout.B_NO_LOAD_SPEED)
 _B_MASS, _B_VISCOUS = wp.constant(layout.B_MASS), wp.constant(layout.B_VISCOUS)
 _B_COULOMB, _B_TP = wp.constant(layout.B_COULOMB), wp.constant(layout.B_POSITION_TIME)
 _B_BACK_DRIVABLE = wp.constant(layout.B_BACK_DRIVABLE)
+_B_LAG = wp.constant(layout.B_LAG_TIME)
+_B_SATURATE = wp.constant(layout.B_SATURATE)
 _A_REST, _A_PEAK = wp.constant(layout.A_REST), wp.constant(layout.A_PEAK)
 _A_SPEED = wp.constant(layout.A_SPEED)
 
 
 @wp.func
-def _dc_step(p: vec10, b: vec10, speed: float, rest: float, target: float, x: float, v: float,
-             dt: float) -> wp.vec2:
+def _dc_step(p: vec10, g: vec10, b: vec10, speed: float, rest: float, target: float, x: float,
+             v: float, dt: float) -> wp.vec2:
     """DC motor (actdim 3): (new rest length, new line speed), as ``_cable.c``'s dc_step."""
     stretch = x - rest
     measured = 0.0
     applied = 0.0
     if stretch > 0.0:
-        measured = b[_B_K] * stretch
-        applied = wp.max(measured + b[_B_DAMPING] * v, 0.0)
+        measured = g[_G_K] * stretch
+        applied = wp.max(measured + g[_G_DAMPING] * v, 0.0)
     # position loop: full voltage at an error of v0 t_p; no reeling in past the limits
     drive = wp.min(wp.max((target - rest) / (b[_B_V0] * b[_B_TP]), -1.0), 1.0)
     if drive < 0.0 and (measured >= p[_P_MAX_TENSION] or x <= p[_P_MIN_LENGTH]):
@@ -84,7 +90,9 @@ def _dc_step(p: vec10, b: vec10, speed: float, rest: float, target: float, x: fl
 def cable_law(
     opt_timestep: wp.array(dtype=float),
     actuator_dynprm: wp.array2d(dtype=vec10),
+    actuator_gainprm: wp.array2d(dtype=vec10),
     actuator_biasprm: wp.array2d(dtype=vec10),
+    actuator_gaintype: wp.array(dtype=int),
     actuator_actadr: wp.array(dtype=int),
     actuator_actnum: wp.array(dtype=int),
     actuator_ctrladr: wp.array(dtype=int),
@@ -99,16 +107,20 @@ def cable_law(
     """One cable of one world: motor step, peak, and the tension-only force (eq. 1-3)."""
     world, i = wp.tid()
     p = actuator_dynprm[world % actuator_dynprm.shape[0], i]
+    implicit = actuator_gaintype[i] == _AFFINE
     actnum = actuator_actnum[i]
+    if implicit:
+        actnum = actnum - _EXTRA
     if p[_P_MARKER] != _MARKER or (actnum != _ACTDIM and actnum != _DC_ACTDIM):
         return
+    g = actuator_gainprm[world % actuator_gainprm.shape[0], i]
     b = actuator_biasprm[world % actuator_biasprm.shape[0], i]
     dt = opt_timestep[world % opt_timestep.shape[0]]
     tendon = actuator_trnid[i][0]
     adr = actuator_actadr[i]
     x = ten_length[world, tendon]
     v = ten_velocity[world, tendon]
-    k = b[_B_K]
+    k = g[_G_K]
     rest = act[world, adr + _A_REST]
     command = ctrl[world, actuator_ctrladr[i]]
     target = command
@@ -124,18 +136,23 @@ def cable_law(
     new = rest
     if actnum == _DC_ACTDIM:
         speed = act[world, adr + _A_SPEED]
-        dc = _dc_step(p, b, speed, rest, target, x, v, dt)
+        dc = _dc_step(p, g, b, speed, rest, target, x, v, dt)
         act_dot[world, adr + _A_SPEED] = (dc[1] - speed) / dt
         new = dc[0]
     else:
         # motor: at most max_speed, never reeling in past max_tension or below the floors
+        share = 1.0
+        if b[_B_LAG] > 0.0:  # lag: a share 1 - exp(-dt / lag_time) of the way to the target
+            share = 1.0 - wp.exp(-dt / b[_B_LAG])
         reach = p[_P_MAX_SPEED] * dt
-        step = wp.min(wp.max(target - rest, -reach), reach)
+        step = wp.min(wp.max((target - rest) * share, -reach), reach)
         new = rest + step
         if step < 0.0:
             new = wp.max(new, wp.min(rest, x - p[_P_MAX_TENSION] / k))
             if x <= p[_P_MIN_LENGTH]:
                 new = rest
+        if b[_B_SATURATE] != 0.0:  # a saturating force cap: pay out to the static max_tension
+            new = wp.max(new, x - p[_P_MAX_TENSION] / k)
         new = wp.max(new, p[_P_MIN_REST])
     rate = (new - rest) / dt
     act_dot[world, adr + _A_REST] = rate
@@ -145,15 +162,22 @@ def cable_law(
     applied = 0.0
     if stretch > 0.0:
         spring = k * stretch
-        applied = wp.max(spring + b[_B_DAMPING] * v, 0.0)
+        applied = wp.max(spring + g[_G_DAMPING] * v, 0.0)
     peak = act[world, adr + _A_PEAK]
     act_dot[world, adr + _A_PEAK] = (wp.max(peak, spring) - peak) / dt
+    if implicit:  # the pull, the last activation: -1 while taut (the gain term's input)
+        last = adr + actnum + _EXTRA - 1
+        pull = 0.0
+        if stretch > 0.0:
+            pull = -1.0
+        act_dot[world, last] = (pull - act[world, last]) / dt
     actuator_force[world, i] = -applied
 
 
 def _launch(m: Any, d: Any) -> None:
     wp.launch(cable_law, dim=(d.nworld, m.nactuator),
-              inputs=[m.opt.timestep, m.actuator_dynprm, m.actuator_biasprm, m.actuator_actadr,
+              inputs=[m.opt.timestep, m.actuator_dynprm, m.actuator_gainprm,
+                      m.actuator_biasprm, m.actuator_gaintype, m.actuator_actadr,
                       m.actuator_actnum, m.actuator_ctrladr, m.actuator_trnid, d.ten_length,
                       d.ten_velocity, d.act, d.ctrl],
               outputs=[d.act_dot, d.actuator_force])

@@ -14,6 +14,7 @@ from tensim.structure._records import (
     Node,
     PointMass,
     Rod,
+    RodSection,
 )
 from tensim.structure._structure import RigidGroup, Structure
 from tensim.structure._yaml import (
@@ -35,6 +36,7 @@ __all__ = [
     "PointMass",
     "RigidGroup",
     "Rod",
+    "RodSection",
     "Structure",
     "StructureError",
     "load_structure",

@@ -33,9 +33,11 @@ def _shift(inertia: np.ndarray, mass: float, offset: np.ndarray) -> np.ndarray:
     return inertia + mass * (offset @ offset * np.eye(3) - np.outer(offset, offset))
 
 
-def _rod_inertia(mass: float, length: float, radius: float, axis: np.ndarray) -> np.ndarray:
-    """Solid cylinder about its centre: m r^2/2 along the axis, m(3r^2 + L^2)/12 across."""
-    axial = 0.5 * mass * radius**2
+def _rod_inertia(mass: float, length: float, radius: float, axis: np.ndarray,
+                 axial: float | None = None) -> np.ndarray:
+    """Solid cylinder about its centre: m r^2/2 along the axis (or ``axial`` [kg m^2] where
+    the rod gives it), m(3r^2 + L^2)/12 across."""
+    axial = 0.5 * mass * radius**2 if axial is None else axial
     transverse = mass * (3 * radius**2 + length**2) / 12.0
     return transverse * np.eye(3) + (axial - transverse) * np.outer(axis, axis)
 
@@ -50,7 +52,8 @@ def mass_properties(structure: Structure, group: RigidGroup) -> MassProperties:
         length = float(np.linalg.norm(p1 - p0))
         mass = rod.mass_per_length() * length
         parts.append((mass, 0.5 * (p0 + p1),
-                      _rod_inertia(mass, length, rod.radius, (p1 - p0) / length)))
+                      _rod_inertia(mass, length, rod.radius, (p1 - p0) / length,
+                                   rod.axial_inertia)))
     members = set(group.nodes)
     for pm in structure.point_masses:
         if pm.node in members:

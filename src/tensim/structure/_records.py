@@ -62,6 +62,22 @@ def _vec3(value: Sequence[float], item: str, field: str) -> tuple[float, float, 
     return tuple(float(v) for v in value)  # type: ignore[return-value]
 
 
+def _field_names(cls: type) -> list[str]:
+    return [f.name for f in dataclasses.fields(cls)]
+
+
+def _nested(cls: type, raw: dict, item: str) -> object:
+    """A nested record from a mapping, errors naming ``item``."""
+    unknown = sorted(set(raw) - set(_field_names(cls)))
+    _check(not unknown, item, f"unknown field {unknown[:1]}; expected {_field_names(cls)}")
+    try:
+        return cls(**raw)
+    except StructureError as err:
+        raise StructureError(err.detail, item=item) from None
+    except TypeError as err:  # a required field is missing
+        raise StructureError(f"{err}; expected fields {_field_names(cls)}", item=item) from None
+
+
 def _tags(value: Sequence[str], item: str) -> tuple[str, ...]:
     if isinstance(value, str):
         raise StructureError("tags must be a list of strings, got a single string", item=item)
@@ -94,6 +110,62 @@ class Node:
 
 
 @dataclasses.dataclass(frozen=True)
+class RodSection:
+    """A rod's cross-section and material, for member checks (``tensim design members``).
+
+    The simulation treats rods as rigid; the section says whether the real rod holds: Euler
+    buckling of a pin-ended tube, pi^2 E I / L^2 with I = pi (D^4 - d^4) / 64, and yield at
+    sigma_y A with A = pi (D^2 - d^2) / 4.
+
+    Attributes:
+        outer_diameter: D, the tube's outside diameter [m].
+        inner_diameter: d, its inside diameter (0 for a solid rod) [m].
+        modulus: Young's modulus E [Pa].
+        yield_strength: sigma_y, the stress at which it yields [Pa].
+        density: the material's density [kg/m^3], for the mass of the section; None: not
+            given.
+    """
+
+    outer_diameter: float
+    modulus: float
+    yield_strength: float
+    inner_diameter: float = 0.0
+    density: float | None = None
+
+    def __post_init__(self) -> None:
+        for field, unit in (("outer_diameter", "m"), ("inner_diameter", "m"),
+                            ("modulus", "Pa"), ("yield_strength", "Pa")):
+            _real(self, "section", field, unit)
+        _real(self, "section", "density", "kg/m^3", optional=True)
+        for field in ("outer_diameter", "modulus", "yield_strength"):
+            value = getattr(self, field)
+            _check(value > 0, "section", f"{field} must be > 0, got {value}")
+        _check(0 <= self.inner_diameter < self.outer_diameter, "section",
+               f"inner_diameter must be >= 0 m and below outer_diameter "
+               f"{self.outer_diameter} m, got {self.inner_diameter}")
+        _check(self.density is None or self.density > 0, "section",
+               f"density must be > 0 kg/m^3, got {self.density}")
+
+    @property
+    def area(self) -> float:
+        """Cross-section area A [m^2]."""
+        return math.pi * (self.outer_diameter**2 - self.inner_diameter**2) / 4
+
+    @property
+    def second_moment(self) -> float:
+        """Second moment of area I [m^4]."""
+        return math.pi * (self.outer_diameter**4 - self.inner_diameter**4) / 64
+
+    def buckling_load(self, length: float) -> float:
+        """Euler load of the pin-ended rod of ``length`` [m]: pi^2 E I / L^2 [N]."""
+        return math.pi**2 * self.modulus * self.second_moment / length**2
+
+    def yield_load(self) -> float:
+        """Axial load at which the section yields: sigma_y A [N]."""
+        return self.yield_strength * self.area
+
+
+@dataclasses.dataclass(frozen=True)
 class Rod:
     """A rigid compression member between two nodes, modelled as a solid cylinder.
 
@@ -108,6 +180,12 @@ class Rod:
         friction: Coulomb friction coefficient against the ground [-].
         restitution: fraction of normal velocity kept after an impact [0, 1).
         tags: labels used to select rods.
+        axial_inertia: moment of inertia about the rod's own axis [kg m^2] (None: the solid
+            cylinder's m r^2 / 2). A rigid body whose rods all give it keeps it: the
+            compiler's floor on thin bodies' inertia (``WorldOptions.min_inertia_ratio``)
+            leaves it alone.
+        section: its cross-section and material (:class:`RodSection`), for member checks;
+            None: not given (the simulation never needs it).
     """
 
     name: str
@@ -118,6 +196,8 @@ class Rod:
     friction: float = 1.0
     restitution: float = 0.0
     tags: tuple[str, ...] = ()
+    axial_inertia: float | None = None
+    section: RodSection | None = None
 
     def __post_init__(self) -> None:
         item = f"rod {self.name!r}"
@@ -130,6 +210,9 @@ class Rod:
         _real(self, item, "friction", "-")
         _real(self, item, "restitution", "-")
         _check(self.radius > 0, item, f"radius must be > 0 m, got {self.radius}")
+        _real(self, item, "axial_inertia", "kg m^2", optional=True)
+        _check(self.axial_inertia is None or self.axial_inertia > 0, item,
+               f"axial_inertia must be > 0 kg m^2, got {self.axial_inertia}")
         _check(
             (self.linear_density is None) != (self.density is None),
             item,
@@ -142,6 +225,12 @@ class Rod:
         _check(0 <= self.restitution < 1, item,
                f"restitution must be in [0, 1), got {self.restitution}")
         object.__setattr__(self, "tags", _tags(self.tags, item))
+        if isinstance(self.section, dict):
+            object.__setattr__(self, "section", _nested(RodSection, self.section,
+                                                        f"{item} section"))
+        _check(self.section is None or isinstance(self.section, RodSection), item,
+               f"section must be a mapping of {_field_names(RodSection)}, got "
+               f"{describe(self.section)}")
 
     def mass_per_length(self) -> float:
         """Mass per length [kg/m]."""
@@ -280,6 +369,13 @@ class Motor:
         min_length: the motor stops reeling in once the actual length is at or below this [m].
         dc: the DC motor, or None for the kinematic one.
         passive: no motor at all (the other fields are then unused).
+        lag_time: the kinematic motor's first-order lag [s]: each step its rest length moves
+            1 - exp(-dt / lag_time) of the way to its target (still at most max_speed dt), as
+            an actuator filter; 0 (the default): all the way.
+        saturate: the kinematic motor's max_tension is a force cap that saturates: where the
+            static tension k(x - l) would exceed it, the cable back-drives the motor, which
+            pays out (at any speed) so that it holds max_tension. False (the default): the
+            motor only stops reeling in there.
     """
 
     max_speed: float = 0.07
@@ -288,6 +384,8 @@ class Motor:
     min_length: float = 0.01
     dc: DCMotor | None = None
     passive: bool = False
+    lag_time: float = 0.0
+    saturate: bool = False
 
     def __post_init__(self) -> None:
         _check(isinstance(self.passive, bool), "motor",
@@ -297,8 +395,11 @@ class Motor:
         _check(self.dc is None or isinstance(self.dc, DCMotor), "motor",
                f"dc must be a mapping of DC-motor parameters, got {describe(self.dc)}")
         for field, unit in (("max_speed", "m/s"), ("max_tension", "N"),
-                            ("min_rest_length", "m"), ("min_length", "m")):
+                            ("min_rest_length", "m"), ("min_length", "m"), ("lag_time", "s")):
             _real(self, "motor", field, unit)
+        _check(self.lag_time >= 0, "motor", f"lag_time must be >= 0 s, got {self.lag_time}")
+        _check(isinstance(self.saturate, bool), "motor",
+               f"saturate must be true or false, got {describe(self.saturate)}")
         for field in ("max_speed", "max_tension"):
             value = getattr(self, field)
             _check(value > 0, "motor", f"{field} must be > 0, got {value}")
@@ -370,6 +471,8 @@ class Cable:
         contact: None for a cable that passes through everything; else the cable's path can
             touch the ground, terrain, blocks and walls, through light collision beads it runs
             over (``True`` takes the default :class:`CableContact`). Not with ``wrap``.
+        breaking_load: the tension at which the cable breaks [N], for member checks; None:
+            not given.
     """
 
     name: str
@@ -385,6 +488,7 @@ class Cable:
     wrap: tuple[str, ...] = ()
     side: tuple[tuple[float, float, float], ...] = ()
     contact: CableContact | None = None
+    breaking_load: float | None = None
 
     def __post_init__(self) -> None:
         item = f"cable {self.name!r}"
@@ -411,6 +515,9 @@ class Cable:
             _real(self, item, field, unit)
         _real(self, item, "pretension", "N", optional=True)
         _real(self, item, "rest_length", "m", optional=True)
+        _real(self, item, "breaking_load", "N", optional=True)
+        _check(self.breaking_load is None or self.breaking_load > 0, item,
+               f"breaking_load must be > 0 N, got {self.breaking_load}")
         _check(isinstance(self.motor, Motor), item,
                f"motor must be a mapping of motor limits, got {describe(self.motor)}")
         _check(self.stiffness > 0, item, f"stiffness must be > 0 N/m, got {self.stiffness}")

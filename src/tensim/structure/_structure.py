@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 from collections.abc import Iterable
 
@@ -147,10 +148,13 @@ class Structure:
 
     def node(self, name: str) -> Node:
         """The node called ``name``."""
-        for node in self.nodes:
-            if node.name == name:
-                return node
-        raise KeyError(name)
+        return self._nodes_by_name[name]
+
+    @functools.cached_property
+    def _nodes_by_name(self) -> dict[str, Node]:
+        """Name -> node, built once (a robot of hundreds of nodes looks them up by the
+        hundred thousand)."""
+        return {node.name: node for node in self.nodes}
 
     def cable(self, name: str) -> Cable:
         """The cable called ``name``."""

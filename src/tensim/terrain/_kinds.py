@@ -64,6 +64,10 @@ class Surface:
         """The shapes this terrain is made of."""
         raise NotImplementedError
 
+    def files(self) -> tuple[str, ...]:
+        """The files building this terrain reads (none, but for a height field's)."""
+        return ()
+
     def _fail(self, field: str, expected: str, got: object) -> None:
         raise TerrainError(f"terrain {self.kind!r}: {field} must be {expected}, got {got!r}")
 
@@ -338,6 +342,9 @@ class HeightField(Surface):
             self._positive("width")
         if self.height is not None:
             self._positive("height")
+
+    def files(self) -> tuple[str, ...]:
+        return (self.file,)
 
     def geometry(self) -> Geometry:
         heights = load_grid(self.file, self.height)

@@ -6,8 +6,8 @@ it simulates names them in :class:`FigurePlan` records and opens a :class:`Figur
 a second core free, a child process then loads matplotlib and lays out (and draws once) each
 figure's empty grid while the simulation runs, and after it only fills them with the data,
 while this process writes the folder's other files. Without a second core, or for a short run
-whose simulation cannot hide the child's start, the same functions draw in this process; the
-figures are the same either way.
+whose simulation cannot hide the child's start, or with every core busy, the same functions
+draw in this process; the figures are the same either way.
 
 The child is a fresh interpreter (``python -m tensim.viz.drawing``: no copy of this process's
 MuJoCo, threads or OpenGL state, and none of its ``__main__``); it reads the plans and the
@@ -72,9 +72,20 @@ class FigurePlan:
 
 
 def background_pays(steps: int) -> bool:
-    """Whether a drawing process pays for a run of ``steps`` physics steps: a second usable
-    core, and a simulation long enough to hide the process's start."""
-    return steps >= MIN_STEPS and len(os.sched_getaffinity(0)) >= 2
+    """Whether a drawing process pays for a run of ``steps`` physics steps: a simulation long
+    enough to hide the process's start, and a core left idle by every program running now
+    (the 1-minute load average at most the usable cores less one). On a busy machine the
+    child only competes for the same cores, and costs its start-up on top."""
+    cores = len(os.sched_getaffinity(0))
+    return steps >= MIN_STEPS and cores >= 2 and _load() <= cores - 1
+
+
+def _load() -> float:
+    """The machine's 1-minute load average (infinite where the system gives none)."""
+    try:
+        return os.getloadavg()[0]
+    except OSError:
+        return float("inf")
 
 
 class FigureDrawer:

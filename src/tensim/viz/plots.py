@@ -6,48 +6,57 @@ import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
 
+import matplotlib
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from tensim._files import atomic_path
 from tensim.control.velocity_table import VelocityTable
 from tensim.sim import TimeSeries
 from tensim.viz._span import Span
 
-# A panel is about 500 pixels wide at the saved resolution: a line with more samples than
-# this draws the same picture from the minimum and maximum of each group of samples.
-MAX_POINTS = 1200
+DPI = 120  # the saved figures' resolution [pixels per inch]
+# A panel's plot area is at most 3.5 in wide: a line is drawn from the smallest and largest
+# sample of each of its pixel columns.
+PANEL_PIXELS = round(3.5 * DPI)
 SETTLE_S = 0.2  # the y axis ignores commanded tensions before this: the start-up transient [s]
 
 
-def thin(x: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS
+def thin(x: np.ndarray, y: np.ndarray, pixels: int = PANEL_PIXELS
          ) -> tuple[np.ndarray, np.ndarray]:
-    """``(x, y)`` reduced to at most about ``max_points`` samples that draw the same line.
+    """``(x, y)`` reduced to what a line ``pixels`` columns wide can show.
 
-    The samples are cut into groups; each keeps its smallest and largest ``y`` in time order
-    (plus the first and last sample), so every peak and trough of the line survives.
+    ``x`` (ascending) is cut into ``pixels`` columns of equal width; each keeps its smallest
+    and largest ``y`` in time order (NaN ignored), plus the first and last sample, so no peak
+    or trough is lost: every column spans the same range of ``y`` as before. Lines of at most
+    four samples a column are kept whole.
     """
     n = y.size
-    if n <= max_points:
+    if n <= 4 * pixels:
         return x, y
-    size = math.ceil(2 * n / max_points)
-    whole = n - n % size
-    groups = y[:whole].reshape(-1, size)
-    base = np.arange(0, whole, size)
-    keep = np.concatenate([[0], base + np.nanargmin(groups, axis=1),
-                           base + np.nanargmax(groups, axis=1), np.arange(whole, n), [n - 1]])
-    keep = np.unique(keep)
-    return x[keep], y[keep]
+    # column k holds the samples from starts[k] on
+    edges = np.linspace(x[0], x[-1], pixels + 1)[1:-1]
+    starts = np.unique(np.concatenate([[0], np.searchsorted(x, edges, side="left")]))
+    starts = starts[starts < n]
+    keep = [np.array([0, n - 1])]
+    for reduce in (np.fmin, np.fmax):  # fmin/fmax ignore NaN
+        extreme = np.repeat(reduce.reduceat(y, starts), np.diff(np.append(starts, n)))
+        at = np.flatnonzero(y == extreme)
+        column = np.searchsorted(starts, at, side="right") - 1
+        keep.append(at[np.unique(column, return_index=True)[1]])  # the first in each column
+    index = np.unique(np.concatenate(keep))
+    return x[index], y[index]
 
 
 # More cables than this share panels: one panel per group of cables (see cable_panels), so a
 # robot of hundreds of cables still gets a figure of a few rows that draws in seconds.
 MAX_PANELS = 30
-GROUP_POINTS = 400  # samples per line in a shared panel (many lines: a coarser thinning)
+GROUP_PIXELS = 200  # columns per line in a shared panel (many lines: a coarser thinning)
 
 Panel = tuple[str, tuple[str, ...]]  # a panel's title and the cables it draws
 
@@ -98,7 +107,7 @@ def _path(name: str, depth: int) -> str:
 
 # Panel figures by kind: the y label and the height of a row [in].
 PANELS = {"tensions": ("tension [N]", 2.4), "lengths": ("length [m]", 2.2),
-          "velocity_input": ("V* [mm/s]", 2.0)}
+          "velocity_input": ("V* [m/s]", 2.0)}
 LENGTHS_TITLE = "Cable length and motor rest length"
 VELOCITY_TITLE = "Target cable velocity V* sent to each impedance controller"
 
@@ -139,7 +148,7 @@ def _grid(kind: str, panels: tuple[Panel, ...], columns: int, title: str) -> Pan
     header = 0.85 if "\n" in title else 0.65 if title else 0.35  # title and panel titles [in]
     width, fig_height = 4.2 * columns, height * rows + header
     fig = new_figure((width, fig_height))
-    axes = fig.subplots(rows, columns, sharex=True, squeeze=False)
+    axes = fig.subplots(rows, columns, squeeze=False)
     fig.subplots_adjust(left=0.62 / width, right=1 - 0.15 / width, bottom=0.5 / fig_height,
                         top=1 - header / fig_height,
                         wspace=0.75 / 4.2, hspace=0.55 / height)
@@ -147,9 +156,13 @@ def _grid(kind: str, panels: tuple[Panel, ...], columns: int, title: str) -> Pan
         ax.set_title(name, fontsize=9, pad=3, y=1.0)  # a fixed y skips a costly layout pass
         ax.set_ylabel(ylabel, fontsize=8)
         ax.tick_params(labelsize=7)
+        ax.xaxis.set_major_locator(MaxNLocator(5))  # few ticks: each is a costly artist
+        ax.yaxis.set_major_locator(MaxNLocator(4))
         ax.grid(alpha=0.3)
     for ax in axes.flat[len(panels):]:
         ax.set_visible(False)
+    for ax in axes[:-1].flat:  # the panels share their time axis (not as matplotlib's
+        ax.tick_params(labelbottom=False)  # shared axes: their transforms cost 0.2 s a figure)
     for ax in axes[-1]:
         ax.set_xlabel("time [s]", fontsize=8)
     if title:  # 0.2 in from the top of a tall figure (2 % of its height: into the panels)
@@ -177,10 +190,15 @@ def _panels(grid: PanelGrid | None, kind: str, cables: Sequence[str], columns: i
     return grid.figure
 
 
-def _lines(ax: Axes, t: np.ndarray, lines: Sequence[np.ndarray], **style: Any) -> None:
-    """Many cables' lines in one panel, thin, in matplotlib's colour cycle."""
-    for y in lines:
-        ax.plot(*thin(t, y, GROUP_POINTS), lw=0.6, alpha=0.7, **style)
+def _lines(ax: Axes, t: np.ndarray, lines: Sequence[np.ndarray], ls: str = "solid") -> None:
+    """Many cables' lines in one panel, thin, in matplotlib's colour cycle (the k-th line in
+    the k-th colour): one collection, not an artist per cable."""
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
+    segments = [np.column_stack(thin(t, y, GROUP_PIXELS)) for y in lines]
+    ax.add_collection(LineCollection(segments, colors=[colors[k % len(colors)]
+                                                       for k in range(len(lines))],
+                                     linewidths=0.6, alpha=0.7, linestyles=ls))
+    ax.autoscale_view()
 
 
 def _commanded(series: TimeSeries, name: str) -> np.ndarray | None:
@@ -226,7 +244,9 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
                     label="commanded", zorder=2)
             low = min(low, float(np.nanmin(commanded[later])))
             high = max(high, float(np.nanmax(commanded[later])))
-        ax.plot(*thin(t, measured), color="black", lw=0.8, label="measured", zorder=3)
+        # without an impedance law nothing is commanded: say so rather than "measured" alone
+        label = "measured" if commanded is not None else "tension (no law: none commanded)"
+        ax.plot(*thin(t, measured), color="black", lw=0.8, label=label, zorder=3)
         for span in spans:
             ax.axvspan(span.start, span.stop, color=span.color, alpha=span.alpha, lw=0,
                        label=span.label)
@@ -261,12 +281,15 @@ def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None
 
     def draw_group(ax: Axes, names: Sequence[str]) -> None:
         _lines(ax, t, [series[f"length/{name}"] for name in names])
-        ax.set_prop_cycle(None)  # each rest length in its cable's colour
+        # each rest length in its cable's colour
         _lines(ax, t, [series[f"rest_length/{name}"] for name in names], ls="--")
 
     cables = list(cables or series.items("length"))
     return save_figure(_panels(grid, "lengths", cables, columns, title, draw, draw_group,
                                tags), path)
+
+
+PATH_LEGEND = 12  # bodies named in a path figure's legend; more are drawn as one grey bundle
 
 
 def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None,
@@ -278,10 +301,18 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None
     ax = fig.subplots()
     if title:
         ax.set_title(title, fontsize=10)
-    for name in items:
+    named = list(items) if len(items) <= PATH_LEGEND else [n for n in items if n == "com"]
+    for name in named:
         x, y = series[f"pos_x/{name}"], series[f"pos_y/{name}"]
         ax.plot(x, y, lw=1.0, label=name)
         ax.plot(x[:1], y[:1], "o", color=ax.lines[-1].get_color(), ms=4)
+    rest = [n for n in items if n not in named]
+    if rest:  # many bodies: one collection in thin grey, a legend entry for all
+        paths = [np.column_stack([series[f"pos_x/{n}"], series[f"pos_y/{n}"]]) for n in rest]
+        ax.add_collection(LineCollection(paths, colors="0.55", linewidths=0.5,
+                                         label=f"{len(rest)} bodies"))
+        ax.plot([p[0, 0] for p in paths], [p[0, 1] for p in paths], "o", color="0.55", ms=2)
+        ax.autoscale_view()
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_aspect("equal", adjustable="datalim")
@@ -306,13 +337,13 @@ def plot_velocity_input(table: VelocityTable, path: Path, *,
     times = table.times[:stop]
 
     def draw(ax: Axes, name: str) -> None:
-        ax.step(times, table.values[:stop, table.cables.index(name)] * 1000.0, where="post",
+        ax.step(times, table.values[:stop, table.cables.index(name)], where="post",
                 color="tab:green", lw=0.9, label="V*")
         ax.axhline(0.0, color="black", lw=0.5)
 
     def draw_group(ax: Axes, names: Sequence[str]) -> None:
         for name in names:
-            ax.step(times, table.values[:stop, table.cables.index(name)] * 1000.0,
+            ax.step(times, table.values[:stop, table.cables.index(name)],
                     where="post", lw=0.6, alpha=0.7)
         ax.axhline(0.0, color="black", lw=0.5)
 
@@ -329,7 +360,7 @@ def new_figure(size: tuple[float, float]) -> Figure:
     return fig
 
 
-def save_figure(fig: Figure, path: Path, dpi: int = 120) -> Path:
+def save_figure(fig: Figure, path: Path, dpi: int = DPI) -> Path:
     """Writes ``fig`` as a PNG atomically."""
     with atomic_path(path) as tmp:
         # zlib level 3: 5 % larger files than matplotlib's 6, written in 60 % of the time

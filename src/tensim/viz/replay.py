@@ -17,9 +17,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from tensim._files import STRUCTURE_FILE
 from tensim._input import InputError, load_json, read_text
 from tensim.model import CompiledModel, WorldOptions, compile_structure
-from tensim.runs import STRUCTURE_FILE
 from tensim.sim import TimeSeries
 from tensim.structure import Structure, load_structure
 
@@ -197,7 +197,10 @@ def _world(summary: dict[str, Any], folder: Path) -> WorldOptions:
             torsional_friction=float(summary.get("torsional_friction_m",
                                                  defaults.torsional_friction)),
             rolling_friction=float(summary.get("rolling_friction_m",
-                                               defaults.rolling_friction)))
+                                               defaults.rolling_friction)),
+            cable_law=str(summary.get("cable_law", defaults.cable_law)),
+            min_inertia_ratio=float(summary.get("min_inertia_ratio",
+                                                defaults.min_inertia_ratio)))
     except (TypeError, ValueError, OverflowError) as err:
         raise RunFolderError(f"{folder / 'summary.json'}: {str(err)[:200]}") from None
     text = summary.get("terrain")

@@ -19,7 +19,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from tensim._files import atomic_path, write_text
+from tensim._files import atomic_path, run_folder_name, write_text
 from tensim.sim import TimeSeries
 
 if TYPE_CHECKING:
@@ -160,11 +160,12 @@ def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
 
 def _page(out: Path, summary: dict[str, Any], figures: list[str], notes: list[str],
           cables: list[str]) -> str:
+    name = run_folder_name(out)  # not the hidden staging folder it is written in
     title = " ".join(str(summary[k]) for k in ("experiment", "model") if k in summary) \
-        or out.name
+        or name
     when = datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
     parts = [f"<h1>tensim run: {_e(title)}</h1>",
-             f'<p class="meta">folder {_e(out.name)}, tensim '
+             f'<p class="meta">folder {_e(name)}, tensim '
              f"{_e(summary.get('tensim_version', ''))}, report written {_e(when)}</p>",
              "<h2>Summary</h2>", *(_table(*t) for t in summary_tables(summary, cables))]
     if figures:

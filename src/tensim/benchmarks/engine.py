@@ -12,16 +12,16 @@ comes from the best CPU times.
 from __future__ import annotations
 
 import dataclasses
-import os
 import statistics
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any
 
 import mujoco
 import numpy as np
 from mujoco import rollout
 
+from tensim.benchmarks._machine import core_share, load_average
 from tensim.control import ControllerConfig, load_controller
 from tensim.model import (
     CompiledModel,
@@ -61,46 +61,6 @@ class Timing:
     def core_share(self, threads: int = 1) -> float:
         """Median over runs of CPU time / (wall time x threads)."""
         return core_share(self.cpu, self.wall, threads)
-
-
-# below this share of its wall time on a core, a run mostly waited for other programs
-BUSY_SHARE = 0.85
-
-
-def core_share(cpu: Sequence[float], wall: Sequence[float], threads: int = 1) -> float:
-    """How much of its wall time a run's threads held a core: CPU time / (wall time x
-    threads), the median over runs. About 1 on a machine with a free core per thread; lower
-    where they waited for one (other programs' load), which stretches the wall time and not
-    the CPU time.
-
-    Args:
-        cpu: CPU time of each run (any unit).
-        wall: wall time of the same runs (the same unit).
-        threads: threads each run kept busy.
-    """
-    return statistics.median(c / (w * threads) for c, w in zip(cpu, wall, strict=True))
-
-
-def machine_note(shares: dict[str, float], load_at_start: float) -> str:
-    """One line on how busy the machine was: its cores, the load average before the runs and
-    the lowest core share among ``shares``; below ``BUSY_SHARE`` it says that the wall-time
-    figures (and ratios from them) mean little and the CPU-time ones are the figures."""
-    who, worst = min(shares.items(), key=lambda item: item[1])
-    line = (f"machine: {os.cpu_count()} cores, load average {load_at_start:.2f} before the "
-            f"runs; the runs' threads held a core {worst:.0%} of their wall time at worst "
-            f"({who})")
-    if worst < BUSY_SHARE:
-        return line + ": TOO BUSY for the wall-time figures to mean anything; read the " \
-                      "CPU-time ones"
-    return line
-
-
-def load_average() -> float:
-    """The machine's 1-minute load average (nan where the system gives none)."""
-    try:
-        return os.getloadavg()[0]
-    except OSError:
-        return float("nan")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -209,6 +169,59 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
     label += f" on {type(terrain).__name__.lower()}" if terrain else ""
     label += f", contact cables {'/'.join(contact_tags)}" if contact_tags else ""
     return BenchCase(f"{name}{label}", m.opt.timestep, timings["tensim"], timings["engine"])
+
+
+def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine3",
+               dt: float = 1e-3) -> dict[str, Any]:
+    """The cost of a step under each cable law (``WorldOptions.cable_law``): preset ``name``
+    under its impedance controller at step ``dt``, the laws' loops taking turns.
+
+    Returns:
+        JSON-ready figures: per law, the best and median CPU and wall time per step [us] and
+        the ratio of its best CPU time to the explicit law's.
+    """
+    from tensim.model._law_layout import CABLE_LAWS
+
+    model = preset(name)
+    structure = model.build()
+    loops: dict[str, Callable[[], None]] = {}
+    sims = []
+    for law in CABLE_LAWS:
+        compiled = compile_structure(structure, WorldOptions(timestep=dt, cable_law=law))
+        sim = Simulation(compiled, controller=model.controller())
+        sims.append(sim)
+        sim.step(int(SETTLE_S / sim.dt))
+        state = sim.get_state()
+
+        def loop(sim: Simulation = sim, state: np.ndarray = state) -> None:
+            sim.set_state(state)
+            sim.run(duration)
+        loops[law] = loop
+    try:
+        timings = _interleaved(loops, repeats, round(duration / dt))
+    finally:
+        for sim in sims:
+            sim.close()
+    base = timings[CABLE_LAWS[0]].best()
+    return {"model": name, "dt_s": dt, "duration_s": duration, "repeats": repeats,
+            "laws": {law: {"cpu_us_per_step_best": round(t.best(), 3),
+                           "cpu_us_per_step_median": round(t.median(), 3),
+                           "wall_us_per_step_best": round(t.best("wall"), 3),
+                           "ratio_to_explicit": round(t.best() / base, 3)}
+                     for law, t in timings.items()},
+            "core_share": min(t.core_share() for t in timings.values())}
+
+
+def format_laws(report: dict[str, Any]) -> str:
+    """The per-law table of :func:`bench_laws`."""
+    lines = [f"cable laws, {report['model']} at {report['dt_s'] * 1e3:g} ms, "
+             f"{report['repeats']} runs each taking turns: us per step (CPU best / median, "
+             "wall best), ratio to the explicit law from the best CPU times"]
+    for law, f in report["laws"].items():
+        lines.append(f"  {law:<12} {f['cpu_us_per_step_best']:7.1f} / "
+                     f"{f['cpu_us_per_step_median']:<7.1f} {f['wall_us_per_step_best']:7.1f}"
+                     f" {f['ratio_to_explicit']:6.2f}x")
+    return "\n".join(lines)
 
 
 CONTACT_TAGS = ("outer_left", "outer_right")  # the spine's lowest cables: they meet the wall

@@ -21,7 +21,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from tensim.bench import core_share, load_average, machine_note
+from tensim.benchmarks._machine import core_share, load_average, machine_note
 from tensim.control import SolverSettings, SpineCPG
 from tensim.learn.executors import ProcessPoolExecutor, ThreadBatchExecutor
 from tensim.learn.families import default_base
@@ -131,7 +131,7 @@ def _rollout_s(problem: TrialProblem, points: np.ndarray, workers: int) -> Clock
     threads, the engine's batched limit for the same work [s]."""
     from mujoco import rollout
 
-    from tensim.bench_batch import rollout_inputs
+    from tensim.benchmarks.batch import rollout_inputs
 
     models, state, control, nstep = rollout_inputs(problem, points)
     datas = [mujoco.MjData(models[0]) for _ in range(workers)]
@@ -174,8 +174,8 @@ def bench_learning(duration: float = 10.0, evaluations: int = 20, repeats: int =
 
     Returns:
         evaluations per second of each (wall) and CPU seconds per evaluation, the ratios to
-        the rollout limit from each, the core shares (:func:`~tensim.bench.core_share`) and
-        the load average before the runs.
+        the rollout limit from each, the core shares
+        (:func:`~tensim.benchmarks._machine.core_share`) and the load average before the runs.
     """
     load = load_average()
     problem = _problem(duration)

@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from tensim.bench import core_share, load_average, machine_note
+from tensim.benchmarks._machine import core_share, load_average, machine_note
 from tensim.learn.families import default_base
 from tensim.learn.problem import TrialProblem
 from tensim.model import BUILD_KEY
@@ -75,9 +75,9 @@ def bench_batch(trials: int = 64, duration: float = 10.0, repeats: int = 3,
 
     Returns:
         per method and thread count: best and median wall and CPU time [s], trials/s and the
-        core share (:func:`~tensim.bench.core_share`); the ratios batch/rollout (from wall and
-        from CPU time) and 2-thread/1-thread scaling; peak resident memory [MiB]; the load
-        average before the runs.
+        core share (:func:`~tensim.benchmarks._machine.core_share`); the ratios
+        batch/rollout (from wall and from CPU time) and 2-thread/1-thread scaling; peak
+        resident memory [MiB]; the load average before the runs.
     """
     load = load_average()
     install_law("compiled")
@@ -131,7 +131,7 @@ def bench_batch(trials: int = 64, duration: float = 10.0, repeats: int = 3,
 _MEMORY_PROBE = """
 import resource, sys
 import numpy as np
-from tensim.bench_batch import _problem
+from tensim.benchmarks.batch import _problem
 from tensim.sim import Trial, run_batch
 trials, duration = int(sys.argv[1]), float(sys.argv[2])
 problem = _problem(duration)

@@ -1,0 +1,122 @@
+"""``tensim rl``: learn a policy with reinforcement learning, evaluate it, export it to a
+robot (needs the rl extra: ``pip install 'tensim[rl]'``)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from tensim.cli._common import count, finite, positive
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("rl", help="reinforcement learning: train, evaluate, export a policy")
+    rl = p.add_subparsers(dest="rl_command", required=True)
+
+    t = rl.add_parser("train", help="train a policy (PPO or SAC, Stable-Baselines3) on the "
+                      "batch engine; resumable")
+    t.add_argument("model", help="preset name or structure .yaml file")
+    t.add_argument("--algo", choices=("ppo", "sac"), default="ppo")
+    t.add_argument("--task", choices=("roll", "turn", "goal"), default="roll",
+                   help="roll along --heading, turn in place, or reach a goal along it")
+    t.add_argument("--heading", type=finite, default=0.0, metavar="DEG",
+                   help="heading in the robot's start frame [deg] (default 0)")
+    t.add_argument("--steps", type=count, default=100_000, help="env steps in all")
+    t.add_argument("--envs", type=count, default=8, help="robots stepped together")
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--control-dt", type=positive, default=0.02, help="control period [s]")
+    t.add_argument("--episode", type=positive, default=10.0, help="episode length [s]")
+    t.add_argument("--bar-contact-cost", type=positive, default=None,
+                   help="penalty per rod-rod contact per second (default none)")
+    t.add_argument("--checkpoint", type=count, default=10_000, metavar="STEPS",
+                   help="env steps between checkpoints (default 10000)")
+    t.add_argument("--resume", action="store_true", help="continue the run in --out")
+    t.add_argument("--out", default="runs/rl", help="run folder")
+    t.set_defaults(run=train)
+
+    e = rl.add_parser("evaluate", help="drive one robot with a trained policy; write a run "
+                      "folder with body_lengths_per_s")
+    e.add_argument("run_dir", metavar="DIR", help="a `tensim rl train` folder")
+    e.add_argument("--duration", type=positive, default=30.0, help="simulated time [s]")
+    e.add_argument("--seed", type=int, default=0, help="the start's seed")
+    e.add_argument("--video", action="store_true", help="also video.mp4 (offscreen OpenGL)")
+    e.add_argument("--out", default=None, help="run folder (default DIR/evaluation)")
+    e.set_defaults(run=evaluate)
+
+    x = rl.add_parser("export", help="write the policy as ONNX and NumPy arrays, with its "
+                      "observation/action layout and normalisation (policy.json)")
+    x.add_argument("run_dir", metavar="DIR", help="a `tensim rl train` folder")
+    x.add_argument("--onnx", default=None, metavar="FILE",
+                   help="ONNX file (policy.json and policy.npz go beside it; without it they "
+                   "go into DIR)")
+    x.set_defaults(run=export)
+
+
+def _need_rl_extra() -> None:
+    """Refuses clearly where the rl extra is missing."""
+    import importlib.util
+
+    from tensim import InputError
+
+    missing = [m for m in ("gymnasium", "stable_baselines3", "torch")
+               if importlib.util.find_spec(m) is None]
+    if missing:
+        raise InputError(f"tensim rl needs {', '.join(missing)}: pip install 'tensim[rl]'")
+
+
+def train(args: argparse.Namespace) -> int:
+    _need_rl_extra()
+    from tensim.cli._common import Progress
+    from tensim.rl.train import TrainSettings
+    from tensim.rl.train import train as run_training
+
+    settings = TrainSettings(model=args.model, algo=args.algo, task=args.task,
+                             heading_deg=args.heading, steps=args.steps, envs=args.envs,
+                             seed=args.seed, control_dt=args.control_dt,
+                             episode_s=args.episode,
+                             bar_contact_cost=args.bar_contact_cost or 0.0)
+    bar = Progress(f"rl train {args.algo}", args.quiet, unit="env steps",
+                   rate_label="env steps/s")
+    state = run_training(settings, Path(args.out), resume=args.resume,
+                         checkpoint_steps=args.checkpoint, progress=bar)
+    curve = state["curve"]
+    last = [r for _, r in curve[-max(1, len(curve) // 10):]] if curve else []
+    mean = sum(last) / len(last) if last else 0.0
+    returns = f"mean return of the last {len(last)} episodes {mean:+.3f}" if last else \
+        "no episode ended yet"
+    print(f"{state['steps_done']} env steps; {returns}")
+    print(f"training CPU time {state['cpu_s']:.0f} s; wrote {args.out}")
+    return 0
+
+
+def evaluate(args: argparse.Namespace) -> int:
+    _need_rl_extra()
+    from tensim.rl.evaluate import evaluate as run_evaluation
+
+    out = Path(args.out) if args.out else Path(args.run_dir) / "evaluation"
+    s = run_evaluation(Path(args.run_dir), out, args.duration, args.seed, video=args.video)
+    print(f"policy of {args.run_dir}: {s['displacement_along_heading_m']:+.3f} m along the "
+          f"heading in "
+          f"{s['duration_s']:g} s = {s['body_lengths_per_s']:+.4f} body lengths/s "
+          f"(body length {s['body_length_m']:.3f} m); wrote {out}")
+    return 0
+
+
+def export(args: argparse.Namespace) -> int:
+    _need_rl_extra()
+    import importlib.util
+
+    from tensim import InputError
+
+    if args.onnx and importlib.util.find_spec("onnx") is None:
+        raise InputError("--onnx needs the onnx package: pip install 'tensim[rl]' (without "
+                         "--onnx, policy.json and policy.npz are written all the same)")
+    from tensim.rl.export import export as run_export
+
+    meta = run_export(Path(args.run_dir), Path(args.onnx) if args.onnx else None)
+    where = Path(args.onnx).parent if args.onnx else Path(args.run_dir)
+    print(f"{meta['observation']['size']} observations -> {len(meta['action']['cables'])} "
+          f"actions ({meta['action']['kind']}); wrote "
+          f"{', '.join(str(where / f) for f in ['policy.json', 'policy.npz'])}"
+          + (f", {args.onnx}" if args.onnx else ""))
+    return 0

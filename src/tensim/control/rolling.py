@@ -1,0 +1,210 @@
+"""Punctuated rolling from statics: support faces, the tipping edge, and the rest lengths that
+carry the centre of mass past it.
+
+A rolling tensegrity (a 3-bar prism, a 6-bar icosahedron, any closed robot) stands on a face
+of the convex hull of its nodes. It rolls toward a heading by deforming until the centre of
+mass leaves that face's support polygon across the edge the heading points through; it tips
+onto the next face, and the step repeats from there. :func:`plan_tip` finds the deformation
+with the design tools' statics (:mod:`tensim.design.inverse`): the robot's static pose with its
+feet held where they stand, re-linearised at every pose, gives how the centre of mass moves per
+metre of each cable's rest length (dc/dl0 = J_c K^-1 A diag(k), the feet's springs in K); each
+step moves every motorised cable whose rest length carries the centre of mass forward by a
+share of its allowed travel, shortening or paying out as the sensitivity's sign says, until
+the static pose's centre of mass lies past the edge by a margin (or the motors' travel is
+spent). Sliding feet and the tipping motion itself are outside this model: the gait closes the
+loop by watching which face the robot stands on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from scipy.linalg import null_space
+from scipy.spatial import ConvexHull
+
+from tensim.design._bodies import GRAVITY
+from tensim.design._errors import DesignError
+from tensim.design.inverse import settle, with_rest_lengths
+from tensim.structure import Structure
+
+FACE_TOLERANCE = 0.02  # share of the robot's size within which a node lies on the support plane
+
+
+@dataclasses.dataclass(frozen=True)
+class RollSettings:
+    """The punctuated rolling gait's parameters.
+
+    Attributes:
+        shorten: largest shortening of a motorised cable's rest length, as a share of its
+            built rest length [-].
+        lengthen: largest paying-out, as a share of its built rest length [-].
+        margin: how far past the tipping edge the planned static centre of mass lies [m].
+        steps: linearised statics steps of one plan.
+        settle_s: time the robot rests on a new face, cables back at their built rest
+            lengths, before the next plan [s].
+        push_s: longest time a plan is held waiting for the robot to tip [s].
+        period_s: the gait's control period: it looks at the robot this often [s].
+        release: on a new face, return the cables to their built rest lengths while the robot
+            rests (else hold the commands it tipped with and plan from there).
+    """
+
+    shorten: float = 0.5
+    lengthen: float = 0.3
+    margin: float = 0.03
+    steps: int = 12
+    settle_s: float = 0.3
+    push_s: float = 2.0
+    period_s: float = 0.05
+    release: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("shorten", "lengthen", "margin", "settle_s", "push_s", "period_s"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"roll setting {name} must be a finite number >= 0, got "
+                                 f"{value!r}")
+        if not self.shorten < 1:
+            raise ValueError(f"roll setting shorten must be < 1 (a share), got {self.shorten}")
+        if not (isinstance(self.steps, int) and self.steps >= 1):
+            raise ValueError(f"roll setting steps must be an integer >= 1, got {self.steps!r}")
+        if not self.period_s > 0:
+            raise ValueError("roll setting period_s must be > 0 s")
+
+
+def heading_vector(heading_deg: float) -> np.ndarray:
+    """(2,) unit vector of a heading, counter-clockwise from +x [deg]."""
+    angle = math.radians(heading_deg)
+    return np.array([math.cos(angle), math.sin(angle)])
+
+
+def support_face(positions: dict[str, np.ndarray]) -> tuple[str, ...]:
+    """The nodes of the convex-hull face the robot stands on (its outward normal nearest
+    straight down), with every node within :data:`FACE_TOLERANCE` of its plane; sorted."""
+    names = list(positions)
+    points = np.array([positions[n] for n in names])
+    hull = ConvexHull(points)
+    normal_z = hull.equations[:, 2]
+    best = int(np.argmin(normal_z))
+    normal, offset = hull.equations[best, :3], hull.equations[best, 3]
+    size = float(np.ptp(points, axis=0).max())
+    near = np.abs(points @ normal + offset) <= FACE_TOLERANCE * size
+    return tuple(sorted(n for n, on in zip(names, near, strict=True) if on))
+
+
+def support_edges(polygon: np.ndarray) -> np.ndarray:
+    """(k, 3) the edges of the convex hull of ``polygon`` (m, 2) as lines a x + b y + c = 0
+    with (a, b) the unit outward normal (a x + b y + c < 0 inside)."""
+    if len(polygon) < 3:  # standing on an edge or a point: no polygon to leave
+        return np.zeros((0, 3))
+    return ConvexHull(polygon).equations
+
+
+def _com_jacobian(lin: object) -> np.ndarray:
+    """(3, n_dof) d(centre of mass)/d(reduced coordinates) of a linearisation."""
+    body_set = lin.body_set  # type: ignore[attr-defined]
+    total = float(body_set.mass.sum())
+    jac = np.zeros((3, body_set.n_full))
+    for b, m in enumerate(body_set.mass):
+        jac[:, 6 * b:6 * b + 3] = m / total * np.eye(3)
+    return jac @ body_set.basis
+
+
+def _com(lin: object) -> np.ndarray:
+    body_set = lin.body_set  # type: ignore[attr-defined]
+    return body_set.mass @ body_set.com / body_set.mass.sum()
+
+
+def _sensitivity(lin: object, structure: Structure) -> np.ndarray:
+    """(n_dof, n_cables) dq/dl0 of the static pose with the feet held (as the inverse statics)."""
+    body_set, pose, feet = lin.body_set, lin.pose, lin.feet  # type: ignore[attr-defined]
+    k = np.array([c.stiffness for c in structure.cables]) * lin.taut  # type: ignore[attr-defined]
+    pull = lin.gradients.T * k  # type: ignore[attr-defined]
+    free = null_space(np.vstack([body_set.point_jacobian(body_set.node_body[f],
+                                                          pose.position(f)) for f in feet])
+                      @ body_set.basis)
+    stiff = lin.stiffness  # type: ignore[attr-defined]
+    return free @ np.linalg.lstsq(free.T @ stiff @ free, free.T @ pull, rcond=1e-12)[0]
+
+
+@dataclasses.dataclass(frozen=True)
+class TipPlan:
+    """Rest lengths that carry the static centre of mass past a tipping edge.
+
+    Attributes:
+        rest_lengths: (n_cables,) commanded rest lengths [m].
+        feet: the support face's nodes.
+        direction: (2,) unit outward normal of the edge it tips over.
+        margin: how far past the edge the planned static centre of mass lies [m]
+            (negative: short of it, the motors' travel spent).
+    """
+
+    rest_lengths: np.ndarray
+    feet: tuple[str, ...]
+    direction: np.ndarray
+    margin: float
+
+
+def plan_tip(structure: Structure, rest: np.ndarray, built: np.ndarray, heading: np.ndarray,
+             settings: RollSettings = RollSettings(), gravity: float = GRAVITY) -> TipPlan:
+    """The rest lengths that tip ``structure`` (its nodes where the robot stands now) over
+    the support polygon's edge that best leads toward ``heading``.
+
+    The edges are tried in order of how well their outward normal points along the heading
+    (those pointing ahead of it only); the first whose plan reaches the margin is taken, else
+    the one that came nearest.
+
+    Args:
+        structure: the robot, its node positions the current pose [m].
+        rest: (n_cables,) rest lengths it holds now [m].
+        built: (n_cables,) its built rest lengths, the centre of each cable's travel [m].
+        heading: (2,) unit vector in the ground plane.
+        settings: travel, margin and number of steps.
+        gravity: [m/s^2].
+
+    Raises:
+        DesignError: no static pose on the current feet, or no edge ahead of the heading.
+    """
+    positions = {n.name: np.asarray(n.position) for n in structure.nodes}
+    feet = support_face(positions)
+    edges = support_edges(np.array([positions[f][:2] for f in feet]))
+    ahead = sorted((e for e in edges if e[:2] @ heading > 0), key=lambda e: -e[:2] @ heading)
+    if not ahead:
+        raise DesignError(f"no support edge ahead of the heading on feet {', '.join(feet)}")
+    explicit = with_rest_lengths(structure, rest)
+    start = settle(explicit, feet, gravity)
+    best: TipPlan | None = None
+    for edge in ahead:
+        plan = _plan_edge(structure, explicit, start, rest, built, edge, feet, settings,
+                          gravity)
+        if plan.margin >= settings.margin:
+            return plan
+        if best is None or plan.margin > best.margin:
+            best = plan
+    assert best is not None
+    return best
+
+
+def _plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.ndarray,
+               built: np.ndarray, edge: np.ndarray, feet: tuple[str, ...],
+               settings: RollSettings, gravity: float) -> TipPlan:
+    """Steps the motorised rest lengths along the sensitivity that carries the static centre
+    of mass across ``edge`` (a, b, c), until it lies ``settings.margin`` past it."""
+    motorised = np.array([not c.motor.passive for c in structure.cables])
+    lower = np.where(motorised, built * (1 - settings.shorten), rest)
+    upper = np.where(motorised, built * (1 + settings.lengthen), rest)
+    step = (upper - lower) / settings.steps
+    normal = edge[:2]
+    planned = rest.copy()
+    for _ in range(settings.steps):
+        if normal @ _com(lin)[:2] + edge[2] >= settings.margin:
+            break
+        rate = normal @ (_com_jacobian(lin) @ _sensitivity(lin, structure))[:2]
+        useful = np.abs(rate) >= 0.2 * np.abs(rate).max()
+        planned = np.clip(planned + np.where(useful, np.sign(rate) * step, 0.0), lower, upper)
+        try:
+            lin = settle(with_rest_lengths(explicit, planned), feet, gravity)
+        except DesignError:
+            break
+    return TipPlan(planned, feet, normal.copy(), float(normal @ _com(lin)[:2] + edge[2]))

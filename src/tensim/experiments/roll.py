@@ -1,0 +1,221 @@
+"""Rolling toward a heading or a goal: the punctuated statics gait on any closed robot.
+
+The gait (:mod:`tensim.control.rolling`) looks at the robot every control period: on a new
+support face it first lets the robot rest with its cables at their built rest lengths, then
+plans the rest lengths that carry the centre of mass past the edge toward the heading (toward
+the goal, from where the robot stands, when a goal is given) and commands them; the motors wind
+there at their max_speed, the robot tips, and the next face starts over. The summary reports
+the field's figures: speed in body lengths per second (body length = the longest rod), the
+distance made good along the heading, the heading error of the path, the faces visited and the
+number of rolls.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tensim.control.rolling import RollSettings, heading_vector, plan_tip, support_face
+from tensim.design import DesignError
+from tensim.model import WorldOptions, compile_structure
+from tensim.runs import world_record, write_run
+from tensim.sim import COM, Simulation, SimulationResult, TimeSeries
+from tensim.structure import Structure
+
+ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
+LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
+
+
+def node_positions(sim: Simulation) -> dict[str, np.ndarray]:
+    """Every node's world position now [m]."""
+    d, index = sim.data, sim.index
+    return {name: d.xpos[body] + d.xmat[body].reshape(3, 3) @ index.node_local[name]
+            for name, body in index.node_body.items()}
+
+
+def body_length(structure: Structure) -> float:
+    """The longest rod's length [m] (the field's body length of a rolling robot)."""
+    if not structure.rods:
+        raise ValueError(f"{structure.name}: a rolling robot needs rods (body length = the "
+                         "longest rod)")
+    return max(structure.distance(*r.nodes) for r in structure.rods)
+
+
+@dataclasses.dataclass
+class _Gait:
+    """The gait's state between control periods."""
+
+    structure: Structure
+    built: np.ndarray
+    motorised: np.ndarray
+    settings: RollSettings
+    heading_deg: float
+    goal: tuple[float, float] | None
+    origin: np.ndarray
+    length: float
+    face: tuple[str, ...] = ()
+    seen: tuple[str, ...] = ()
+    since: float = 0.0
+    pushing: bool = False
+    faces: list[tuple[str, ...]] = dataclasses.field(default_factory=list)
+    plans: int = 0
+
+    def heading(self, com: np.ndarray) -> np.ndarray:
+        """Toward the goal; without one toward a point on the heading's line through the
+        start, :data:`LOOKAHEAD` body lengths ahead (so a robot pushed aside steers back)."""
+        goal = self.goal
+        if goal is None:
+            h = heading_vector(self.heading_deg)
+            ahead = (com[:2] - self.origin) @ h + LOOKAHEAD * self.length
+            goal = tuple(self.origin + ahead * h)
+        to_goal = np.asarray(goal) - com[:2]
+        norm = float(np.linalg.norm(to_goal))
+        return to_goal / norm if norm > 1e-9 else heading_vector(self.heading_deg)
+
+    def control(self, sim: Simulation) -> None:
+        """Looks at the robot and updates the rest-length commands."""
+        positions = node_positions(sim)
+        face = support_face(positions)
+        held, self.seen = face == self.seen, face  # a new face counts once seen twice running
+        if face != self.face:
+            if held or not self.faces:
+                self.face, self.since, self.pushing = face, sim.time, False
+                self.faces.append(face)
+                if self.settings.release:
+                    sim.drive.rest_command[self.motorised] = self.built[self.motorised]
+            return
+        waited = sim.time - self.since
+        if not self.pushing and waited >= self.settings.settle_s:
+            self._push(sim, positions)
+        elif self.pushing and waited >= self.settings.settle_s + self.settings.push_s:
+            self.since, self.pushing = sim.time, False  # stuck: rest and plan again
+            sim.drive.rest_command[self.motorised] = self.built[self.motorised]
+
+    def _push(self, sim: Simulation, positions: dict[str, np.ndarray]) -> None:
+        pose = dataclasses.replace(self.structure, nodes=tuple(
+            dataclasses.replace(n, position=tuple(positions[n.name]))
+            for n in self.structure.nodes))
+        com = sim.data.subtree_com[0]
+        try:
+            plan = plan_tip(pose, sim.drive.rest.copy(), self.built, self.heading(com),
+                            self.settings)
+        except DesignError:
+            return
+        self.plans += 1
+        sim.drive.rest_command[self.motorised] = plan.rest_lengths[self.motorised]
+        self.pushing = True
+
+
+def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
+         goal: tuple[float, float] | None = None, world: WorldOptions | None = None,
+         settings: RollSettings | None = None, record_dt: float = 0.01,
+         progress: Callable[[float, float], None] | None = None
+         ) -> tuple[SimulationResult, dict[str, Any]]:
+    """Rolls ``structure`` for ``duration`` seconds toward a heading or a goal point.
+
+    Args:
+        structure: a closed robot (its nodes' convex hull is what it rolls on).
+        duration: simulated time [s].
+        heading_deg: heading, counter-clockwise from +x [deg] (used without a goal).
+        goal: (x, y) of a goal point [m]; the gait heads toward it from where the robot is.
+        world: physics step, terrain and other world options.
+        settings: the gait's parameters.
+        record_dt: recording period [s]; a whole number of physics steps.
+        progress: called as progress(done_s, total_s).
+
+    Returns:
+        The result and its summary (:func:`roll_summary` plus the run's headline figures).
+    """
+    settings = settings or RollSettings()
+    world = world or WorldOptions()
+    compiled = compile_structure(structure, world)
+    sim = Simulation(compiled, record_dt=record_dt)
+    built = compiled.rest_length.copy()
+    motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
+    gait = _Gait(compiled.structure, built, motorised, settings, heading_deg, goal,
+                 sim.data.subtree_com[0][:2].copy(), body_length(structure))
+    chunks: list[TimeSeries] = []
+    period = max(record_dt, round(settings.period_s / record_dt) * record_dt)
+    done, start = 0.0, time.perf_counter()
+    with sim:
+        while done < duration - 1e-9:
+            gait.control(sim)
+            span = min(period, duration - done)
+            series = sim.run(span)
+            chunks.append(series if not chunks else _tail(series))
+            done += span
+            if progress is not None:
+                progress(done, duration)
+        trajectory = _join(chunks)
+        result = SimulationResult(trajectory, sim.drive.peak.copy(), time.perf_counter() - start,
+                                  duration, sim.dt,
+                                  sim.index.cables)
+    direction = heading_vector(heading_deg) if goal is None else None
+    summary = {**result.summary(), **world_record(compiled.world),
+               **roll_summary(trajectory, body_length(structure), direction, goal),
+               "heading_deg": heading_deg if goal is None else None,
+               "goal_xy_m": list(goal) if goal is not None else None,
+               "faces_visited": len(set(gait.faces)), "rolls": max(0, len(gait.faces) - 1),
+               "plans": gait.plans}
+    return result, summary
+
+
+def _tail(series: TimeSeries) -> TimeSeries:
+    """The samples after the first (a run's first sample repeats the last of the one before)."""
+    return TimeSeries(series.time[1:], {k: v[1:] for k, v in series.channels.items()})
+
+
+def _join(chunks: list[TimeSeries]) -> TimeSeries:
+    return TimeSeries(np.concatenate([c.time for c in chunks]),
+                      {k: np.concatenate([c.channels[k] for c in chunks])
+                       for k in chunks[0].channels})
+
+
+def roll_summary(trajectory: TimeSeries, length: float, heading: np.ndarray | None,
+                 goal: tuple[float, float] | None = None) -> dict[str, Any]:
+    """The rolling figures of a run, from its centre-of-mass path.
+
+    Args:
+        trajectory: the recorded run.
+        length: the body length [m].
+        heading: (2,) unit vector of the heading; None with a goal (the heading is then from
+            the start toward the goal).
+        goal: (x, y) of the goal [m].
+
+    Returns:
+        ``distance_m`` (net displacement of the centre of mass along the heading),
+        ``body_lengths_per_s`` (that distance per body length per second of run),
+        ``heading_error_deg`` (angle between the net displacement and the heading),
+        ``body_length_m``; with a goal also ``goal_distance_m`` at the start and the end.
+    """
+    x, y = trajectory[f"pos_x/{COM}"], trajectory[f"pos_y/{COM}"]
+    start, end = np.array([x[0], y[0]]), np.array([x[-1], y[-1]])
+    if heading is None:
+        assert goal is not None
+        heading = np.asarray(goal, dtype=float) - start
+        heading = heading / max(float(np.linalg.norm(heading)), 1e-12)
+    moved = end - start
+    distance = float(moved @ heading)
+    span = float(trajectory.time[-1] - trajectory.time[0])
+    error = math.degrees(math.atan2(float(heading[0] * moved[1] - heading[1] * moved[0]),
+                                    distance)) if np.linalg.norm(moved) > 0 else 180.0
+    out: dict[str, Any] = {"body_length_m": round(length, 6), "distance_m": round(distance, 6),
+                           "body_lengths_per_s": round(distance / length / span, 6) if span > 0
+                           else 0.0,
+                           "heading_error_deg": round(abs(error), 3)}
+    if goal is not None:
+        out["goal_distance_m"] = [round(float(np.linalg.norm(np.asarray(goal) - p)), 6)
+                                  for p in (start, end)]
+    return out
+
+
+def write_roll(out: Path, result: SimulationResult, summary: dict[str, Any],
+               structure: Structure) -> Path:
+    """Writes the run folder: trajectory, robot, report and summary."""
+    return write_run(out, result, summary, structure=structure)

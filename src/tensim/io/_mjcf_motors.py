@@ -1,0 +1,310 @@
+"""Maps a tendon's spring and its actuator onto a tensim cable and motor.
+
+tensim's cable pulls k (x - l) + b dx/dt while taut and its motor moves the rest length l
+toward a command at up to ``max_speed`` (a floor ``min_rest_length``, a stop at
+``max_tension``). The actuators labs put on tendons map onto that as follows:
+
+- a force actuator (``motor``, or ``general`` with a fixed gain and no bias) in parallel with
+  the tendon spring adds a tension T = -gear x gain x u: while taut that is the spring with the
+  rest length l0 - T/k, so the command becomes a rest length; the pull limit on top of the
+  build tension becomes the motor's stop (``max_tension``), the tendon's lower limit its floor
+  (the file's actuator shortens the cable as far as its pull folds the robot), and a
+  ``filter`` time constant tau a speed (the range over tau, the filter's fastest rate);
+- a position actuator (``position``, or ``general`` with bias [b0, -kp, -kv]) is a PD on
+  tendon length: beside the spring it is one cable of stiffness k + gear^2 kp and damping
+  b + gear^2 kv whose rest length is the stiffness-weighted mean of the two targets;
+- tensim's own export carries its motors in each actuator's ``user`` numbers (read back
+  exactly);
+- anything else (velocity servos, muscles, user dynamics) leaves the cable passive.
+
+Every difference from the file's semantics is stated in :attr:`ActuatorMapping.differences`.
+Where tensim's motor gains a saturating force cap or a first-order lag, the mapping of a
+filtered force actuator sets them here and drops the matching difference.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import mujoco
+import numpy as np
+
+from tensim.io._mjcf_read import Loaded, kind_name
+from tensim.structure import PASSIVE, DCMotor, Motor
+
+# tensim's export: names of the numbers in each cable actuator's ``user`` data (see io.mjcf)
+USER_TEXT = "tensim_cable_user"
+NODE_SITE = "node_"  # tensim's export marks each node with a site named node_<name>
+USER_FIELDS = ("motor", "stiffness", "damping", "rest_length", "max_speed", "max_tension",
+               "min_rest_length", "min_length", "spool_radius", "stall_torque", "no_load_speed",
+               "rotor_inertia", "viscous_friction", "coulomb_friction", "back_drivable",
+               "position_time")
+MOTOR_KIND = {"passive": 0.0, "kinematic": 1.0, "dc": 2.0}
+_DYN = mujoco.mjtDyn
+_FILTERS = (_DYN.mjDYN_FILTER, _DYN.mjDYN_FILTEREXACT)
+
+
+@dataclasses.dataclass(frozen=True)
+class Spring:
+    """A tendon's own spring and pose, as MuJoCo compiled them.
+
+    Attributes:
+        stiffness: k [N/m].
+        damping: b [N s/m].
+        dead_band: (2,) spring lengths [low, high]: no force between them [m].
+        length: the tendon's length in the file's pose [m].
+        tendon: the tendon's id.
+    """
+
+    stiffness: float
+    damping: float
+    dead_band: tuple[float, float]
+    length: float
+    tendon: int
+
+
+@dataclasses.dataclass(frozen=True)
+class CommandMap:
+    """How the file's control input becomes a tensim rest-length command:
+    rest length = offset + scale x u [m], u the actuator's ``ctrl`` (its ``act`` after the
+    filter, or a rate where ``rate`` is true)."""
+
+    offset: float
+    scale: float
+    rate: bool = False
+
+
+@dataclasses.dataclass(frozen=True)
+class ActuatorMapping:
+    """One tendon actuator as a tensim cable and motor.
+
+    Attributes:
+        actuator: the actuator's name.
+        cable: the cable (tendon) it drives.
+        kind: ``"force"``, ``"position"``, ``"tensim"`` (tensim's own export) or
+            ``"unsupported"``.
+        motor: the motor chosen.
+        stiffness: the cable's stiffness, spring and actuator together [N/m].
+        damping: the cable's damping [N s/m].
+        rest_length: the rest length at the file's initial control [m].
+        command: how its control input maps to a rest length (None: it does not).
+        differences: what tensim does differently from the file, one line each.
+    """
+
+    actuator: str
+    cable: str
+    kind: str
+    motor: Motor
+    stiffness: float
+    damping: float
+    rest_length: float
+    command: CommandMap | None
+    differences: tuple[str, ...]
+
+
+def map_actuator(f: Loaded, a: int, cable: str, spring: Spring) -> ActuatorMapping:
+    """The cable and motor for actuator ``a`` on tendon ``cable`` (see the module docstring).
+
+    Raises:
+        StructureError: a cable that would have no stiffness.
+    """
+    m = f.model
+    name = f.name(mujoco.mjtObj.mjOBJ_ACTUATOR, a, f"actuator{a}")
+    if f.spec.text(USER_TEXT) is not None and m.nuser_actuator >= len(USER_FIELDS):
+        return _tensim(name, cable, dict(zip(USER_FIELDS, m.actuator_user[a], strict=False)))
+    bias = m.actuator_biasprm[a]
+    fixed = m.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED and \
+        not np.any(m.actuator_gainprm[a][1:])
+    no_bias = m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE or not np.any(bias)
+    affine = m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE
+    dyn = _DYN(m.actuator_dyntype[a])
+    if fixed and no_bias and dyn in (_DYN.mjDYN_NONE, *_FILTERS, _DYN.mjDYN_INTEGRATOR):
+        return _force(f, a, name, cable, spring)
+    if fixed and affine and m.actuator_gainprm[a][0] > 0 and \
+            math.isclose(bias[1], -m.actuator_gainprm[a][0], rel_tol=1e-6) and bias[2] <= 0 \
+            and dyn in (_DYN.mjDYN_NONE, *_FILTERS, _DYN.mjDYN_INTEGRATOR):
+        return _position(f, a, name, cable, spring)
+    what = _describe(f, a)
+    if spring.stiffness <= 0:
+        raise f.refuse(f"actuator {name!r}", f"is {what}, which tensim's motor cannot express, "
+                       f"and its tendon {cable!r} has no spring to keep as a passive cable")
+    return ActuatorMapping(name, cable, "unsupported", PASSIVE, spring.stiffness, spring.damping,
+                           spring.dead_band[1], None,
+                           (f"{what}: tensim's motor (a rest length moved toward a command) "
+                            "cannot express it; chosen: a passive cable (the tendon's spring "
+                            "only)",))
+
+
+def _describe(f: Loaded, a: int) -> str:
+    m = f.model
+    return (f"a {kind_name(mujoco.mjtGain(m.actuator_gaintype[a]))}-gain, "
+            f"{kind_name(mujoco.mjtBias(m.actuator_biastype[a]))}-bias actuator with "
+            f"{kind_name(mujoco.mjtDyn(m.actuator_dyntype[a]))} dynamics (gain "
+            f"{m.actuator_gainprm[a][:3].tolist()}, bias {m.actuator_biasprm[a][:3].tolist()})")
+
+
+def _range(f: Loaded, a: int) -> tuple[float, float]:
+    """The span of the actuator's input u (its act for filters and integrators)."""
+    m = f.model
+    lo, hi = -math.inf, math.inf
+    if m.actuator_ctrllimited[a]:
+        lo, hi = m.actuator_ctrlrange[a]
+    if m.actuator_dyntype[a] == _DYN.mjDYN_INTEGRATOR:
+        lo, hi = m.actuator_actrange[a] if m.actuator_actlimited[a] else (-math.inf, math.inf)
+    elif m.actuator_actlimited[a] and m.actuator_dyntype[a] in _FILTERS:
+        lo, hi = max(lo, m.actuator_actrange[a][0]), min(hi, m.actuator_actrange[a][1])
+    return float(lo), float(hi)
+
+
+def _start(f: Loaded, a: int, lo: float, hi: float) -> float:
+    """The input at the start: the first keyframe's (its act after a filter, else its ctrl),
+    else MuJoCo's reset value 0; clamped into the input's range as MuJoCo clamps it."""
+    m, u = f.model, 0.0
+    if m.nkey:
+        filtered = m.actuator_dyntype[a] in (*_FILTERS, _DYN.mjDYN_INTEGRATOR) and \
+            m.actuator_actadr[a] >= 0
+        u = float(m.key_act[0][m.actuator_actadr[a]] if filtered else m.key_ctrl[0][a])
+    return float(np.clip(u, lo, hi))
+
+
+def _lag(f: Loaded, a: int, span: float) -> tuple[float, list[str]]:
+    """The motor's speed for a command span [m] and what that leaves out."""
+    m = f.model
+    dyn = _DYN(m.actuator_dyntype[a])
+    if dyn in _FILTERS:
+        tau = float(m.actuator_dynprm[a][0])
+        return span / tau, [f"a filter lags the command with time constant {tau:g} s; "
+                            f"tensim's motor moves the rest length at up to {span / tau:.4g} m/s "
+                            "(the span over the time constant, the filter's fastest rate) and "
+                            "then stops, without the exponential approach"]
+    step = float(m.opt.timestep)
+    return span / step, [f"the force acts at once; tensim's motor crosses its range in one step "
+                         f"({step:g} s) at up to {span / step:.4g} m/s"]
+
+
+def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> ActuatorMapping:
+    m = f.model
+    k = spring.stiffness
+    if k <= 0:
+        raise f.refuse(f"actuator {name!r}", f"is a force actuator on tendon {cable!r}, which "
+                       "has no spring (stiffness 0): tensim's cables are springs whose rest "
+                       "length a motor moves; give the tendon a stiffness")
+    per_u = float(m.actuator_gear[a][0] * m.actuator_gainprm[a][0])  # d(-tension)/du [N]
+    lo, hi = _range(f, a)
+    tensions = sorted(-per_u * u for u in (lo, hi))  # pull positive
+    if m.actuator_forcelimited[a]:
+        flo, fhi = sorted(-m.actuator_gear[a][0] * v for v in m.actuator_forcerange[a])
+        tensions = [max(tensions[0], flo), min(tensions[1], fhi)]
+    push, pull = -tensions[0], tensions[1]
+    rest0 = spring.dead_band[1]
+    command = CommandMap(rest0, per_u / k, rate=m.actuator_dyntype[a] == _DYN.mjDYN_INTEGRATOR)
+    notes = []
+    # the file's actuator shortens the cable as far as its pull folds the robot: the motor may
+    # reel in down to the tendon's lower limit, its force bounded by the stop at max_tension
+    floor = _min_length(f, spring.tendon)
+    span = (pull + push) / k if math.isfinite(pull + push) else rest0
+    if command.rate:
+        speed = abs(command.scale) * max(abs(v) for v in m.actuator_ctrlrange[a]) \
+            if m.actuator_ctrllimited[a] else span / float(m.opt.timestep)
+        notes.append("the control is a force rate (integrator dynamics): the rest length "
+                     f"moves at scale x ctrl, up to {speed:.4g} m/s; tensim's motor takes a "
+                     "rest-length target")
+    else:
+        speed, lag = _lag(f, a, span)
+        notes += lag
+    cap = pull + k * max(spring.length - rest0, 0.0) if math.isfinite(pull) else 0.0
+    if cap <= 0:
+        cap = k * spring.length
+    if math.isfinite(pull):
+        notes.append(f"the file adds up to {pull:.4g} N of pull to the spring whatever the "
+                     f"stretch; tensim's motor reels in (down to the tendon's lower limit, "
+                     f"{floor:g} m) while the static tension stays below {cap:.4g} N (the pull "
+                     "on top of the build tension): the command map matches the file's force "
+                     "while taut, a saturating force cap would hold it exactly")
+    else:
+        notes.append("the file's pull is unlimited (no ctrlrange or forcerange); chosen: a "
+                     f"rest-length floor of {floor:g} m and a stop above {cap:.4g} N of static "
+                     "tension (k x the tendon's length)")
+    notes.append("while the cable is slacker than its rest length the file's actuator still "
+                 "pulls; tensim's cable pulls nothing")
+    motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
+                  min_length=_min_length(f, spring.tendon))
+    rest = rest0 + command.scale * _start(f, a, lo, hi)
+    return ActuatorMapping(name, cable, "force", motor, k, spring.damping, rest, command,
+                           tuple(notes))
+
+
+def _position(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> ActuatorMapping:
+    m = f.model
+    gear, kp = float(m.actuator_gear[a][0]), float(m.actuator_gainprm[a][0])
+    b0, kv = float(m.actuator_biasprm[a][0]), -float(m.actuator_biasprm[a][2])
+    k_act, b_act = gear**2 * kp, gear**2 * kv
+    k = spring.stiffness + k_act
+    # rest length = (k_s l_s + k_act (u + b0 / kp) / gear) / k
+    rate = m.actuator_dyntype[a] == _DYN.mjDYN_INTEGRATOR  # intvelocity: ctrl moves the target
+    command = CommandMap((spring.stiffness * spring.dead_band[1] + k_act * b0 / (kp * gear)) / k,
+                         k_act / (gear * k), rate=rate)
+    lo, hi = _range(f, a)
+    rests = sorted(command.offset + command.scale * u for u in (lo, hi))
+    floor = max(rests[0], 0.0) if math.isfinite(rests[0]) else 0.0
+    span = rests[1] - rests[0] if math.isfinite(rests[1] - rests[0]) else spring.length
+    if rate:
+        speed = abs(command.scale) * max(abs(v) for v in m.actuator_ctrlrange[a]) \
+            if m.actuator_ctrllimited[a] else span / float(m.opt.timestep)
+        notes = [f"the control is the target's rate (integrator dynamics): tensim's motor takes "
+                 f"a rest-length target and moves toward it at up to {speed:.4g} m/s"]
+    else:
+        speed, notes = _lag(f, a, span)
+    pull = math.inf
+    if m.actuator_forcelimited[a]:
+        forces = sorted(-gear * v for v in m.actuator_forcerange[a])
+        pull = forces[1]
+        if forces[0] < 0:
+            notes.append("the actuator also pushes (its force range allows lengthening "
+                         "force) when the tendon is shorter than its target; tensim's cable "
+                         "goes slack")
+    else:
+        notes.append("the actuator also pushes when the tendon is shorter than its target; "
+                     "tensim's cable goes slack")
+    cap = pull if math.isfinite(pull) and pull > 0 else k * spring.length
+    notes.append(f"the force limit: tensim stops reeling in above {cap:.4g} N of static tension "
+                 "rather than saturating the force" if math.isfinite(pull) else
+                 f"no force limit in the file; chosen max_tension {cap:.4g} N (k x the "
+                 "tendon's length: it never binds before the rest length reaches 0)")
+    if spring.stiffness > 0:
+        notes.append(f"the tendon's spring ({spring.stiffness:g} N/m) and the actuator's "
+                     f"kp ({k_act:g} N/m) make one cable of {k:g} N/m, exact while both pull")
+    motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
+                  min_length=_min_length(f, spring.tendon))
+    rest = command.offset + command.scale * _start(f, a, lo, hi)
+    if rest <= 0:
+        raise f.refuse(f"actuator {name!r}", f"its initial target gives tendon {cable!r} a rest "
+                       f"length of {rest:.4g} m; give a keyframe whose ctrl sets the targets, or a "
+                       "ctrlrange above 0")
+    return ActuatorMapping(name, cable, "position", motor, k, spring.damping + b_act, rest,
+                           command, tuple(notes))
+
+
+def _min_length(f: Loaded, t: int) -> float:
+    """The tendon's lower length limit, where tensim's motor stops reeling in (0: none)."""
+    return float(f.model.tendon_range[t][0]) if f.model.tendon_limited[t] else 0.0
+
+
+def _tensim(name: str, cable: str, user: dict[str, float]) -> ActuatorMapping:
+    """A cable of tensim's own export, exactly as it was."""
+    kind = int(user["motor"])
+    if kind == MOTOR_KIND["passive"]:
+        motor = PASSIVE
+    else:
+        dc = None if kind != MOTOR_KIND["dc"] else DCMotor(
+            spool_radius=user["spool_radius"], stall_torque=user["stall_torque"],
+            no_load_speed=user["no_load_speed"], rotor_inertia=user["rotor_inertia"],
+            viscous_friction=user["viscous_friction"],
+            coulomb_friction=user["coulomb_friction"],
+            back_drivable=bool(user["back_drivable"]), position_time=user["position_time"])
+        motor = Motor(max_speed=user["max_speed"], max_tension=user["max_tension"],
+                      min_rest_length=user["min_rest_length"], min_length=user["min_length"],
+                      dc=dc)
+    return ActuatorMapping(name, cable, "tensim", motor, user["stiffness"], user["damping"],
+                           user["rest_length"], None, ())

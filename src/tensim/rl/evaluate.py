@@ -1,0 +1,115 @@
+"""Evaluating a learnt policy: the deterministic policy drives one robot for a while, and the
+centre of mass's path, read from MjData, gives its speed in body lengths per second."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tensim.rl.policy import Policy
+from tensim.rl.train import TrainSettings, load_settings
+
+
+def body_length(model: str) -> float:
+    """The robot's body length [m]: its longest rod (its longest cable if it has no rod)."""
+    from tensim.models import load_model
+
+    structure = load_model(model)
+    nodes = {n.name: np.asarray(n.position) for n in structure.nodes}
+    members = structure.rods or structure.cables
+    return max(float(np.linalg.norm(nodes[m.nodes[0]] - nodes[m.nodes[1]])) for m in members)
+
+
+def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed: int,
+               frames: list[np.ndarray] | None = None) -> dict[str, Any]:
+    """Drives the robot with ``policy`` for ``duration_s`` seconds from the start ``seed``
+    draws; with ``frames``, appends about 15 images per second to it (offscreen OpenGL).
+
+    Returns:
+        ``time`` (T,) [s], ``com`` (T, 3) [m] (from MjData), ``heading`` (2,) the rewarded
+        direction in the world (unit), ``observations`` (T-1, n_obs), ``actions``
+        (T-1, n_motors) and ``unstable``.
+    """
+    from tensim.rl.env import TensegrityEnv
+
+    env = TensegrityEnv(settings.env_config(episode_s=duration_s),
+                        render_mode=None if frames is None else "rgb_array")
+    obs, _ = env.reset(seed=seed)
+    every = max(1, round(1.0 / (15 * env.robot.config.control_dt)))
+    com = [env.worlds.f["subtree_com"][0, 0].copy()]
+    observations, actions, unstable = [], [], False
+    for k in range(env.robot.config.max_steps):
+        if frames is not None and k % every == 0:
+            image = env.render()
+            if image is not None:
+                frames.append(image)
+        action = policy(obs)
+        observations.append(obs)
+        actions.append(action)
+        obs, _, terminated, _, info = env.step(action.astype(np.float32))
+        com.append(env.worlds.f["subtree_com"][0, 0].copy())
+        if terminated:
+            unstable = bool(info["unstable"])
+            break
+    env.close()
+    dt = env.robot.config.control_dt
+    return {"fps": round(1.0 / (every * dt)), "time": np.arange(len(com)) * dt,
+            "com": np.array(com), "heading": env.worlds.target[0].copy(),
+            "observations": np.array(observations), "actions": np.array(actions),
+            "unstable": unstable}
+
+
+def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
+             video: bool = False) -> dict[str, Any]:
+    """Evaluates the run in ``folder`` and writes a run folder ``out`` (``trajectory.parquet``,
+    ``summary.json`` with ``body_lengths_per_s``, ``path.png``, ``report.html``; with
+    ``video``, ``video.mp4``).
+
+    Raises:
+        tensim.viz._gl.OffscreenUnavailable: ``video`` where no offscreen OpenGL works.
+
+    Returns:
+        the summary.
+    """
+    from tensim.rl.export import policy_record
+    from tensim.runs import finish_run, replace_folder
+    from tensim.sim import TimeSeries
+    from tensim.viz.plots import new_figure, save_figure
+
+    settings = load_settings(folder)
+    meta, arrays = policy_record(folder)
+    n = len(arrays) // 2
+    policy = Policy(meta, [arrays[f"w{k}"] for k in range(n)], [arrays[f"b{k}"]
+                                                                 for k in range(n)])
+    frames: list[np.ndarray] | None = [] if video else None
+    run = run_policy(settings, policy, duration_s, seed, frames)
+    t, com, heading = run["time"], run["com"], run["heading"]
+    along = float((com[-1, :2] - com[0, :2]) @ heading)
+    length = body_length(settings.model)
+    summary = {"command": "rl evaluate", "policy_run": str(folder), "model": settings.model,
+               "algo": settings.algo, "task": settings.task, "seed": seed,
+               "duration_s": float(t[-1]), "body_length_m": round(length, 6),
+               "displacement_along_heading_m": round(along, 6),
+               "speed_m_per_s": round(along / t[-1], 6) if t[-1] > 0 else 0.0,
+               "body_lengths_per_s": round(along / t[-1] / length, 6) if t[-1] > 0 else 0.0,
+               "heading_world": [round(float(h), 6) for h in heading],
+               "unstable": run["unstable"]}
+    series = TimeSeries(t, {f"pos_{a}/com": com[:, k] for k, a in enumerate("xyz")})
+    with replace_folder(out) as stage:
+        series.to_parquet(stage / "trajectory.parquet")
+        fig = new_figure((5.0, 5.0))
+        ax = fig.add_subplot()
+        ax.plot(com[:, 0], com[:, 1], label="centre of mass")
+        ax.annotate("", com[0, :2] + heading * length, com[0, :2],
+                    arrowprops={"arrowstyle": "->", "color": "grey"})
+        ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal",
+               title=f"{summary['body_lengths_per_s']:.3f} body lengths/s along the heading")
+        save_figure(fig, stage / "path.png")
+        if frames:
+            from tensim.viz.video import write_video
+
+            write_video(frames, stage / "video.mp4", run["fps"])
+        finish_run(stage, summary, series)
+    return summary

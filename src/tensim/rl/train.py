@@ -1,0 +1,270 @@
+"""Training runs: a policy learnt with Stable-Baselines3 (PPO or SAC) on the batch engine,
+checkpointed into a run folder so it resumes where it stopped (``tensim rl train``).
+
+A run folder holds ``settings.json`` (what it trains, with a fingerprint of the robot file),
+``policy.zip`` (SB3's format), ``normalizer.npz`` (the observation normaliser's running mean
+and variance), ``progress.json`` (env steps done, the learning curve) and, for SAC, its
+replay buffer; ``learning_curve.png`` is drawn at the end.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tensim._files import atomic_path, write_json
+from tensim._input import InputError
+from tensim.models import PRESETS
+from tensim.rl.config import ROLLING_OBSERVATION, EnvConfig
+
+ALGOS = ("ppo", "sac")
+TASKS = {"roll": "direction", "turn": "turn", "goal": "goal"}
+CLIP_OBS = 10.0  # the observation normaliser's clip (SB3's VecNormalize default)
+EPSILON = 1e-8  # its variance floor
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainSettings:
+    """What a training run learns.
+
+    Attributes:
+        model: a preset name or a structure ``.yaml`` file.
+        algo: ``"ppo"`` or ``"sac"``.
+        task: ``"roll"`` (along ``heading_deg``), ``"turn"`` (in place, counter-clockwise) or
+            ``"goal"`` (a point ``goal_m`` metres ahead along ``heading_deg``).
+        heading_deg: the heading in the robot's start frame [deg].
+        steps: env steps in all (all robots together).
+        envs: robots stepped together on the batch engine.
+        seed: seeds the environments and the learner.
+        control_dt: control period [s].
+        episode_s: episode length [s].
+        goal_m: distance of the goal [m] (task ``goal``).
+        bar_contact_cost: penalty per rod-rod contact, per second.
+    """
+
+    model: str
+    algo: str = "ppo"
+    task: str = "roll"
+    heading_deg: float = 0.0
+    steps: int = 100_000
+    envs: int = 8
+    seed: int = 0
+    control_dt: float = 0.02
+    episode_s: float = 10.0
+    goal_m: float = 2.0
+    bar_contact_cost: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.algo not in ALGOS:
+            raise InputError(f"--algo must be one of {', '.join(ALGOS)}, got {self.algo!r}")
+        if self.task not in TASKS:
+            raise InputError(f"--task must be one of {', '.join(TASKS)}, got {self.task!r}")
+        for name in ("steps", "envs"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 1):
+                raise InputError(f"--{name} must be an integer >= 1, got {value!r}")
+        if not math.isfinite(self.heading_deg):
+            raise InputError(f"--heading must be a finite angle [deg], got {self.heading_deg}")
+
+    def env_config(self, episode_s: float | None = None) -> EnvConfig:
+        """The environment it trains in (``episode_s`` overrides the episode length)."""
+        h = math.radians(self.heading_deg)
+        heading = (round(math.cos(h), 12), round(math.sin(h), 12))
+        return EnvConfig(model=self.model, task=TASKS[self.task], direction=heading,
+                         goal_m=(self.goal_m * heading[0], self.goal_m * heading[1]),
+                         control_dt=self.control_dt,
+                         episode_s=self.episode_s if episode_s is None else episode_s,
+                         observation=ROLLING_OBSERVATION,
+                         bar_contact_cost=self.bar_contact_cost)
+
+
+ROBOT_FILE = "robot.yaml"  # a structure file's copy in the run folder
+
+
+def fingerprint(settings: TrainSettings) -> str:
+    """A hash of the settings, with a robot file's contents in place of its path (a preset:
+    its name); ``steps`` is left out, so a resumed run may train longer."""
+    record = dataclasses.asdict(settings) | {"steps": 0}
+    if settings.model not in PRESETS:
+        record["model"] = hashlib.sha256(Path(settings.model).read_bytes()).hexdigest()
+    return hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def load_settings(folder: Path) -> TrainSettings:
+    """The settings of the run in ``folder``.
+
+    Raises:
+        InputError: ``folder`` holds no training run.
+    """
+    path = Path(folder) / "settings.json"
+    if not path.is_file():
+        raise InputError(f"{folder}: no training run here (no settings.json); train one with "
+                         "`tensim rl train`")
+    data = json.loads(path.read_text())
+    if data["model"] not in PRESETS:  # the copy of the robot file it trained on
+        data["model"] = str(Path(folder) / ROBOT_FILE)
+    return TrainSettings(**{k: v for k, v in data.items() if k != "fingerprint"})
+
+
+def train(settings: TrainSettings, out: Path, *, resume: bool = False,
+          checkpoint_steps: int = 10_000,
+          progress: Callable[[float, float], None] | None = None) -> dict[str, Any]:
+    """Trains (or resumes training) and returns the progress record.
+
+    Args:
+        settings: what to learn.
+        out: the run folder.
+        resume: continue the run in ``out`` (its settings and robot file must be the same,
+            ``steps`` may grow).
+        checkpoint_steps: env steps between checkpoints.
+        progress: called with (env steps done, steps in all).
+
+    Raises:
+        InputError: ``out`` already holds a run and ``resume`` is False, or a resumed run's
+            settings or robot file changed.
+    """
+    out = Path(out)
+    state = _open(settings, out, resume)
+    learner, env = _learner(settings, out, state)
+    done = int(state["steps_done"])
+    start = time.process_time() - float(state.get("cpu_s", 0.0))
+    curve = _Curve(state["curve"])
+    while done < settings.steps:
+        chunk = min(checkpoint_steps, settings.steps - done)
+        learner.learn(chunk, reset_num_timesteps=False, callback=curve.callback())
+        done = int(learner.num_timesteps)
+        state.update(steps_done=done, curve=curve.points, cpu_s=time.process_time() - start)
+        _checkpoint(learner, env, out, state, settings)
+        if progress is not None:
+            progress(done, settings.steps)
+    env.close()
+    _draw_curve(out, state["curve"], settings)
+    return state
+
+
+def _open(settings: TrainSettings, out: Path, resume: bool) -> dict[str, Any]:
+    print_ = fingerprint(settings)
+    progress_file = out / "progress.json"
+    if progress_file.is_file():
+        if not resume:
+            raise InputError(f"--out {out} already holds a training run: add --resume to "
+                             "continue it, or choose another --out")
+        old = json.loads((out / "settings.json").read_text())
+        if old.get("fingerprint") != print_:
+            old["model"] = settings.model if old["model"] not in PRESETS else old["model"]
+            raise InputError(f"--out {out}: its run was trained with other settings or another "
+                             f"robot file ({_differences(old, settings)}); --resume continues "
+                             "only the same run (--steps may grow)")
+        state: dict[str, Any] = json.loads(progress_file.read_text())
+        return state
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise InputError(f"--out {out}: not an empty folder and holds no training run")
+    out.mkdir(parents=True, exist_ok=True)
+    if settings.model not in PRESETS:
+        with atomic_path(out / ROBOT_FILE) as tmp:
+            tmp.write_bytes(Path(settings.model).read_bytes())
+    write_json(out / "settings.json", dataclasses.asdict(settings) | {"fingerprint": print_})
+    return {"steps_done": 0, "curve": [], "cpu_s": 0.0}
+
+
+def _differences(old: dict[str, Any], settings: TrainSettings) -> str:
+    new = dataclasses.asdict(settings)
+    changed = [k for k in new if k != "steps" and old.get(k) != new[k]]
+    return "changed: " + ", ".join(changed) if changed else "the robot file changed"
+
+
+def _learner(settings: TrainSettings, out: Path, state: dict[str, Any]) -> Any:
+    import stable_baselines3 as sb3
+    import torch
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    from tensim.rl.sb3 import SB3VecEnv
+
+    torch.set_num_threads(1)  # small networks: one thread is fastest, and leaves the rest free
+
+    venv = SB3VecEnv(settings.envs, settings.env_config())
+    venv.seed(settings.seed)
+    env: Any = VecNormalize(VecMonitor(venv, info_keywords=("reward_progress",)),
+                       norm_obs=True, norm_reward=settings.algo == "ppo",
+                       clip_obs=CLIP_OBS, epsilon=EPSILON)
+    algo: Any = {"ppo": sb3.PPO, "sac": sb3.SAC}[settings.algo]
+    if state["steps_done"]:
+        with np.load(out / "normalizer.npz") as saved:
+            env.obs_rms.mean, env.obs_rms.var = saved["mean"], saved["var"]
+            env.obs_rms.count = float(saved["count"])
+            env.ret_rms.mean, env.ret_rms.var = saved["ret_mean"], saved["ret_var"]
+            env.ret_rms.count = float(saved["ret_count"])
+        learner = algo.load(out / "policy.zip", env=env, device="cpu")
+        if settings.algo == "sac" and (out / "replay_buffer.pkl").is_file():
+            learner.load_replay_buffer(out / "replay_buffer.pkl")
+        return learner, env
+    kwargs: dict[str, Any] = {"n_steps": 256, "batch_size": 256, "n_epochs": 5} \
+        if settings.algo == "ppo" else {"learning_starts": min(1000, settings.steps // 2)}
+    if settings.algo == "ppo":
+        kwargs["batch_size"] = min(256, 256 * settings.envs)
+    return algo("MlpPolicy", env, seed=settings.seed, device="cpu", verbose=0, **kwargs), env
+
+
+class _Curve:
+    """The learning curve: (env steps, return) of every episode that ended, from SB3's
+    episode records (``VecMonitor``)."""
+
+    def __init__(self, points: list[list[float]]):
+        self.points = [list(p) for p in points]
+
+    def callback(self) -> Any:
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        curve = self
+
+        class _Record(BaseCallback):
+            def _on_step(self) -> bool:
+                curve.points += [[int(self.num_timesteps), float(info["episode"]["r"])]
+                                 for info in self.locals.get("infos", []) if "episode" in info]
+                return True
+
+        return _Record()
+
+
+def _checkpoint(learner: Any, env: Any, out: Path, state: dict[str, Any],
+                settings: TrainSettings) -> None:
+    """Writes the policy, normaliser and replay buffer, then the progress that names them."""
+    with atomic_path(out / "policy.zip") as tmp:
+        learner.save(tmp.with_suffix(".zip"))
+        tmp.with_suffix(".zip").replace(tmp)
+    rms, ret = env.obs_rms, env.ret_rms
+    with atomic_path(out / "normalizer.npz") as tmp, open(tmp, "wb") as f:
+        np.savez(f, mean=rms.mean, var=rms.var, count=rms.count, ret_mean=ret.mean,
+                 ret_var=ret.var, ret_count=ret.count, clip=CLIP_OBS, epsilon=EPSILON)
+    if settings.algo == "sac":
+        with atomic_path(out / "replay_buffer.pkl") as tmp:
+            learner.save_replay_buffer(tmp.with_suffix(".pkl"))
+            tmp.with_suffix(".pkl").replace(tmp)
+    write_json(out / "progress.json", state)
+
+
+def _draw_curve(out: Path, points: list[list[float]], settings: TrainSettings) -> None:
+    from tensim.viz.plots import new_figure, save_figure
+
+    fig = new_figure((6.0, 3.5))
+    ax = fig.add_subplot()
+    if points:
+        steps, returns = np.array(points).T
+        ax.plot(steps, returns, ".", ms=2, alpha=0.4, label="episodes")
+        window = max(1, len(returns) // 20)
+        smooth = np.convolve(returns, np.ones(window) / window, mode="valid")
+        ax.plot(steps[window - 1:], smooth, label=f"mean of {window}")
+        ax.legend()
+    unit = "m" if settings.task != "turn" else "rad - m"
+    ax.set(xlabel="env steps", ylabel=f"episode return [{unit}]",
+           title=f"{settings.algo.upper()} on {Path(settings.model).stem}: {settings.task}")
+    fig.tight_layout()
+    save_figure(fig, out / "learning_curve.png")

@@ -1,0 +1,245 @@
+"""Environments, training, evaluation and export for a rolling robot: a 3-bar written here
+(rods 1.4 m, 4 kg; 6 motorised cables and 3 passive ones)."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import pickle
+
+import numpy as np
+import pytest
+
+gym = pytest.importorskip("gymnasium", reason="the rl extra (gymnasium) is not installed")
+
+from tensim import InputError  # noqa: E402
+from tensim.rl import ENV_ID, EnvConfig, Randomization, TensegrityEnv, TensegrityVectorEnv  # noqa: E402
+from tensim.sim import compiled_available, load_cell_tension  # noqa: E402
+
+pytestmark = pytest.mark.skipif(not compiled_available(),
+                                reason="the environments step on the compiled cable law")
+
+SCALE = 2.86  # the prism of examples/tensegrity_prism.yaml (0.49 m rods) scaled to 1.4 m rods
+BOTTOM = [(0.2, 0.0), (-0.1, 0.173205), (-0.1, -0.173205)]
+TOP = [(-0.173205, 0.1), (0.0, -0.2), (0.173205, 0.1)]
+
+
+def three_bar(motor_top_bottom: bool = True) -> str:
+    """The 3-bar's structure YAML: stiff cables, the triangles motorised, the verticals not."""
+    nodes = [f"  - {{name: b{i}, position: [{x * SCALE:.6f}, {y * SCALE:.6f}, 0.05]}}"
+             for i, (x, y) in enumerate(BOTTOM)]
+    nodes += [f"  - {{name: t{i}, position: [{x * SCALE:.6f}, {y * SCALE:.6f}, "
+              f"{0.3 * SCALE + 0.05:.6f}]}}" for i, (x, y) in enumerate(TOP)]
+    motor = "motor: {max_speed: 0.2, max_tension: 2000.0, min_rest_length: 0.1, min_length: 0.1}"
+    moving = f", {motor}" if motor_top_bottom else ""
+    cables = [f"  - {{name: bottom_{i}, nodes: [b{i}, b{(i + 1) % 3}], pretension: 120{moving}}}"
+              for i in range(3)]
+    cables += [f"  - {{name: top_{i}, nodes: [t{i}, t{(i + 1) % 3}], pretension: 120{moving}}}"
+               for i in range(3)]
+    cables += [f"  - {{name: vertical_{i}, nodes: [b{i}, t{(i + 2) % 3}], pretension: 190}}"
+               for i in range(3)]
+    return "\n".join([
+        "name: three_bar_test",
+        "defaults:",
+        "  rod: {radius: 0.02, linear_density: 2.857, friction: 0.8}",  # 4 kg rods
+        "  cable: {stiffness: 3000.0, damping: 20.0}",
+        "nodes:", *nodes,
+        "rods:", *[f"  - {{name: rod_{i}, nodes: [b{i}, t{i}]}}" for i in range(3)],
+        "cables:", *cables, ""])
+
+
+@pytest.fixture(scope="module")
+def robot_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("robot") / "three_bar.yaml"
+    path.write_text(three_bar())
+    return str(path)
+
+
+def _config(robot_file, **kw):
+    return EnvConfig(model=robot_file, control_dt=0.02, episode_s=0.4, **kw)
+
+
+def test_the_action_space_holds_the_motorised_cables_only(robot_file):
+    env = TensegrityEnv(_config(robot_file, randomization=Randomization()))
+    assert env.action_space.shape == (6,)
+    assert env.robot.cables == tuple(f"{k}_{i}" for k in ("bottom", "top") for i in range(3))
+    env.reset(seed=0)
+    rest0 = env.robot.compiled.index.cable_act(env.worlds.f["act"][0]).copy()
+    for _ in range(5):
+        env.step(np.ones(6, dtype=np.float32))
+    rest = env.robot.compiled.index.cable_act(env.worlds.f["act"][0])
+    passive = [env.robot.compiled.index.cable_id(f"vertical_{i}") for i in range(3)]
+    np.testing.assert_array_equal(rest[passive], rest0[passive])  # no motor: never moves
+    assert np.all(np.abs(rest[env.robot.motors] - rest0[env.robot.motors]) > 1e-3)
+
+
+def test_a_robot_without_motors_is_refused(tmp_path):
+    path = tmp_path / "passive.yaml"
+    path.write_text(three_bar(motor_top_bottom=False))
+    with pytest.raises(InputError, match="has no motorised cable"):
+        TensegrityEnv(EnvConfig(model=str(path)))
+
+
+def test_seeds_differ_by_default_and_one_seed_repeats_its_episode(robot_file):
+    env = TensegrityEnv(_config(robot_file))
+    assert env.robot.config.randomization == Randomization.start()
+
+    def episode(seed):
+        obs, _ = env.reset(seed=seed)
+        start = env.worlds.state(0)
+        rng = np.random.default_rng(5)
+        out = [obs] + [env.step(rng.uniform(-1, 1, 6).astype(np.float32))[0] for _ in range(8)]
+        return start, np.array(out)
+
+    (s1, e1), (s1b, e1b), (s2, _) = episode(1), episode(1), episode(2)
+    np.testing.assert_array_equal(s1, s1b)
+    np.testing.assert_array_equal(e1, e1b)
+    assert np.abs(s1 - s2).max() > 1e-3  # another heading and pose noise
+    assert gym.spec(ENV_ID).max_episode_steps == EnvConfig().max_steps
+
+
+def test_observed_tensions_use_each_robots_randomised_stiffness(robot_file):
+    # stiffness drawn x2 exactly: the load cells must read 2 k max(0, x - l) with k the file's
+    config = _config(robot_file, randomization=Randomization(stiffness=(2.0, 2.0)),
+                     observation=("cable_length", "rest_length", "tension"))
+    env = TensegrityEnv(config)
+    obs, _ = env.reset(seed=0)
+    for _ in range(3):
+        obs = env.step(np.zeros(6, dtype=np.float32))[0]
+    n = env.robot.n
+    length, rest, tension = obs[:n], obs[n:2 * n], obs[2 * n:]
+    k = np.array([3000.0] * n)  # the structure file's stiffness [N/m]
+    want = np.where(length > rest, 2.0 * k * (length - rest), 0.0)
+    assert want.min() > 10.0  # every cable taut: the check sees the stiffness
+    np.testing.assert_allclose(tension, want, rtol=1e-12)
+    np.testing.assert_allclose(tension, load_cell_tension(length, rest, 2.0 * k), rtol=1e-12)
+
+
+def test_rod_axes_and_end_caps_on_the_ground_match_the_build_pose(robot_file):
+    config = _config(robot_file, randomization=Randomization(),
+                     observation=("rod_axis", "end_contact"))
+    env = TensegrityEnv(config)
+    env.reset(seed=0)
+    for _ in range(15):  # 0.3 s: the robot has fallen the 3 cm onto its bottom ends
+        obs = env.step(np.zeros(6, dtype=np.float32))[0]
+    axes = obs[:9].reshape(3, 3)
+    np.testing.assert_allclose(np.linalg.norm(axes, axis=1), 1.0, rtol=1e-12)
+    rod = np.array([TOP[0][0] - BOTTOM[0][0], TOP[0][1] - BOTTOM[0][1], 0.3]) * SCALE
+    assert axes[:, 2] == pytest.approx(rod[2] / np.linalg.norm(rod), abs=0.02)  # settled
+    np.testing.assert_array_equal(obs[9:], [1, 0, 1, 0, 1, 0])  # the bottom ends touch
+
+
+def test_a_live_env_survives_pickle_and_deepcopy(robot_file):
+    env = TensegrityEnv(_config(robot_file, randomization=Randomization.standard(), history=2))
+    env.reset(seed=3)
+    for _ in range(3):
+        env.step(np.full(6, 0.5, dtype=np.float32))
+    for make in (lambda e: pickle.loads(pickle.dumps(e)), copy.deepcopy):
+        twin = make(env)
+        a = np.linspace(-1, 1, 6).astype(np.float32)
+        out, out_twin = env.step(a), twin.step(a)
+        np.testing.assert_array_equal(out[0], out_twin[0])
+        assert out[1] == out_twin[1]
+        env = twin
+
+
+def test_disabled_autoreset_waits_for_a_masked_reset(robot_file):
+    vector = TensegrityVectorEnv(2, dataclasses.replace(_config(robot_file), episode_s=0.04),
+                                 autoreset_mode="disabled")
+    vector.reset(seed=0)
+    vector.step(np.zeros((2, 6)))
+    truncated = vector.step(np.zeros((2, 6)))[3]
+    assert truncated.all()
+    with pytest.raises(gym.error.ResetNeeded, match="reset_mask"):
+        vector.step(np.zeros((2, 6)))
+    vector.reset(options={"reset_mask": np.array([True, True])})
+    assert not vector.step(np.zeros((2, 6)))[3].any()
+
+
+def test_sb3_infos_carry_the_reward_terms(robot_file):
+    pytest.importorskip("stable_baselines3")
+    from tensim.rl.sb3 import SB3VecEnv
+
+    venv = SB3VecEnv(2, _config(robot_file, control_cost=0.5, bar_contact_cost=1.0))
+    venv.reset()
+    _, reward, _, infos = venv.step(np.full((2, 6), 0.8))
+    for r, info in zip(reward, infos, strict=True):
+        total = info["reward_progress"] + info["reward_control"] + info["reward_contact"]
+        assert r == pytest.approx(total, rel=1e-6)
+        assert info["reward_control"] == pytest.approx(-0.5 * 0.64 * 0.02, rel=1e-6)
+
+
+def test_the_turn_task_rewards_the_angle_turned_about_the_vertical():
+    from tensim.rl._worlds import _yaw_change
+
+    rng = np.random.default_rng(0)
+    before = rng.normal(size=(1, 3, 2))
+    c, s = np.cos(0.3), np.sin(0.3)
+    after = before @ np.array([[c, s], [-s, c]])  # each point turned +0.3 rad
+    assert _yaw_change(before, after, np.array([0.2, 0.3, 0.5]))[0] == pytest.approx(0.3)
+
+
+def _train(robot_file, out, algo, steps):
+    from tensim.cli import main
+
+    return main(["--quiet", "rl", "train", robot_file, "--algo", algo, "--steps", str(steps),
+                 "--envs", "2", "--checkpoint", str(steps // 2), "--episode", "1",
+                 "--out", str(out)])
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, capsys):
+    pytest.importorskip("stable_baselines3")
+    import json
+
+    from tensim.cli import main
+
+    out = tmp_path / algo
+    assert _train(robot_file, out, algo, 512 if algo == "ppo" else 100) == 0  # seconds
+    progress = json.loads((out / "progress.json").read_text())
+    assert progress["steps_done"] >= (512 if algo == "ppo" else 100)
+    assert (out / "learning_curve.png").is_file() and (out / "robot.yaml").is_file()
+    assert _train(robot_file, out, algo, 1024) == 2  # no silent restart over a run
+    assert "add --resume" in capsys.readouterr().err
+    budget = 1024 if algo == "ppo" else 200
+    assert main(["--quiet", "rl", "train", robot_file, "--algo", algo, "--steps", str(budget),
+                 "--envs", "2", "--episode", "1", "--out", str(out), "--resume"]) == 0
+    resumed = json.loads((out / "progress.json").read_text())
+    assert resumed["steps_done"] >= budget and len(resumed["curve"]) >= len(progress["curve"])
+    assert main(["--quiet", "rl", "evaluate", str(out), "--duration", "0.4"]) == 0
+    summary = json.loads((out / "evaluation" / "summary.json").read_text())
+    assert summary["body_length_m"] == pytest.approx(1.4, abs=0.01)  # the longest rod
+    speed = summary["displacement_along_heading_m"] / summary["duration_s"] / 1.399
+    assert summary["body_lengths_per_s"] == pytest.approx(speed, abs=2e-6)  # 6 digits kept
+    assert main(["--quiet", "rl", "export", str(out), "--onnx",
+                 str(tmp_path / "robot" / "policy.onnx")]) == 0
+    assert (tmp_path / "robot" / "policy.json").is_file()
+
+
+@pytest.fixture(scope="module")
+def trained(robot_file, tmp_path_factory):
+    pytest.importorskip("stable_baselines3")
+    out = tmp_path_factory.mktemp("run") / "sac"
+    assert _train(robot_file, out, "sac", 200) == 0
+    return out
+
+
+def test_the_exported_policy_acts_as_the_trained_one(trained, tmp_path):
+    from tensim.rl import policy as numpy_policy
+    from tensim.rl.evaluate import run_policy
+    from tensim.rl.export import export, load_learner
+    from tensim.rl.train import load_settings
+
+    export(trained, tmp_path / "policy.onnx")
+    runner = numpy_policy.load(tmp_path / "policy.json")
+    recorded = run_policy(load_settings(trained), runner, 1.0, seed=4)["observations"]
+    learner = load_learner(trained)
+    want = learner.predict(runner.normalize(recorded).astype(np.float32),
+                           deterministic=True)[0]
+    assert np.abs(want).max() > 1e-3  # a policy that acts
+    # float32 network against float64 NumPy: rounding well under 1e-5
+    np.testing.assert_allclose(runner(recorded), want, atol=1e-5)
+    ort = pytest.importorskip("onnxruntime")
+    session = ort.InferenceSession(str(tmp_path / "policy.onnx"))
+    got = session.run(["action"], {"observation": recorded.astype(np.float32)})[0]
+    np.testing.assert_allclose(got, want, atol=1e-5)
