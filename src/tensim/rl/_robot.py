@@ -199,7 +199,7 @@ def observation_layout(terms: tuple[str, ...], n: int, n_bodies: int, n_motors: 
 
 def _check(structure: Structure, config: EnvConfig) -> list[Finding]:
     """``tensim check``'s findings at the environment's step: a step that blows up is refused,
-    the other findings are logged as warnings.
+    the other findings are logged (warnings as warnings, notes at INFO).
 
     Raises:
         InputError: the physics step is above the structure's stable bound.
@@ -209,5 +209,6 @@ def _check(structure: Structure, config: EnvConfig) -> list[Finding]:
         if finding.severity == "error" and finding.item == "timestep":
             raise InputError(f"model {config.model!r} at world.timestep = "
                              f"{config.world.timestep:g} s: {finding.message}; {finding.fix}")
-        _log.warning("%s: %s; %s", finding.item, finding.message, finding.fix)
+        level = logging.INFO if finding.severity == "note" else logging.WARNING
+        _log.log(level, "%s: %s; %s", finding.item, finding.message, finding.fix)
     return findings
