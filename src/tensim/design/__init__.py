@@ -18,7 +18,7 @@ from tensim.design.equilibrium import (
 from tensim.design.form_finding import Form, form
 from tensim.design.inverse import InverseStatics, RestCommand, inverse_statics
 from tensim.design.motors import CableDuty, DriveMotor, cable_duty, load_catalogue
-from tensim.design.stiffness import Stiffness, stable_timestep, stiffness
+from tensim.design.stiffness import StepBound, Stiffness, stable_timestep, step_bound, stiffness
 from tensim.design.topology import Topology, load_topology, topology_from_dict
 
 __all__ = [
@@ -31,6 +31,7 @@ __all__ = [
     "InverseStatics",
     "RestCommand",
     "SelfStress",
+    "StepBound",
     "Stiffness",
     "Topology",
     "cable_duty",
@@ -44,6 +45,7 @@ __all__ = [
     "residuals",
     "self_stress",
     "stable_timestep",
+    "step_bound",
     "stiffness",
     "topology_from_dict",
 ]

@@ -2,11 +2,12 @@
 
 Each finding names the item, what is wrong and the change that fixes it:
 
-- time step: the vibration modes of the cables on the bodies' masses (K v = omega^2 M v,
-  :mod:`tensim.design.stiffness`) with their damping ratios zeta. MuJoCo's Euler step applies
-  the cable forces explicitly; for x'' = -omega^2 x - 2 zeta omega x' it is stable only for
-  dt < 2 (sqrt(1 + zeta^2) - zeta) / omega (2 / omega_max undamped), and above half of that
-  it rings and damps wrongly;
+- time step: the linearised motion of the bodies on the cables, M x'' = -K x - C x' with each
+  cable's stiffness and damping as they are (:mod:`tensim.design.stiffness`). MuJoCo's Euler
+  step applies the cable forces explicitly; it is stable while the step matrix's spectral
+  radius is at most 1 (:func:`~tensim.design.stiffness.step_bound`; for one mode
+  x'' = -omega^2 x - 2 zeta omega x' that is dt < 2 (sqrt(1 + zeta^2) - zeta) / omega), and
+  above half of that bound it rings and damps wrongly;
 - thin rods: a rod body whose axial inertia is under 1e-4 of its transverse one;
 - slack cables at the build pose (rest length at or above the length);
 - a build pose far from equilibrium: the cables' net force on a body above twice the robot's
@@ -30,7 +31,7 @@ from tensim._input import load_yaml_file
 from tensim.design._blas import one_blas_thread
 from tensim.design._bodies import BuildPose, build_pose, cable_tensions
 from tensim.design.equilibrium import residuals
-from tensim.design.stiffness import stable_timestep, stiffness
+from tensim.design.stiffness import step_bound, stiffness
 from tensim.structure import Structure, StructureError, mass_properties
 
 _log = logging.getLogger(__name__)
@@ -75,7 +76,8 @@ def nice_step(limit: float) -> float:
 
 @one_blas_thread
 def check_structure(structure: Structure, timestep: float = 1e-3,
-                    source: str | os.PathLike[str] | None = None) -> list[Finding]:
+                    source: str | os.PathLike[str] | None = None,
+                    integrator: str = "euler") -> list[Finding]:
     """Every finding for ``structure`` simulated with the physics step ``timestep`` [s].
 
     Args:
@@ -83,6 +85,9 @@ def check_structure(structure: Structure, timestep: float = 1e-3,
         timestep: the physics step to check [s].
         source: the YAML file it was read from, if any: cables whose motor the file leaves out
             (so they are passive) are then named in a note.
+        integrator: how the step sees the cable forces, ``euler`` (explicit, as tensim's cable
+            law today) or ``implicitfast`` (their damping implicit); see
+            :func:`~tensim.design.stiffness.step_bound`.
     """
     findings = (_units(structure) + _slack(structure) + _motors(structure, source)
                 + _thin(structure))
@@ -91,21 +96,25 @@ def check_structure(structure: Structure, timestep: float = 1e-3,
     except StructureError as err:  # wrapped cables: the analyses need straight paths
         return [*findings, Finding("warning", "structure", f"dynamic checks skipped: {err}",
                                    "check the time step with `tensim experiment timestep`")]
-    return findings + _timestep(structure, timestep, pose) + _equilibrium(structure, pose)
+    return findings + _timestep(structure, timestep, pose, integrator) \
+        + _equilibrium(structure, pose)
 
 
-def _timestep(structure: Structure, timestep: float, pose: BuildPose) -> list[Finding]:
+def _timestep(structure: Structure, timestep: float, pose: BuildPose,
+              integrator: str) -> list[Finding]:
     if not structure.cables:
         return []
     if pose.bodies.n_dof > MAX_DOF:
         return [Finding("warning", "timestep", f"not checked: more than {MAX_DOF} degrees of "
                         "freedom", "compare runs at two values of --dt")]
-    limit, frequency, zeta = stable_timestep(stiffness(structure, count=False, pose=pose))
+    bound = step_bound(stiffness(structure, count=False, pose=pose), integrator)
+    limit = bound.limit
     if not np.isfinite(limit):
         return []
     needed = nice_step(limit / 2)
-    text = (f"its hardest mode to integrate is at {frequency:.4g} Hz (damping ratio "
-            f"{zeta:.3g}); the Euler step is stable below {limit * 1e3:.4g} ms")
+    step = "Euler" if integrator == "euler" else integrator
+    text = (f"its hardest mode to integrate is at {bound.frequency:.4g} Hz (damping ratio "
+            f"{bound.damping_ratio:.3g}); the {step} step is stable below {limit * 1e3:.4g} ms")
     if timestep >= limit:
         return [Finding("error", "timestep", f"{text}, and {timestep * 1e3:g} ms blows up",
                         f"use --dt {needed:g} or softer / heavier parts")]

@@ -119,28 +119,157 @@ def _stiffened(mechanisms: np.ndarray, rigid: np.ndarray, geometric: np.ndarray)
     return int(np.sum(values > STIFF_TOLERANCE * scale))
 
 
-def stable_timestep(result: Stiffness) -> tuple[float, float, float]:
-    """The largest explicit (Euler) time step that integrates every mode, and the binding mode.
+INTEGRATORS = ("euler", "implicitfast")  # how MuJoCo's step sees the cable forces (step_bound)
+GROWTH_TOLERANCE = 1e-8  # |eigenvalue| - 1 of the step matrix that counts as growth
+STEP_RESOLUTION = 1e-4  # relative width of the bracket the bisection leaves around the bound
 
-    For a mode x'' = -omega^2 x - 2 zeta omega x' (zeta = v^T C v / (2 omega), v
-    mass-normalised) the semi-implicit Euler step is stable for
-    omega dt < 2 (sqrt(1 + zeta^2) - zeta) (2 undamped); the damping alone needs
-    dt < 2 / lambda_max(C, M).
+
+@dataclasses.dataclass(frozen=True)
+class StepBound:
+    """The longest stable time step of a structure's linearised motion, and what sets it.
+
+    Attributes:
+        limit: the step [s] above which the step matrix has an eigenvalue of modulus > 1
+            (inf when nothing springs or damps).
+        frequency: the natural frequency of the vibration mode that grows first [Hz].
+        damping_ratio: that mode's modal damping ratio v^T C v / (2 omega) [-].
+        integrator: the integrator the bound is for (see :func:`step_bound`).
+    """
+
+    limit: float
+    frequency: float
+    damping_ratio: float
+    integrator: str
+
+
+def step_matrix(stiffness: np.ndarray, damping: np.ndarray, mass: np.ndarray, dt: float,
+                integrator: str = "euler") -> np.ndarray:
+    """(2 n, 2 n) the map (x, v) -> (x', v') of one step of M x'' = -K x - C v.
+
+    MuJoCo's ``euler`` is semi-implicit: v' = v + dt a, x' = x + dt v'. With ``euler`` the
+    forces are explicit, a = M^-1 (-K x - C v), as MuJoCo applies forces that a user callback
+    adds (tensim's cable law today). With ``implicitfast`` the damping is implicit,
+    a = (M + dt C)^-1 (-K x - C v), as MuJoCo treats a force whose velocity derivative it knows.
+
+    Args:
+        stiffness: (n, n) K.
+        damping: (n, n) C.
+        mass: (n, n) M.
+        dt: the step [s].
+        integrator: ``euler`` or ``implicitfast``.
+    """
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got "
+                         f"{integrator!r}")
+    inertia = mass + dt * damping if integrator == "implicitfast" else mass
+    gain = np.linalg.solve(inertia, np.hstack([stiffness, damping]))  # a = -gain @ (x, v)
+    n = len(mass)
+    velocity = np.hstack([np.zeros((n, n)), np.eye(n)]) - dt * gain
+    return np.vstack([np.hstack([np.eye(n), np.zeros((n, n))]) + dt * velocity, velocity])
+
+
+def step_bound(result: Stiffness, integrator: str = "euler") -> StepBound:
+    """The longest time step at which the linearised step of ``integrator`` does not grow.
+
+    The motion about the build pose, M x'' = -K x - C x' with the cables' stiffness and
+    damping matrices as they are (each cable its own damping-to-stiffness ratio), is stepped
+    by the matrix of :func:`step_matrix`; the bound is the smallest step at which its spectral
+    radius exceeds 1. Its eigenvalue leaves the unit circle at -1 (x' = -x, v' = -v), which
+    happens where (K + s C - r^2 M) x = 0 (s = r with ``euler``, -r with ``implicitfast``) for
+    r = 2 / dt: a quadratic eigenvalue problem. Its root is confirmed on the step matrix
+    (stable just below, growing just above); where it is not (a pair of complex eigenvalues
+    leaves first), a scan and a bisection on the spectral radius find the bound. The analysis
+    runs in the coordinates of the vibration modes without the motions nothing springs or
+    damps (rigid motions, unstiffened mechanisms: eigenvalue 1 at every step); modes that
+    prestress softens (omega^2 < 0) count as unstiffened.
+
+    Args:
+        result: the structure's stiffness (:func:`stiffness`).
+        integrator: ``euler`` (cable forces explicit) or ``implicitfast`` (their damping
+            implicit), see :func:`step_matrix`.
+
+    Raises:
+        ValueError: an unknown integrator.
+    """
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got "
+                         f"{integrator!r}")
+    with blas_threads(2 * result.mass.shape[0]):
+        return _step_bound(result, integrator)
+
+
+def _step_bound(result: Stiffness, integrator: str) -> StepBound:
+    values, modes = eigh(result.matrix, result.mass)
+    values = np.clip(values, 0.0, None)
+    damping = modes.T @ result.damping @ modes
+    scale = max(values.max(initial=0.0), np.abs(damping).max(initial=0.0) ** 2)
+    keep = (values > 1e-9 * scale) | (np.abs(damping).max(axis=0, initial=0.0) ** 2 > 1e-12 * scale)
+    if scale <= 0 or not keep.any():  # nothing springs or damps
+        return StepBound(np.inf, 0.0, 0.0, integrator)
+    stiff, damp = np.diag(values[keep]), damping[np.ix_(keep, keep)]
+    limit = _flip_step(stiff, damp, integrator)
+    if not (_grows(stiff, damp, limit * (1 + STEP_RESOLUTION), integrator)
+            and not _grows(stiff, damp, limit * (1 - STEP_RESOLUTION), integrator)):
+        limit = _scanned_step(stiff, damp, integrator, limit)
+    if not np.isfinite(limit):
+        return StepBound(np.inf, 0.0, 0.0, integrator)
+    return _growing(stiff, damp, limit, integrator)
+
+
+def _flip_step(stiff: np.ndarray, damp: np.ndarray, integrator: str) -> float:
+    """The smallest step [s] at which the step matrix has the eigenvalue -1 (inf if none):
+    2 / r for the largest real r > 0 with r^2 x = K x + s C x (s = r, or -r when implicit),
+    as the eigenvalues of the companion matrix [[0, I], [K, +-C]] (mass-normalised modes)."""
+    n = len(stiff)
+    sign = -1.0 if integrator == "implicitfast" else 1.0
+    companion = np.block([[np.zeros((n, n)), np.eye(n)], [stiff, sign * damp]])
+    roots = np.linalg.eigvals(companion)
+    real = roots.real[(np.abs(roots.imag) <= 1e-9 * np.abs(roots).max()) & (roots.real > 0)]
+    return 2 / float(real.max()) if real.size else np.inf
+
+
+def _grows(stiff: np.ndarray, damp: np.ndarray, dt: float, integrator: str) -> bool:
+    """Whether a step of ``dt`` [s] has an eigenvalue of modulus above 1 (+ tolerance)."""
+    if not np.isfinite(dt):
+        return False
+    matrix = step_matrix(stiff, damp, np.eye(len(stiff)), dt, integrator)
+    return bool(np.abs(np.linalg.eigvals(matrix)).max() > 1 + GROWTH_TOLERANCE)
+
+
+def _scanned_step(stiff: np.ndarray, damp: np.ndarray, integrator: str, guess: float) -> float:
+    """The bound by a scan up from a stable step and a bisection (inf if none grows)."""
+    rate = max(float(np.sqrt(stiff.max())), float(np.linalg.eigvalsh(damp).max()))
+    low = min(guess, 1.0 / rate) / 2
+    while _grows(stiff, damp, low, integrator) and low * rate > 1e-9:
+        low /= 2
+    high = low * 1.25
+    while not _grows(stiff, damp, high, integrator):
+        low, high = high, high * 1.25
+        if high * rate > 1e6:  # no step makes it grow
+            return np.inf
+    while high - low > STEP_RESOLUTION * low:
+        middle = (low + high) / 2
+        low, high = (low, middle) if _grows(stiff, damp, middle, integrator) else (middle, high)
+    return low
+
+
+def _growing(stiff: np.ndarray, damp: np.ndarray, limit: float, integrator: str) -> StepBound:
+    """The bound, with the vibration mode that dominates what grows just above it."""
+    matrix = step_matrix(stiff, damp, np.eye(len(stiff)), limit * (1 + STEP_RESOLUTION),
+                         integrator)
+    values, vectors = np.linalg.eig(matrix)
+    shape = vectors[:len(stiff), int(np.argmax(np.abs(values)))]
+    k = int(np.argmax(np.abs(shape) ** 2 * (np.diag(stiff) + np.diag(damp) ** 2)))
+    omega = float(np.sqrt(stiff[k, k]))
+    zeta = float(damp[k, k] / (2 * omega)) if omega > 0 else np.inf
+    return StepBound(float(limit), omega / (2 * np.pi), zeta, integrator)
+
+
+def stable_timestep(result: Stiffness, integrator: str = "euler") -> tuple[float, float, float]:
+    """The longest stable time step and the mode that sets it (:func:`step_bound`).
 
     Returns:
         (dt_max [s], that mode's frequency [Hz], its damping ratio [-]).
     """
-    omega = 2 * np.pi * result.frequencies
-    if not omega.size or omega.max() <= 0:  # nothing moves, or nothing springs
-        return np.inf, 0.0, 0.0
-    modal = np.einsum("ik,ij,jk->k", result.modes, result.damping, result.modes)
-    live = omega > 1e-9 * max(omega.max(), 1.0)
-    zeta = np.where(live, modal / (2 * np.where(live, omega, 1.0)), 0.0)
-    limits = np.where(live, 2 * (np.sqrt(1 + zeta**2) - zeta) / np.where(live, omega, 1.0),
-                      np.inf)
-    with blas_threads(result.mass.shape[0]):
-        rate = float(eigh(result.damping, result.mass, eigvals_only=True).max())
-    k = int(np.argmin(limits))
-    if rate > 0 and 2 / rate < limits[k]:
-        return 2 / rate, float(result.frequencies[k]), float(zeta[k])
-    return float(limits[k]), float(result.frequencies[k]), float(zeta[k])
+    bound = step_bound(result, integrator)
+    return bound.limit, bound.frequency, bound.damping_ratio

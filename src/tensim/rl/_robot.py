@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 import gymnasium as gym
@@ -9,12 +10,14 @@ import numpy as np
 
 from tensim._input import InputError
 from tensim.control import default_impedance
+from tensim.design.check import Finding, check_structure
 from tensim.model import CompiledModel, compile_structure
 from tensim.models import PRESETS, load_model, preset
 from tensim.rl.config import EnvConfig
 from tensim.sim import MODE_IMPEDANCE, MODE_REST, CableDrive, Controller, Simulation
 from tensim.structure import Structure
 
+_log = logging.getLogger(__name__)
 
 def load_robot(model: str) -> Structure:
     """A preset's structure, or a structure YAML file (:func:`tensim.models.load_model`)."""
@@ -71,6 +74,7 @@ class Robot:
     def __init__(self, config: EnvConfig):
         self.config = config
         structure = load_robot(config.model)
+        self.findings = _check(structure, config)
         self.compiled: CompiledModel = compile_structure(structure, config.world)
         controller = default_controller(config.model, structure)
         self.action = config.action
@@ -191,3 +195,20 @@ def observation_layout(terms: tuple[str, ...], n: int, n_bodies: int, n_motors: 
     if history:
         layout["history"] = (start, start * (1 + history))
     return layout
+
+
+def _check(structure: Structure, config: EnvConfig) -> list[Finding]:
+    """``tensim check``'s findings at the environment's step: a step that blows up is refused,
+    the other findings are logged (warnings as warnings, notes at INFO).
+
+    Raises:
+        InputError: the physics step is above the structure's stable bound.
+    """
+    findings = check_structure(structure, config.world.timestep, source=config.model)
+    for finding in findings:
+        if finding.severity == "error" and finding.item == "timestep":
+            raise InputError(f"model {config.model!r} at world.timestep = "
+                             f"{config.world.timestep:g} s: {finding.message}; {finding.fix}")
+        level = logging.INFO if finding.severity == "note" else logging.WARNING
+        _log.log(level, "%s: %s; %s", finding.item, finding.message, finding.fix)
+    return findings

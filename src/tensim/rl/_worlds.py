@@ -13,6 +13,7 @@ from mujoco import batch as mjbatch
 from tensim.rl._robot import Robot
 from tensim.sim import PhysicsScale, StabilityLimits, Trial, load_cell_tension
 from tensim.sim._batch import setup_trial
+from tensim.sim._loop import RING_EVERY, ForceHistory, prestress_band, split_steps
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
@@ -56,6 +57,9 @@ class Worlds:
         base = robot.layout.get("history", (0, 0))[0]
         self.past = np.zeros((n, c.history, base))
         self.limits = StabilityLimits()
+        # the cable forces of the last steps, for the ringing check
+        self.forces = ForceHistory(n, prestress_band(robot.compiled.structure))
+        self._calls = 0
         self._robot_body = np.zeros(robot.model.nbody, dtype=bool)
         self._robot_body[idx.body] = True
         self._slot = np.full(robot.model.nbody, -1)  # MuJoCo body id -> rigid body number
@@ -126,6 +130,7 @@ class Worlds:
         self.previous[ids] = 0.0
         self.past[ids] = 0.0
         self.steps[ids] = 0
+        self.forces.count[ids] = 0
 
     def _scaled_model(self, rng: np.random.Generator) -> mujoco.MjModel:
         r = self.robot.config.randomization
@@ -197,9 +202,15 @@ class Worlds:
         before = self.f["subtree_com"][r, 0, :2].copy()
         bodies_before = self.f["xipos"][r][:, self._body, :2] if c.task == "turn" else None
         failed = np.zeros(ids.size, dtype=bool)
+        self._calls += 1  # every RING_EVERY-th period, its last steps' forces tell ringing
+        calls = split_steps(c.control_steps) if self._calls % RING_EVERY == 0 \
+            else [(c.control_steps, False)]
         try:
-            self.batch.step(None if isinstance(r, slice) else ids, nstep=c.control_steps,
-                            stage=mujoco.mjtStage.mjSTAGE_VEL)
+            for count, push in calls:
+                self.batch.step(None if isinstance(r, slice) else ids, nstep=count,
+                                stage=mujoco.mjtStage.mjSTAGE_VEL)
+                if push:
+                    self.forces.push(ids, self.f["actuator_force"][r, :n])
         except mjbatch.SimulationError as err:
             failed = np.isin(ids, err.ids)
         self.steps[r] += 1
@@ -208,8 +219,9 @@ class Worlds:
         speed = np.abs(f["qvel"][r]).max(axis=1)
         force = -f["actuator_force"][r, :n].min(axis=1)
         bad = self.batch.warning[r, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
+        ringing = self.forces.ringing(ids).any(axis=1)
         unstable = failed | ~(speed < self.limits.max_speed) | \
-            ~(force < self.limits.max_tension) | bad
+            ~(force < self.limits.max_tension) | bad | ringing
         after = f["subtree_com"][r, 0, :2]
         progress, reached = self._progress(ids, before, after, bodies_before)
         control = -c.control_cost * np.mean(applied ** 2, axis=1) * c.control_dt

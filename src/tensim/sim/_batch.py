@@ -32,14 +32,19 @@ from tensim.sim import _law
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import InputPlan
 from tensim.sim._loop import (
+    RING_STEPS,
+    ForceHistory,
     StabilityLimits,
     contact_problem,
     next_step,
+    prestress_band,
     record_loop,
+    ring_message,
     sample_count,
     sample_time,
     stable,
     tunnel_message,
+    watched,
     whole_steps,
 )
 from tensim.sim._samples import SampleBuffers
@@ -228,6 +233,8 @@ class _BatchRun:
         self._contact = ContactCheck(compiled) \
             if any(c.contact for c in compiled.structure.cables) else None
         self._scratch = mujoco.MjData(m) if self._contact is not None else None
+        # the cable forces of the last steps, for the ringing check
+        self.forces = ForceHistory(n, prestress_band(compiled.structure))
         self._bound = {name: self.batch.bind(name) for name in _RECORD}  # refreshed per call
         self._out: dict[tuple[int, int], dict[str, np.ndarray]] = {}
 
@@ -281,7 +288,8 @@ class _BatchRun:
             return False
         if k % self.per_block == 0:  # the inputs of the next records, every trial at once
             self._block = _Block(self, min(self.per_block, self.n_samples - k) * nstep)
-        self._ids, self._fields = self._block.advance(live, nstep)
+        self._ids, self._fields = self._block.advance(live, nstep,
+                                                      watched(k, self.n_samples, nstep))
         return True
 
     def take(self) -> None:
@@ -321,6 +329,7 @@ class _BatchRun:
         n = self.compiled.n_cables
         bad_acc = self.batch.warning[ids, mujoco.mjtWarning.mjWARN_BADQACC, 1]
         fine = stable(fields["qvel"], fields["actuator_force"][:, :n], bad_acc, self.limits)
+        self._check_ringing(ids[fine])
         for row in np.flatnonzero(~fine):
             i = int(ids[row])
             d = mujoco.MjData(self.compiled.model)
@@ -334,7 +343,18 @@ class _BatchRun:
                 self.compiled.model, d, self.compiled.index, self.limits, time,
                 bool(bad_acc[row]))
         if self._contact is not None:
-            self._check_contact(ids[fine])
+            still = np.array([self.error[int(i)] is None for i in ids[fine]], dtype=bool)
+            self._check_contact(ids[fine][still])
+
+    def _check_ringing(self, ids: np.ndarray) -> None:
+        """Fails the trials with a cable that rings at the step frequency (see
+        :func:`tensim.sim._loop.ringing`), as :meth:`Simulation.check` does."""
+        ring = self.forces.ringing(ids)
+        for row in np.flatnonzero(ring.any(axis=1)):
+            i = int(ids[row])
+            time = float(self.samples.time[i, self.count[i] - 1]) if self.samples else 0.0
+            self.error[i] = f"trial {self.first + i}: " + ring_message(
+                self.compiled.index.cables, ring[row], self.forces.force[i], time, self.dt)
 
     def _check_contact(self, ids: np.ndarray) -> None:
         """Fails the trials whose contact cables went through an obstacle, as
@@ -375,24 +395,33 @@ class _Block:
                                  for i, s in zip(self.ids, steps, strict=True)])
         self.change = (self.control[:, 1:] != self.control[:, :-1]).any(axis=(0, 2))
 
-    def advance(self, live: np.ndarray, nstep: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def advance(self, live: np.ndarray, nstep: int, watch: bool = False
+                ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Steps trials ``live`` (a subset of the block's) by nstep; returns the trials that
-        ran and their fields after the last step."""
-        run, a = self.run, self.at
+        ran and their fields after the last step. ``watch``: keep the cable forces of the last
+        steps for the ringing check (the last two then stepped one call each)."""
+        run, a, n = self.run, self.at, self.run.compiled.n_cables
         every = live.size == self.ids.size  # live is a subset of ids: then equal to them
         rows = self.control[:, a:a + nstep] if every else \
             self.control[np.searchsorted(self.ids, live), a:a + nstep]
         self.at += nstep
         cuts = [0, *(np.flatnonzero(self.change[a:a + nstep - 1]) + 1).tolist(), nstep]
+        last = max(0, nstep - RING_STEPS)  # the watched steps start here
         try:
             if len(cuts) > _MAX_STEP_CALLS + 1:  # inputs change often: set them step by step
                 out = run._buffers(live.size, nstep)
                 run.batch.rollout(nstep, rows, record=_RECORD, ids=live, out=out)
                 fields = {name: v[:, -1] for name, v in out.items()}
+                for step in range(last, nstep) if watch else ():
+                    run.forces.push(live, out["actuator_force"][:, step, :n])
             else:  # a few runs of constant inputs: one Batch.step each
+                if watch:  # the forces after each of the last RING_STEPS steps
+                    cuts = sorted({*cuts, *range(max(1, last + 1), nstep)})
                 for start, stop in itertools.pairwise(cuts):
                     run._bound["ctrl"][live] = rows[:, start]  # a view of the state rows
                     run.batch.step(live, stop - start)
+                    if watch and stop > last:
+                        run.forces.push(live, run._bound["actuator_force"][live, :n])
                 # every trial of the chunk: the bound arrays themselves (read before the next
                 # call refreshes them)
                 fields = run._bound if live.size == len(run.trials) else \

@@ -19,13 +19,18 @@ from tensim.sim._drive import CableDrive, InputPlan, changes
 from tensim.sim._law import install, release, use_reference_law
 from tensim.sim._loads import NodeLoad
 from tensim.sim._loop import (
+    ForceHistory,
     StabilityLimits,
     contact_problem,
     next_step,
+    prestress_band,
     record_loop,
+    ring_message,
     sample_count,
+    split_steps,
     stable,
     tunnel_message,
+    watched,
     whole_steps,
 )
 from tensim.sim._samples import COM, SampleRows, sample_channels
@@ -110,6 +115,8 @@ class Simulation:
         self._bad_acc = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
         self._contact = ContactCheck(compiled) \
             if any(c.contact for c in compiled.structure.cables) else None
+        # the cable forces of the last steps, for the ringing check
+        self._forces = ForceHistory(1, prestress_band(compiled.structure))
         if controller is not None:
             controller.configure(self)
         self._advance(1)  # the motor update at t = 0
@@ -153,6 +160,7 @@ class Simulation:
                              f"(mjSTATE_INTEGRATION of this model), got {state.shape}")
         mujoco.mj_setState(self.model, self.data, state, spec)
         mujoco.mj_forward(self.model, self.data)  # derived fields; the state is unchanged
+        self._forces.count[:] = 0  # the kept forces were another state's
 
     def inputs(self) -> InputPlan:
         """The ``ctrl`` rows of this simulation's commands and loads (read when called)."""
@@ -164,10 +172,13 @@ class Simulation:
         """Advances ``nstep`` physics steps inside MuJoCo, then checks stability.
 
         Raises:
-            SimulationError: the state is non-finite or running away.
+            SimulationError: the state is non-finite, running away or ringing.
         """
         if nstep > 0:
-            self._advance(nstep)
+            for count, push in split_steps(nstep):
+                self._advance(count)
+                if push:
+                    self.push_forces()
             self.check()
 
     def _advance(self, nstep: int) -> None:
@@ -175,6 +186,10 @@ class Simulation:
         for first in range(0, nstep, _BLOCK_STEPS):
             count = min(_BLOCK_STEPS, nstep - first)
             _Segments(plan.control(self._next_step(), count)).run(self, 0, count)
+
+    def push_forces(self) -> None:
+        """Keeps the cable forces of the step just taken for the ringing check."""
+        self._forces.push(slice(0, 1), self.data.actuator_force[:self.compiled.n_cables])
 
     def run(self, duration: float, progress: Callable[[float, float], None] | None = None,
             on_record: Callable[[Simulation], None] | None = None) -> TimeSeries:
@@ -200,12 +215,17 @@ class Simulation:
     # -- checks ------------------------------------------------------------------------------
 
     def check(self) -> None:
-        """Raises :class:`SimulationError` naming the body or cable if the state ran away."""
+        """Raises :class:`SimulationError` naming the body or cable if the state ran away or a
+        cable rings at the step frequency."""
         bad_acc = self._bad_acc.number
         if stable(self._qvel, self.data.actuator_force[:self.compiled.n_cables],
                   np.array(bad_acc), self.limits):
             # MuJoCo's reset clears the activations: keep the peak tensions for the message
             self._peak_seen = (self.time, self.drive.peak.copy())
+            ring = self._forces.ringing(slice(0, 1))[0] if self._forces.fresh else None
+            if ring is not None and ring.any():
+                raise SimulationError(ring_message(self.index.cables, ring,
+                                                   self._forces.force[0], self.time, self.dt))
             problem = contact_problem(self._contact, self.model, self.data) \
                 if self._contact else None
             if problem is None:
@@ -296,8 +316,15 @@ class _SingleRun:
             count = min(self.per_block, self.n_samples - k) * nstep
             self.segments = _Segments(self.plan.control(self.sim._next_step(), count))
             self.done = 0
-        self.segments.run(self.sim, self.done, self.done + nstep)
-        self.done += nstep
+        if not watched(k, self.n_samples, nstep):
+            self.segments.run(self.sim, self.done, self.done + nstep)
+            self.done += nstep
+            return True
+        for count, push in split_steps(nstep):
+            self.segments.run(self.sim, self.done, self.done + count)
+            self.done += count
+            if push:
+                self.sim.push_forces()
         return True
 
     def take(self) -> None:

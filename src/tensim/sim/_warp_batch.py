@@ -32,13 +32,18 @@ from tensim.model import BUILD_KEY, CompiledModel
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import InputPlan
 from tensim.sim._loop import (
+    ForceHistory,
     StabilityLimits,
     bad_acceleration,
     contact_problem,
+    prestress_band,
     record_loop,
+    ring_message,
     sample_time,
+    split_steps,
     stable,
     tunnel_message,
+    watched,
 )
 from tensim.sim._samples import SampleBuffers
 from tensim.sim._simulation import diagnose
@@ -264,6 +269,8 @@ class _WarpRun:
         from tensim.sim._warp_inputs import HeldInputs
 
         self.samples = SampleBuffers.empty(self.compiled, n_samples + 1, (len(self.trials),))
+        self.n_samples = n_samples
+        self.forces = ForceHistory(len(self.trials), prestress_band(self.compiled.structure))
         self.inputs = HeldInputs(len(self.trials), self.compiled.model.nu, self.record_steps,
                                  n_samples * self.record_steps + int(fresh))
         if fresh:
@@ -278,7 +285,14 @@ class _WarpRun:
     # trials are no longer sampled or checked
 
     def advance(self, k: int, nstep: int) -> bool:
-        self._advance(nstep)
+        if not watched(k, self.n_samples, nstep):
+            self._advance(nstep)
+            return any(e is None for e in self.error)
+        for count, push in split_steps(nstep):  # the last steps' cable forces, for ringing
+            self._advance(count)
+            if push:
+                self.forces.push(slice(None),
+                                 self.d.actuator_force.numpy()[:, :self.compiled.n_cables])
         return any(e is None for e in self.error)
 
     def take(self) -> None:
@@ -306,6 +320,12 @@ class _WarpRun:
             self.error[i] = f"trial {i}: " + diagnose(self.compiled.model, d,
                                                       self.compiled.index, self.limits, time,
                                                       bool(bad_acc[i]), reset=False)
+        ring = self.forces.ringing(slice(None))
+        for i in np.flatnonzero(fine & ring.any(axis=1)):
+            if self.error[i] is None:
+                time = float(self.samples.time[i, self.count[i] - 1])
+                self.error[i] = f"trial {i}: " + ring_message(
+                    self.compiled.index.cables, ring[i], self.forces.force[i], time, self.dt)
         self._check_room(fine)  # after: a diverging world also overflows; instability first
         if self._contact is not None:
             self._check_contact(np.flatnonzero(fine))
