@@ -15,7 +15,8 @@ numbers whatever the robot: ``amplitude/a``, ``amplitude/b`` [m/s], ``phase/b`` 
 ``wave_number`` n (±1: one wave around the axis, its sign the rolling direction) and
 ``frequency`` f [Hz]. The robot's symmetry is built in: cables a rotation about the axis maps
 onto each other share an amplitude and differ in phase by n times the rotation angle, so
-rotating the pattern is the same gait shifted in time.
+rotating the pattern is the same gait shifted in time (exactly for a whole wave number; the
+search may also try fractional ones, whose wave jumps where the angle wraps at ±π).
 
 The rolling axis is the principal axis of the build pose's nodes with the largest spread (a
 prism's long axis); a robot without one (an icosahedron) rolls about its longest
