@@ -8,8 +8,9 @@ bending along a Tetraspine (eight parameters whatever the spine's length), on an
 sine wave passed along its driven cables in ``wave_<k>`` tag order or an order derived from the
 build pose (three parameters), ``roll`` a wave of contraction around a rolling robot's axis
 (five parameters whatever the robot, :mod:`tensim.control.roll_parameters`). Every family
-drives the cables the base controller gives impedance laws. The base controller file gives the impedance laws, the command period and,
-where its gait is of the family, the layout's bounds and the starting point; a structure
+drives the cables the base controller gives impedance laws. The base controller file gives
+the impedance laws, the command period and, where its gait is of the family, the layout's
+bounds and the starting point; a structure
 without a controller of its own starts from :func:`tensim.control.default_impedance`.
 """
 
