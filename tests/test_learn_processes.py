@@ -161,7 +161,10 @@ def test_ctrl_c_prints_one_line_and_leaves_no_partial_folder(tmp_path):
     command = [sys.executable, "-c", "import sys; from tensim.cli import main; "
                "sys.exit(main())", "simulate", "prism3", "--duration", "500", "--out", str(out)]
     process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
-    first = process.stderr.readline()  # a progress line: the simulation is running
+    first = process.stderr.readline()
+    while first and not first.startswith("prism3 ["):  # the compiler's notes come first
+        first = process.stderr.readline()
+    # a progress line: the simulation is running
     process.send_signal(signal.SIGINT)
     rest = process.stderr.read()
     process.wait(timeout=60)

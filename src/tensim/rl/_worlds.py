@@ -17,7 +17,7 @@ from tensim.sim._batch import setup_trial
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
 _FIELDS = ("ten_length", "xpos", "xmat", "xipos", "xquat", "subtree_com", "cvel", "qvel",
-           "actuator_force", "act", "ctrl")
+           "actuator_force", "act", "ctrl", "ncon")
 
 
 class Worlds:
@@ -60,6 +60,10 @@ class Worlds:
         self._robot_body[idx.body] = True
         self._slot = np.full(robot.model.nbody, -1)  # MuJoCo body id -> rigid body number
         self._slot[idx.body] = np.arange(idx.body.size)
+        self._geom_body = robot.model.geom_bodyid.copy()  # read once: each read copies
+        self._end_body = robot.rods["body"].ravel()
+        self._end_local = robot.rods["local"].reshape(-1, 3)
+        self._sigma = np.zeros(0)  # the observation noise's std, set by the first observation
 
     def _open_batch(self, models: list[mujoco.MjModel]) -> None:
         """The batch engine over ``models`` (one per robot) and its field views."""
@@ -163,6 +167,11 @@ class Worlds:
             d.qpos[adr + 3:adr + 7] = quat
             d.qvel[dof:dof + 3] = turn @ d.qvel[dof:dof + 3]  # angular velocity is local
 
+    def _rows(self, ids: np.ndarray) -> np.ndarray | slice:
+        """``ids`` as an index of the robot axis: a slice (views, no copies) when they are all
+        the robots (ids are sorted and unique, so their count says so)."""
+        return slice(None) if ids.size == self.n else ids
+
     # -- stepping --------------------------------------------------------------------------
 
     def step(self, ids: np.ndarray, commands: np.ndarray, applied: np.ndarray
@@ -170,7 +179,7 @@ class Worlds:
         """One control period of robots ``ids``.
 
         Args:
-            ids: (k,) the robots that step.
+            ids: (k,) the robots that step, sorted and unique.
             commands: (k, n_cables) their ``ctrl`` commands [m/s] or [m].
             applied: (k, n_cables) the same actions in the action space's units.
 
@@ -178,28 +187,30 @@ class Worlds:
             (k,) rewards, (k,) terminated, and the reward terms and error flags per robot.
         """
         c, n = self.robot.config, self.robot.n
+        r = self._rows(ids)
         if c.randomization.action_delay:
-            queue = self.pending[ids]
+            queue = self.pending[r]
             now = queue[:, 0].copy()
-            self.pending[ids] = np.concatenate([queue[:, 1:], commands[:, None]], axis=1)
+            self.pending[r] = np.concatenate([queue[:, 1:], commands[:, None]], axis=1)
             commands = now
-        self.f["ctrl"][ids, :n] = commands
-        before = self.f["subtree_com"][ids, 0, :2].copy()
-        bodies_before = self.f["xipos"][ids][:, self._body, :2]
+        self.f["ctrl"][r, :n] = commands
+        before = self.f["subtree_com"][r, 0, :2].copy()
+        bodies_before = self.f["xipos"][r][:, self._body, :2] if c.task == "turn" else None
         failed = np.zeros(ids.size, dtype=bool)
         try:
-            self.batch.step(ids, nstep=c.control_steps, stage=mujoco.mjtStage.mjSTAGE_VEL)
+            self.batch.step(None if isinstance(r, slice) else ids, nstep=c.control_steps,
+                            stage=mujoco.mjtStage.mjSTAGE_VEL)
         except mjbatch.SimulationError as err:
             failed = np.isin(ids, err.ids)
-        self.steps[ids] += 1
-        self.previous[ids] = applied
+        self.steps[r] += 1
+        self.previous[r] = applied
         f = self.f
-        speed = np.abs(f["qvel"][ids]).max(axis=1)
-        force = -f["actuator_force"][ids, :n].min(axis=1)
-        bad = self.batch.warning[ids, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
+        speed = np.abs(f["qvel"][r]).max(axis=1)
+        force = -f["actuator_force"][r, :n].min(axis=1)
+        bad = self.batch.warning[r, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
         unstable = failed | ~(speed < self.limits.max_speed) | \
             ~(force < self.limits.max_tension) | bad
-        after = f["subtree_com"][ids, 0, :2]
+        after = f["subtree_com"][r, 0, :2]
         progress, reached = self._progress(ids, before, after, bodies_before)
         control = -c.control_cost * np.mean(applied ** 2, axis=1) * c.control_dt
         contact = np.zeros(ids.size)
@@ -213,22 +224,22 @@ class Worlds:
         return reward, unstable | reached, terms
 
     def _progress(self, ids: np.ndarray, before: np.ndarray, after: np.ndarray,
-                  bodies_before: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        c = self.robot.config
+                  bodies_before: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        c, r = self.robot.config, self._rows(ids)
         if c.task == "direction":
-            return np.einsum("ij,ij->i", after - before, self.target[ids]), np.zeros(
+            return np.einsum("ij,ij->i", after - before, self.target[r]), np.zeros(
                 ids.size, dtype=bool)
-        if c.task == "turn":
-            bodies = self.f["xipos"][ids][:, self._body, :2]
+        if c.task == "turn" and bodies_before is not None:  # (read before a turn's step)
+            bodies = self.f["xipos"][r][:, self._body, :2]
             turned = _yaw_change(bodies_before - before[:, None], bodies - after[:, None],
                                  self._mass)
             drift = np.linalg.norm(after - before, axis=1)
             return (-turned if c.clockwise else turned) - drift, np.zeros(ids.size, bool)
         if c.task == "goal":
-            far_before = np.linalg.norm(self.target[ids] - before, axis=1)
-            far = np.linalg.norm(self.target[ids] - after, axis=1)
+            far_before = np.linalg.norm(self.target[r] - before, axis=1)
+            far = np.linalg.norm(self.target[r] - after, axis=1)
             return far_before - far, far < c.goal_radius_m
-        moved = np.linalg.norm(self.f["xipos"][ids][:, self._body] - self.start_xipos[ids],
+        moved = np.linalg.norm(self.f["xipos"][r][:, self._body] - self.start_xipos[r],
                                axis=2).mean(axis=1)
         return -moved * c.control_dt, np.zeros(ids.size, dtype=bool)
 
@@ -236,109 +247,121 @@ class Worlds:
 
     def observe(self, ids: np.ndarray) -> np.ndarray:
         """(k, size) observations of robots ``ids``, with their sensor noise."""
-        robot, f = self.robot, self.f
-        com = f["subtree_com"][ids, 0]
-        xipos = f["xipos"][ids][:, self._body]
+        robot, f, r = self.robot, self.f, self._rows(ids)
+        com = f["subtree_com"][r, 0]
+        xipos = f["xipos"][r][:, self._body]
         ahead = xipos[:, 0, :2] - com[:, :2]  # the robot frame's x axis: toward body 0
         yaw = np.arctan2(ahead[:, 1], ahead[:, 0])
         terms: dict[str, np.ndarray] = {"height": com[:, 2:3]}
         if "pose" in robot.layout:
             rel = _to_frame(xipos - com[:, None], yaw)
-            quat = _quat_to_frame(f["xquat"][ids][:, self._body], yaw)
+            quat = _quat_to_frame(f["xquat"][r][:, self._body], yaw)
             terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(ids.size, -1)
         if "velocity" in robot.layout:
             terms["velocity"] = self._velocity(ids, xipos, yaw)
-        length = f["ten_length"][ids][:, robot.compiled.index.tendon]
-        rest = robot.compiled.index.cable_act(f["act"][ids])
-        terms["cable_length"], terms["rest_length"] = length, rest
-        if "tension" in robot.layout:  # the load cells, with each robot's own stiffness
+        layout = robot.layout
+        if "cable_length" in layout or "tension" in layout:
+            terms["cable_length"] = f["ten_length"][r][:, robot.compiled.index.tendon]
+        if "rest_length" in layout or "tension" in layout:
+            terms["rest_length"] = robot.compiled.index.cable_act(f["act"][r])
+        if "tension" in layout:  # the load cells, with each robot's own stiffness
             stiffness = np.stack([robot.compiled.law(self.models[i]).stiffness for i in ids])
-            terms["tension"] = load_cell_tension(length, rest, stiffness)
-        if "rod_axis" in robot.layout:
-            terms["rod_axis"] = _to_frame(self._rod_axes(ids), yaw)
-        if "contact" in robot.layout or "end_contact" in robot.layout:
-            terms["contact"], terms["end_contact"] = self._contact(ids)
+            terms["tension"] = load_cell_tension(terms["cable_length"], terms["rest_length"],
+                                                 stiffness)
+        ends = None
+        if "rod_axis" in layout or "end_contact" in layout:
+            ends = self._end_positions(ids)
+        if "rod_axis" in layout and ends is not None:
+            terms["rod_axis"] = _to_frame(_rod_axes(ends), yaw)
+        if "contact" in layout or "end_contact" in layout:
+            terms["contact"], terms["end_contact"] = self._contact(ids, ends)
         if robot.config.task == "direction":
-            terms["task"] = _to_frame(self.target[ids, None], yaw)[:, 0, :2]
+            terms["task"] = _to_frame(self.target[r, None], yaw)[:, 0, :2]
         elif robot.config.task == "goal":
-            terms["task"] = _to_frame((self.target[ids] - com[:, :2])[:, None], yaw)[:, 0, :2]
+            terms["task"] = _to_frame((self.target[r] - com[:, :2])[:, None], yaw)[:, 0, :2]
         else:
             terms["task"] = np.zeros((ids.size, 2))
-        terms["previous_action"] = self.previous[ids]
+        terms["previous_action"] = self.previous[r]
         terms["position"] = com[:, :2]
         obs = self._noisy(ids, np.concatenate([terms[t].reshape(ids.size, -1)
                                                for t in robot.layout if t != "history"], axis=1))
         if not robot.config.history:
             return obs
-        out = np.concatenate([obs, self.past[ids].reshape(ids.size, -1)], axis=1)
-        self.past[ids] = np.concatenate([obs[:, None], self.past[ids][:, :-1]], axis=1)
+        out = np.concatenate([obs, self.past[r].reshape(ids.size, -1)], axis=1)
+        self.past[r] = np.concatenate([obs[:, None], self.past[r][:, :-1]], axis=1)
         return out
 
-    def _rod_axes(self, ids: np.ndarray) -> np.ndarray:
-        """(k, n_rods, 3) unit vectors from each rod's first end to its second (world)."""
-        ends = self._end_positions(ids).reshape(ids.size, -1, 2, 3)
-        axis = ends[:, :, 1] - ends[:, :, 0]
-        return axis / np.linalg.norm(axis, axis=2, keepdims=True)
-
     def _velocity(self, ids: np.ndarray, xipos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-        cvel = self.f["cvel"][ids][:, self._body]  # (rotation, translation) at the root's com
-        root_com = self.f["subtree_com"][ids][:, self._root]
+        r = self._rows(ids)
+        cvel = self.f["cvel"][r][:, self._body]  # (rotation, translation) at the root's com
+        root_com = self.f["subtree_com"][r][:, self._root]
         linear = cvel[..., 3:] + _cross(cvel[..., :3], xipos - root_com)
         com_velocity = np.einsum("b,kbj->kj", self._mass, linear)
-        parts = [_to_frame(com_velocity[:, None], yaw), _to_frame(linear, yaw),
-                 _to_frame(cvel[..., :3], yaw)]
-        return np.concatenate([p.reshape(ids.size, -1) for p in parts], axis=1)
+        world = np.concatenate([com_velocity[:, None], linear, cvel[..., :3]], axis=1)
+        return _to_frame(world, yaw).reshape(ids.size, -1)  # centre of mass, linear, angular
 
-    def _contact(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _contacts(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """MuJoCo's contact lists of robots ``ids``, stacked: the (c,) row in ``ids`` of each
+        contact, its (c, 2) bodies and (c, 3) world position [m]."""
+        counts = self.f["ncon"][self._rows(ids)]
+        total = int(counts.sum())
+        geoms, points = np.empty((total, 2), dtype=int), np.empty((total, 3))
+        start = 0
+        for i in ids[counts > 0].tolist():
+            contact = self.batch.get_data(i, self._scratch_contacts).contact
+            stop = start + len(contact)
+            geoms[start:stop], points[start:stop] = contact.geom, contact.pos
+            start = stop
+        return np.repeat(np.arange(ids.size), counts), self._geom_body[geoms], points
+
+    def _contact(self, ids: np.ndarray, ends: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
         """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground), and
-        (k, 2 n_rods) 1 where the ground touches a rod nearer that end than the other."""
-        m, rods = self.robot.model, self.robot.rods
-        rows, bodies, points = [], [], []
-        for row, i in enumerate(ids):  # MuJoCo's contact list of each robot
-            d = self.batch.get_data(int(i), self._scratch_contacts)
-            if d.ncon:
-                pair = m.geom_bodyid[d.contact.geom[:d.ncon]]
-                ground = (pair == 0).any(axis=1)
-                bodies.append(pair[ground].max(axis=1))
-                points.append(d.contact.pos[:d.ncon][ground])
-                rows.append(np.full(bodies[-1].size, row))
+        (k, 2 n_rods) 1 where the ground touches a rod nearer that end than the other;
+        ``ends``: the rod ends of :meth:`_end_positions`, if already known."""
+        at, pair, point = self._contacts(ids)
+        ground = (pair == 0).any(axis=1)
+        at, body, point = at[ground], pair[ground].max(axis=1), point[ground]
         touch = np.zeros((ids.size, self._body.size))
-        ends = np.zeros((ids.size, rods["body"].size))
-        if not rows:
-            return touch, ends
-        at, body, point = np.concatenate(rows), np.concatenate(bodies), np.concatenate(points)
+        out = np.zeros((ids.size, self._end_body.size))
+        if not at.size:
+            return touch, out
         slot = self._slot[body]
         touch[at[slot >= 0], slot[slot >= 0]] = 1.0
-        if ends.shape[1]:  # the nearest end of the touching rod's body
-            where = self._end_positions(ids)[at]  # (c, 2 n_rods, 3)
+        if out.shape[1]:  # the nearest end of the touching rod's body
+            where = (self._end_positions(ids) if ends is None else ends)[at]  # (c, 2 n_rods, 3)
             far = np.linalg.norm(where - point[:, None], axis=2)
-            far[rods["body"].ravel()[None] != body[:, None]] = np.inf
+            far[self._end_body[None] != body[:, None]] = np.inf
             hit = np.isfinite(far).any(axis=1)
-            ends[at[hit], np.argmin(far[hit], axis=1)] = 1.0
-        return touch, ends
+            out[at[hit], np.argmin(far[hit], axis=1)] = 1.0
+        return touch, out
 
     def _end_positions(self, ids: np.ndarray) -> np.ndarray:
         """(k, 2 n_rods, 3) world positions of the rod ends."""
-        rods = self.robot.rods
-        body = rods["body"].ravel()
-        xmat = self.f["xmat"][ids].reshape(ids.size, -1, 3, 3)[:, body]
-        return self.f["xpos"][ids][:, body] + np.einsum("kexy,ey->kex", xmat,
-                                                        rods["local"].reshape(-1, 3))
+        body = self._end_body
+        r = self._rows(ids)
+        xmat = self.f["xmat"][r][:, body].reshape(ids.size, -1, 3, 3)
+        return self.f["xpos"][r][:, body] + np.einsum("kexy,ey->kex", xmat,
+                                                              self._end_local)
 
     def bar_contacts(self, ids: np.ndarray) -> np.ndarray:
         """(k,) contacts between two of the robot's rigid bodies, per robot."""
-        m = self.robot.model
-        out = np.zeros(ids.size)
-        for row, i in enumerate(ids):
-            d = self.batch.get_data(int(i), self._scratch_contacts)
-            bodies = m.geom_bodyid[d.contact.geom[:d.ncon]]
-            both = self._robot_body[bodies].all(axis=1) & (bodies[:, 0] != bodies[:, 1])
-            out[row] = both.sum()
-        return out
+        at, bodies, _ = self._contacts(ids)
+        both = self._robot_body[bodies].all(axis=1) & (bodies[:, 0] != bodies[:, 1])
+        return np.bincount(at[both], minlength=ids.size).astype(float)
 
     def _noisy(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
+        if self._sigma.size != obs.shape[1]:  # once: it depends on the configuration only
+            self._sigma = self._noise_sigma(obs.shape[1])
+        if not self._sigma.any():
+            return obs
+        return obs + np.stack([self.rngs[i].normal(0.0, 1.0, obs.shape[1])
+                               for i in ids]) * self._sigma
+
+    def _noise_sigma(self, size: int) -> np.ndarray:
+        """(size,) the std of each observed value's sensor noise."""
         r, layout = self.robot.config.randomization, self.robot.layout
-        sigma = np.zeros(obs.shape[1])
+        sigma = np.zeros(size)
         for term, std in (("height", r.length_noise_m), ("pose", r.length_noise_m),
                           ("cable_length", r.length_noise_m), ("rest_length", r.length_noise_m),
                           ("tension", r.tension_noise_n), ("velocity", r.velocity_noise),
@@ -348,9 +371,7 @@ class Worlds:
         if "pose" in layout:  # the quaternions stay clean: 7 values per body, the last 4
             start, stop = layout["pose"]
             sigma[start:stop] *= np.tile([1, 1, 1, 0, 0, 0, 0], (stop - start) // 7)
-        if not sigma.any():
-            return obs
-        return obs + np.stack([self.rngs[i].normal(0.0, 1.0, obs.shape[1]) for i in ids]) * sigma
+        return sigma
 
     def state(self, i: int) -> np.ndarray:
         """Robot ``i``'s ``mjSTATE_INTEGRATION`` state."""
@@ -359,6 +380,14 @@ class Worlds:
     def data(self, i: int) -> Any:
         """Robot ``i``'s whole MjData (for rendering)."""
         return self.batch.get_data(i)
+
+
+def _rod_axes(ends: np.ndarray) -> np.ndarray:
+    """(k, n_rods, 3) unit vectors from each rod's first end to its second (world), from the
+    (k, 2 n_rods, 3) rod ends."""
+    ends = ends.reshape(ends.shape[0], -1, 2, 3)
+    axis = ends[:, :, 1] - ends[:, :, 0]
+    return axis / np.linalg.norm(axis, axis=2, keepdims=True)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -53,8 +53,9 @@ class SB3VecEnv(VecEnv):
     def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
         obs, reward, terminated, truncated, info = self.env.step(self._actions)
         done = terminated | truncated
-        infos: list[dict[str, Any]] = [{k: info[k][i].item() for k in _TERMS}
-                                       for i in range(self.num_envs)]
+        columns = [info[k].tolist() for k in _TERMS]  # Python floats and bools, as .item()
+        infos: list[dict[str, Any]] = [dict(zip(_TERMS, row, strict=True))
+                                       for row in zip(*columns, strict=True)]
         for i in np.flatnonzero(done):
             infos[i]["terminal_observation"] = info["final_obs"][i]
             infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
