@@ -264,7 +264,8 @@ def _goal(args: argparse.Namespace, out: Path) -> dict[str, Any]:
 def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     import math
 
-    from tensim.experiments.roll import ROLL_DURATION, roll, write_roll
+    from tensim.experiments.roll import ROLL_DURATION, play, roll, write_roll
+    from tensim.models import load_controller
 
     if args.model is None:
         raise ValueError("roll: give the robot, a preset or a structure file: tensim experiment "
@@ -273,15 +274,23 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         raise ValueError(f"--heading {args.heading!r}: expected a finite angle in degrees")
     structure = load_model(args.model)
     goal = parse_point(args.goal, "--goal") if args.goal is not None else None
-    result, summary = roll(structure, args.duration or ROLL_DURATION,
-                           heading_deg=args.heading or 0.0, goal=goal,
-                           world=world_from_args(args), progress=Progress("roll", args.quiet))
-    summary = {"experiment": "roll", "model": args.model, **summary}
+    if args.controller is None:
+        result, summary = roll(structure, args.duration or ROLL_DURATION,
+                               heading_deg=args.heading or 0.0, goal=goal,
+                               world=world_from_args(args), progress=Progress("roll", args.quiet))
+    else:  # a controller file's gait, played open loop (a learned roll gait)
+        result, summary = play(structure, load_controller(args.controller, structure),
+                               args.duration or ROLL_DURATION, heading_deg=args.heading or 0.0,
+                               goal=goal, world=world_from_args(args),
+                               progress=Progress("roll", args.quiet))
+    summary = {"experiment": "roll", "model": args.model, "controller": args.controller,
+               **summary}
     write_roll(out, result, summary, structure)
     print(f"rolled {summary['distance_m']:.3f} m along the heading in {summary['duration_s']:g} s:"
           f" {summary['body_lengths_per_s']:.3f} body lengths/s (body length "
           f"{summary['body_length_m']:.3f} m), heading error {summary['heading_error_deg']:.1f}"
-          f" deg, {summary['rolls']} rolls over {summary['faces_visited']} faces")
+          " deg" + ("" if summary["rolls"] is None else
+                    f", {summary['rolls']} rolls over {summary['faces_visited']} faces"))
     if goal is not None:
         before, after = summary["goal_distance_m"]
         print(f"goal ({goal[0]:g}, {goal[1]:g}) m: distance {before:.3f} -> {after:.3f} m")
@@ -305,7 +314,7 @@ EXPERIMENTS: dict[str, tuple[str, Callable[[argparse.Namespace, Path], dict[str,
     "sidewind": ("12-segment Tetraspine sidewinding gait (paper Fig. 1)", _sidewind),
     "goal": ("12-segment Tetraspine toward a target point across rough ground", _goal),
     "roll": ("a 3-bar, 6-bar or other closed robot rolls toward --heading or --goal "
-             "(punctuated statics gait)", _roll),
+             "(punctuated statics gait, or --controller FILE played open loop)", _roll),
 }
 
 

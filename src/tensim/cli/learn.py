@@ -51,13 +51,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     d = _DEFAULTS
     problem = p.add_argument_group("problem (taken from DIR when resuming)")
     problem.add_argument("--model", help=f"preset or structure .yaml file (default {d['model']})")
-    problem.add_argument("--controller", choices=("cpg", "sine", "sine-pattern", "wave"),
+    problem.add_argument("--controller", choices=("cpg", "sine", "sine-pattern", "wave", "roll"),
                          help="controller family, on any robot with motorised cables: CPG "
                          "coupled by shared rigid bodies (116 parameters for Tetraspine3; "
                          "kind_<name> tags share parameters), per-cable sine waves, the paper's "
                          "4-number Tetraspine sine pattern, or a travelling wave (of joint "
                          "bending along a Tetraspine, else along the cables in wave_<k> tag or "
-                         f"build-pose order) (default {d['controller']}; see docs/any_robot.md)")
+                         "build-pose order), or a rolling wave of contraction around a rolling "
+                         "robot's axis (5 parameters; see docs/rolling.md) (default "
+                         f"{d['controller']}; see docs/any_robot.md)")
     problem.add_argument("--base-controller", metavar="FILE|NAME",
                          help="controller file whose impedance laws the gait drives (default: "
                          "the shipped tetraspine3_cpg / tetraspine3_sine for tetraspine3, "

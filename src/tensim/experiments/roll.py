@@ -7,7 +7,8 @@ the goal, from where the robot stands, when a goal is given) and commands them; 
 there at their max_speed, the robot tips, and the next face starts over. The summary reports
 the field's figures: speed in body lengths per second (body length = the longest rod), the
 distance made good along the heading, the heading error of the path, the faces visited and the
-number of rolls.
+number of rolls. :func:`play` rolls with a controller file instead (a learned ``roll`` gait,
+:mod:`tensim.control.roll_parameters`), played open loop, and reports the same speed figures.
 """
 
 from __future__ import annotations
@@ -21,11 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from tensim.control import ControllerConfig
 from tensim.control.rolling import RollSettings, heading_vector, plan_tip, support_face
 from tensim.design import DesignError
 from tensim.model import WorldOptions, compile_structure
 from tensim.runs import world_record, write_run
-from tensim.sim import COM, Simulation, SimulationResult, TimeSeries
+from tensim.sim import COM, Simulation, SimulationResult, TimeSeries, simulate
 from tensim.structure import Structure
 
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
@@ -163,6 +165,44 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                "goal_xy_m": list(goal) if goal is not None else None,
                "faces_visited": len(set(gait.faces)), "rolls": max(0, len(gait.faces) - 1),
                "plans": gait.plans}
+    return result, summary
+
+
+def play(structure: Structure, config: ControllerConfig, duration: float, *,
+         heading_deg: float = 0.0, goal: tuple[float, float] | None = None,
+         world: WorldOptions | None = None, record_dt: float = 0.01,
+         progress: Callable[[float, float], None] | None = None
+         ) -> tuple[SimulationResult, dict[str, Any]]:
+    """Rolls ``structure`` under a controller file's gait for ``duration`` seconds and scores
+    the run along a heading (or toward a goal point) as :func:`roll` does.
+
+    The gait plays open loop (it does not look where it goes), so ``faces_visited`` and
+    ``rolls`` are None; the heading only scores the run.
+
+    Args:
+        structure: the robot.
+        config: the controller (its gait is stretched or cut to ``duration``).
+        duration: simulated time [s].
+        heading_deg: heading the distance is measured along, counter-clockwise from +x [deg].
+        goal: (x, y) of a goal point [m], measured toward instead of a heading.
+        world: physics step, terrain and other world options.
+        record_dt: recording period [s]; a whole number of physics steps.
+        progress: called as progress(done_s, total_s).
+
+    Returns:
+        The result and its summary (:func:`roll_summary` plus the run's headline figures).
+    """
+    world = world or WorldOptions()
+    compiled = compile_structure(structure, world)
+    controller = config.with_duration(duration).build(compiled.model.opt.timestep)
+    result = simulate(compiled, duration, controller=controller, record_dt=record_dt,
+                      progress=progress)
+    direction = heading_vector(heading_deg) if goal is None else None
+    summary = {**result.summary(), **world_record(compiled.world),
+               **roll_summary(result.trajectory, body_length(structure), direction, goal),
+               "heading_deg": heading_deg if goal is None else None,
+               "goal_xy_m": list(goal) if goal is not None else None,
+               "faces_visited": None, "rolls": None}
     return result, summary
 
 

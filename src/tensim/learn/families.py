@@ -6,9 +6,11 @@ per-cable sine waves with a shared frequency, ``sine-pattern`` the paper's four-
 Tetraspine sine pattern, ``wave`` a travelling wave (:mod:`tensim.control.wave`): of joint
 bending along a Tetraspine (eight parameters whatever the spine's length), on any other robot one
 sine wave passed along its driven cables in ``wave_<k>`` tag order or an order derived from the
-build pose (three parameters). Every family drives the cables the base controller gives
-impedance laws. The base controller file gives the impedance laws, the command period and,
-where its gait is of the family, the layout's bounds and the starting point; a structure
+build pose (three parameters), ``roll`` a wave of contraction around a rolling robot's axis
+(five parameters whatever the robot, :mod:`tensim.control.roll_parameters`). Every family
+drives the cables the base controller gives impedance laws. The base controller file gives
+the impedance laws, the command period and, where its gait is of the family, the layout's
+bounds and the starting point; a structure
 without a controller of its own starts from :func:`tensim.control.default_impedance`.
 """
 
@@ -27,15 +29,17 @@ from tensim.control import (
     spine_wave_parameters,
 )
 from tensim.control._common import as_tuple
+from tensim.control.roll_parameters import roll_parameters
 from tensim.control.sine_parameters import sine_parameters, tetraspine_sine_parameters
 from tensim.control.wave import spine_tagged, travelling_wave_parameters
 from tensim.models import resolve_controller
 from tensim.structure import Structure
 
-FAMILIES = ("cpg", "sine", "sine-pattern", "wave")
+FAMILIES = ("cpg", "sine", "sine-pattern", "wave", "roll")
 # shipped controller files used as the base for the Tetraspine3 preset
 SHIPPED_BASE = {"cpg": "tetraspine3_cpg", "sine": "tetraspine3_sine",
-                "sine-pattern": "tetraspine3_sine", "wave": "tetraspine3_sine"}
+                "sine-pattern": "tetraspine3_sine", "wave": "tetraspine3_sine",
+                "roll": "tetraspine3_sine"}
 
 
 def check_family(family: str) -> str:
@@ -72,6 +76,9 @@ def gait_layout(family: str, structure: Structure, base: ControllerConfig
             and len(set(as_tuple(gait.frequency))) == 1 else None
         sine_layout = sine_parameters(structure, None if start else cables, start=start)
         return sine_layout, sine_layout.nominal
+    if family == "roll":
+        rolling = roll_parameters(structure, cables)
+        return rolling, rolling.nominal
     if family == "wave":
         if spine_tagged(structure):
             waves = spine_wave_parameters(structure)
