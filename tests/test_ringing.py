@@ -8,6 +8,7 @@ import re
 
 import numpy as np
 import pytest
+import yaml
 
 import tensim
 from tensim.control.files import shipped_controllers
@@ -117,7 +118,8 @@ EXAMPLES = ["examples/design/hopper.yaml", "examples/design/hopper_sketch.yaml",
             "examples/design/payload_prism.yaml", "examples/tensegrity_prism.yaml",
             "examples/prism4.yaml", "examples/hardware/tetraspine3_dc.yaml"]
 CASES = [(name, None) for name in sorted(PRESETS)] + [(path, None) for path in EXAMPLES] \
-    + [(name.split("_")[0], name) for name in sorted(shipped_controllers())] \
+    + [(yaml.safe_load(path.read_text())["model"], name)  # the robot each file names
+       for name, path in sorted(shipped_controllers().items())] \
     + [("examples/design/hopper.yaml", "examples/design/hopper_roll.yaml")]
 
 
