@@ -45,16 +45,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     register_loads(steps)
 
 
-def _load(text: str) -> tuple[str, tuple[float, float, float]]:
-    """``NODE:FX,FY,FZ`` as (node, force [N])."""
-    node, _, rest = text.partition(":")
+def _node_vector(text: str, sep: str, form: str) -> tuple[str, tuple[float, float, float]]:
+    """``NODE<sep>X,Y,Z`` as (node, vector); ``form`` names the expected text in the error."""
+    node, _, rest = text.partition(sep)
     try:
         values = tuple(float(v) for v in rest.split(","))
     except ValueError:
         values = ()
     if not node or len(values) != 3 or not all(map(math.isfinite, values)):
-        raise argparse.ArgumentTypeError(f"expected NODE:FX,FY,FZ in newtons, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected {form}, got {text!r}")
     return node, values
+
+
+def _load(text: str) -> tuple[str, tuple[float, float, float]]:
+    """``NODE:FX,FY,FZ`` as (node, force [N])."""
+    return _node_vector(text, ":", "NODE:FX,FY,FZ in newtons")
 
 
 def register_loads(steps: argparse._SubParsersAction) -> None:
@@ -395,14 +400,7 @@ def _tracked_peaks(folder: Path) -> dict[str, float]:
 
 def _move(text: str) -> tuple[str, tuple[float, float, float]]:
     """``NODE=DX,DY,DZ`` as (node, displacement [m])."""
-    node, _, rest = text.partition("=")
-    try:
-        values = tuple(float(v) for v in rest.split(","))
-    except ValueError:
-        values = ()
-    if not node or len(values) != 3:
-        raise argparse.ArgumentTypeError(f"expected NODE=DX,DY,DZ in metres, got {text!r}")
-    return node, values
+    return _node_vector(text, "=", "NODE=DX,DY,DZ in metres")
 
 
 def register_pull(steps: argparse._SubParsersAction) -> None:
