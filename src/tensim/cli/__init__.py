@@ -86,8 +86,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except (StructureError, ModelError, SimulationError, ControllerFileError, GaitError,
             KeyError, ValueError, OSError) as err:
-        message = err.args[0] if isinstance(err, KeyError) and err.args else err
-        print(f"tensim: error: {message}", file=sys.stderr)
+        text = err.args[0] if isinstance(err, KeyError) and err.args else err
+        print(f"tensim: error: {text}", file=sys.stderr)
         return 2
 
 

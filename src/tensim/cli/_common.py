@@ -381,10 +381,9 @@ def check_outputs(args: argparse.Namespace) -> None:
     from tensim._files import check_writable
     from tensim._input import InputError
 
-    outputs = [(dest, flag, kind, getattr(args, dest, None))
-               for dest, flag, kind in getattr(args, "outputs", ())]
-    outputs = [(dest, flag, kind, value) for dest, flag, kind, value in outputs
-               if isinstance(value, str) and value]
+    outputs: list[tuple[str, str, str, str]] = [
+        (dest, flag, kind, value) for dest, flag, kind in getattr(args, "outputs", ())
+        if isinstance(value := getattr(args, dest, None), str) and value]
     for _, flag, kind, value in outputs:
         check_writable(Path(value), kind, flag)
     inputs = _input_paths(args, {dest for dest, _, _, _ in outputs})
