@@ -243,3 +243,26 @@ def test_the_exported_policy_acts_as_the_trained_one(trained, tmp_path):
     session = ort.InferenceSession(str(tmp_path / "policy.onnx"))
     got = session.run(["action"], {"observation": recorded.astype(np.float32)})[0]
     np.testing.assert_allclose(got, want, atol=1e-5)
+
+
+def test_a_replay_buffer_round_trips_as_data(tmp_path):
+    # SAC's resume keeps its replay buffer as .npz arrays, not SB3's pickle
+    import gymnasium as gym
+    from stable_baselines3.common.buffers import ReplayBuffer
+
+    from tensim.rl.train import _load_replay, _save_replay
+
+    spaces = gym.spaces.Box(-1.0, 1.0, (3,)), gym.spaces.Box(-1.0, 1.0, (2,))
+    rng = np.random.default_rng(0)
+    saved = ReplayBuffer(5, *spaces, device="cpu")
+    for _ in range(7):  # past its size: it wrapped, full with pos 2
+        saved.add(rng.random((1, 3)), rng.random((1, 3)), rng.random((1, 2)), rng.random(1),
+                  np.array([False]), [{}])
+    _save_replay(saved, tmp_path / "replay_buffer.npz")
+    loaded = ReplayBuffer(5, *spaces, device="cpu")
+    _load_replay(loaded, tmp_path / "replay_buffer.npz")
+    assert (loaded.pos, loaded.full) == (2, True)
+    for name in ("observations", "next_observations", "actions", "rewards", "dones"):
+        np.testing.assert_array_equal(getattr(loaded, name), getattr(saved, name))
+    with np.load(tmp_path / "replay_buffer.npz", allow_pickle=False) as f:  # plain arrays
+        assert set(f.files) >= {"observations", "actions", "pos", "full"}

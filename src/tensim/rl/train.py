@@ -4,7 +4,7 @@ checkpointed into a run folder so it resumes where it stopped (``tensim rl train
 A run folder holds ``settings.json`` (what it trains, with a fingerprint of the robot file),
 ``policy.zip`` (SB3's format), ``normalizer.npz`` (the observation normaliser's running mean
 and variance), ``progress.json`` (env steps done, the learning curve) and, for SAC, its
-replay buffer; ``learning_curve.png`` is drawn at the end.
+replay buffer (as .npz arrays); ``learning_curve.png`` is drawn at the end.
 """
 
 from __future__ import annotations
@@ -203,8 +203,8 @@ def _learner(settings: TrainSettings, out: Path, state: dict[str, Any]) -> Any:
             env.ret_rms.mean, env.ret_rms.var = saved["ret_mean"], saved["ret_var"]
             env.ret_rms.count = float(saved["ret_count"])
         learner = algo.load(out / "policy.zip", env=env, device="cpu")
-        if settings.algo == "sac" and (out / "replay_buffer.pkl").is_file():
-            learner.load_replay_buffer(out / "replay_buffer.pkl")
+        if settings.algo == "sac" and (out / "replay_buffer.npz").is_file():
+            _load_replay(learner.replay_buffer, out / "replay_buffer.npz")
         return learner, env
     kwargs: dict[str, Any] = {"n_steps": 256, "batch_size": 256, "n_epochs": 5} \
         if settings.algo == "ppo" else {"learning_starts": min(1000, settings.steps // 2)}
@@ -245,10 +245,29 @@ def _checkpoint(learner: Any, env: Any, out: Path, state: dict[str, Any],
         np.savez(f, mean=rms.mean, var=rms.var, count=rms.count, ret_mean=ret.mean,
                  ret_var=ret.var, ret_count=ret.count, clip=CLIP_OBS, epsilon=EPSILON)
     if settings.algo == "sac":
-        with atomic_path(out / "replay_buffer.pkl") as tmp:
-            learner.save_replay_buffer(tmp.with_suffix(".pkl"))
-            tmp.with_suffix(".pkl").replace(tmp)
+        _save_replay(learner.replay_buffer, out / "replay_buffer.npz")
     write_json(out / "progress.json", state)
+
+
+# the arrays of SB3's replay buffer, kept as data (SB3's own save_replay_buffer pickles it)
+_REPLAY = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
+
+
+def _save_replay(buffer: Any, path: Path) -> None:
+    """Writes a replay buffer's arrays and fill state to ``path`` (.npz, atomically)."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, pos=buffer.pos, full=buffer.full,
+                 **{name: getattr(buffer, name) for name in _REPLAY
+                    if getattr(buffer, name, None) is not None})
+
+
+def _load_replay(buffer: Any, path: Path) -> None:
+    """Restores a replay buffer written by :func:`_checkpoint` (no pickle involved)."""
+    with np.load(path, allow_pickle=False) as saved:
+        for name in _REPLAY:
+            if name in saved:
+                getattr(buffer, name)[...] = saved[name]
+        buffer.pos, buffer.full = int(saved["pos"]), bool(saved["full"])
 
 
 def _draw_curve(out: Path, points: list[list[float]], settings: TrainSettings) -> None:
