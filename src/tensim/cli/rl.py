@@ -22,10 +22,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--heading", type=finite, default=0.0, metavar="DEG",
                    help="heading in the robot's start frame [deg] (default 0)")
     t.add_argument("--steps", type=count, default=100_000, help="env steps in all")
-    t.add_argument("--envs", type=count, default=8, help="robots stepped together")
+    t.add_argument("--envs", type=count, default=16, help="robots stepped together")
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--control-dt", type=positive, default=0.02, help="control period [s]")
     t.add_argument("--episode", type=positive, default=10.0, help="episode length [s]")
+    t.add_argument("--dt", type=positive, default=0.002, help="physics step [s] (default "
+                   "0.002)")
+    t.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
+                   default="implicitfast", help="the cable law (default implicitfast: stiff "
+                   "cables at a 2 ms step)")
+    t.add_argument("--rest-span", type=positive, default=0.2, metavar="FRACTION",
+                   help="rest-length actions reach l0 (1 +- FRACTION) (default 0.2)")
+    t.add_argument("--frame", choices=("heading", "robot"), default="heading",
+                   help="observations in the heading's frame (default) or the robot's")
     t.add_argument("--bar-contact-cost", type=positive, default=None,
                    help="penalty per rod-rod contact per second (default none)")
     t.add_argument("--checkpoint", type=count, default=10_000, metavar="STEPS",
@@ -73,7 +82,9 @@ def train(args: argparse.Namespace) -> int:
     settings = TrainSettings(model=args.model, algo=args.algo, task=args.task,
                              heading_deg=args.heading, steps=args.steps, envs=args.envs,
                              seed=args.seed, control_dt=args.control_dt,
-                             episode_s=args.episode,
+                             episode_s=args.episode, timestep=args.dt,
+                             cable_law=args.cable_law, rest_span=args.rest_span,
+                             frame=args.frame,
                              bar_contact_cost=args.bar_contact_cost or 0.0)
     bar = Progress(f"rl train {args.algo}", args.quiet, unit="env steps",
                    rate_label="env steps/s")

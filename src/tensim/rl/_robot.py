@@ -204,7 +204,11 @@ def _check(structure: Structure, config: EnvConfig) -> list[Finding]:
     Raises:
         InputError: the physics step is above the structure's stable bound.
     """
-    findings = check_structure(structure, config.world.timestep, source=config.model)
+    # the implicit laws take at least the damping implicitly (implicit: stiffness too, so the
+    # implicitfast bound is the cautious one for it)
+    integrator = "euler" if config.world.cable_law == "explicit" else "implicitfast"
+    findings = check_structure(structure, config.world.timestep, source=config.model,
+                               integrator=integrator)
     for finding in findings:
         if finding.severity == "error" and finding.item == "timestep":
             raise InputError(f"model {config.model!r} at world.timestep = "

@@ -54,6 +54,7 @@ class Worlds:
         self.steps = np.zeros(n, dtype=int)
         self.start_xipos = np.zeros((n, len(idx.body), 3))
         self.target = np.zeros((n, 2))  # a unit direction or a goal position, world frame
+        self.heading = np.zeros((n, 2))  # the start's direction, world frame (unit)
         base = robot.layout.get("history", (0, 0))[0]
         self.past = np.zeros((n, c.history, base))
         self.limits = StabilityLimits()
@@ -118,8 +119,9 @@ class Worlds:
             yaw = self.rngs[i].uniform(-np.pi, np.pi) if c.randomization.yaw else 0.0
             self.batch.state[i] = self._start_state(self.rngs[i], yaw)
             turn = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
+            self.heading[i] = turn @ (np.asarray(c.direction) / np.hypot(*c.direction))
             if c.task == "direction":
-                self.target[i] = turn @ (np.asarray(c.direction) / np.hypot(*c.direction))
+                self.target[i] = self.heading[i]
             else:
                 self.target[i] = turn @ np.asarray(c.goal_m)
         self.batch.forward(ids)
@@ -262,8 +264,7 @@ class Worlds:
         robot, f, r = self.robot, self.f, self._rows(ids)
         com = f["subtree_com"][r, 0]
         xipos = f["xipos"][r][:, self._body]
-        ahead = xipos[:, 0, :2] - com[:, :2]  # the robot frame's x axis: toward body 0
-        yaw = np.arctan2(ahead[:, 1], ahead[:, 0])
+        yaw = self._frame_yaw(ids, com, xipos)
         terms: dict[str, np.ndarray] = {"height": com[:, 2:3]}
         if "pose" in robot.layout:
             rel = _to_frame(xipos - com[:, None], yaw)
@@ -302,6 +303,17 @@ class Worlds:
         out = np.concatenate([obs, self.past[r].reshape(ids.size, -1)], axis=1)
         self.past[r] = np.concatenate([obs[:, None], self.past[r][:, :-1]], axis=1)
         return out
+
+    def _frame_yaw(self, ids: np.ndarray, com: np.ndarray, xipos: np.ndarray) -> np.ndarray:
+        """(k,) the observation frame's heading about the vertical [rad]."""
+        c, r = self.robot.config, self._rows(ids)
+        if c.frame == "robot":  # x toward body 0, seen from above
+            ahead = xipos[:, 0, :2] - com[:, :2]
+        elif c.task == "goal":
+            ahead = self.target[r] - com[:, :2]
+        else:
+            ahead = self.heading[r]
+        return np.arctan2(ahead[:, 1], ahead[:, 0])
 
     def _velocity(self, ids: np.ndarray, xipos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
         r = self._rows(ids)

@@ -10,6 +10,7 @@ from tensim._input import InputError
 from tensim.model import WorldOptions
 
 ACTIONS = ("auto", "vstar", "rest_length")
+FRAMES = ("robot", "heading")
 TASKS = ("direction", "turn", "goal", "hold")
 OBSERVATIONS = ("height", "pose", "velocity", "rod_axis", "cable_length", "rest_length",
                 "tension", "contact", "end_contact", "task", "previous_action", "position")
@@ -114,6 +115,11 @@ class EnvConfig:
         bar_contact_cost: penalty per rod-rod contact, per second.
         observation: the observation terms, in order (see :data:`OBSERVATIONS` and docs/rl.md).
         history: previous observations appended to each observation (0: none).
+        frame: the frame observations are written in, about the vertical through the centre
+            of mass: ``"robot"`` (x toward the first rigid body seen from above) or
+            ``"heading"`` (x along the task's heading: ``direction``, or toward the goal;
+            for ``turn`` and ``hold`` the start's ``direction``), which stays put while a
+            rolling robot tumbles.
         randomization: domain randomisation and sensor/actuator imperfections (default:
             :meth:`Randomization.start`, a random heading and 2 mm pose noise).
         threads: the batch engine's worker threads (vector env).
@@ -136,6 +142,7 @@ class EnvConfig:
     bar_contact_cost: float = 0.0
     observation: tuple[str, ...] = DEFAULT_OBSERVATION
     history: int = 0
+    frame: str = "robot"
     randomization: Randomization = dataclasses.field(default_factory=Randomization.start)
     threads: int = 1
     world: WorldOptions = dataclasses.field(default_factory=WorldOptions)
@@ -143,6 +150,8 @@ class EnvConfig:
     def __post_init__(self) -> None:
         if self.action not in ACTIONS:
             raise InputError(f"action must be one of {', '.join(ACTIONS)}, got {self.action!r}")
+        if self.frame not in FRAMES:
+            raise InputError(f"frame must be one of {', '.join(FRAMES)}, got {self.frame!r}")
         if self.task not in TASKS:
             raise InputError(f"task must be one of {', '.join(TASKS)}, got {self.task!r}")
         steps = round(self.control_dt / self.world.timestep) if math.isfinite(

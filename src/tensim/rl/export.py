@@ -14,6 +14,12 @@ from tensim.rl.policy import Policy
 from tensim.rl.train import load_settings
 
 
+FRAMES = {"robot": "robot frame: origin at the centre of mass, z up, x toward the first rigid "
+                    "body (docs/rl.md)",
+          "heading": "heading frame: origin at the centre of mass, z up, x along the heading "
+                     "(toward the goal for the goal task) (docs/rl.md)"}
+
+
 def load_learner(folder: Path) -> Any:
     """The Stable-Baselines3 model of the training run in ``folder``."""
     import stable_baselines3 as sb3
@@ -69,11 +75,11 @@ def policy_record(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     meta = {
         "format": "tensim-policy", "version": 1, "model": settings.model,
         "algo": settings.algo, "task": settings.task, "heading_deg": settings.heading_deg,
-        "control_dt_s": config.control_dt,
+        "control_dt_s": config.control_dt, "physics_step_s": config.world.timestep,
+        "cable_law": config.world.cable_law,
         "observation": {"size": int(robot.observation_space.shape[0]),
                         "terms": {k: list(v) for k, v in robot.layout.items()},
-                        "frame": "robot frame: origin at the centre of mass, z up, x toward "
-                                 "the first rigid body (docs/rl.md)"},
+                        "frame": FRAMES[config.frame]},
         "normalization": normalization,
         "network": {"weights": "policy.npz", "layers": [list(a.shape) for a in
                                                         arrays.values()][::2],

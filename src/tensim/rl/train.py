@@ -22,8 +22,10 @@ import numpy as np
 
 from tensim._files import atomic_path, write_json
 from tensim._input import InputError
+from tensim.model import WorldOptions
+from tensim.model._law_layout import CABLE_LAWS
 from tensim.models import PRESETS
-from tensim.rl.config import ROLLING_OBSERVATION, EnvConfig
+from tensim.rl.config import FRAMES, ROLLING_OBSERVATION, EnvConfig
 
 ALGOS = ("ppo", "sac")
 TASKS = {"roll": "direction", "turn": "turn", "goal": "goal"}
@@ -48,6 +50,13 @@ class TrainSettings:
         episode_s: episode length [s].
         goal_m: distance of the goal [m] (task ``goal``).
         bar_contact_cost: penalty per rod-rod contact, per second.
+        timestep: the physics step [s].
+        cable_law: the cable law (``tensim.model.CABLE_LAWS``); the implicit laws hold stiff
+            cables at longer steps.
+        rest_span: half-range of the rest-length actions, as a fraction of the build rest
+            length.
+        frame: the observations' frame (``"heading"`` or ``"robot"``, see
+            :class:`~tensim.rl.EnvConfig`).
     """
 
     model: str
@@ -55,12 +64,16 @@ class TrainSettings:
     task: str = "roll"
     heading_deg: float = 0.0
     steps: int = 100_000
-    envs: int = 8
+    envs: int = 16
     seed: int = 0
     control_dt: float = 0.02
     episode_s: float = 10.0
     goal_m: float = 2.0
     bar_contact_cost: float = 0.0
+    timestep: float = 0.002
+    cable_law: str = "implicitfast"
+    rest_span: float = 0.2
+    frame: str = "heading"
 
     def __post_init__(self) -> None:
         if self.algo not in ALGOS:
@@ -71,6 +84,13 @@ class TrainSettings:
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise InputError(f"--{name} must be an integer >= 1, got {value!r}")
+        if self.cable_law not in CABLE_LAWS:
+            raise InputError(f"--cable-law must be one of {', '.join(CABLE_LAWS)}, got "
+                             f"{self.cable_law!r}")
+        if self.frame not in FRAMES:
+            raise InputError(f"--frame must be one of {', '.join(FRAMES)}, got {self.frame!r}")
+        if not (math.isfinite(self.timestep) and self.timestep > 0):
+            raise InputError(f"--dt must be a physics step > 0 [s], got {self.timestep}")
         if not math.isfinite(self.heading_deg):
             raise InputError(f"--heading must be a finite angle [deg], got {self.heading_deg}")
 
@@ -82,8 +102,9 @@ class TrainSettings:
                          goal_m=(self.goal_m * heading[0], self.goal_m * heading[1]),
                          control_dt=self.control_dt,
                          episode_s=self.episode_s if episode_s is None else episode_s,
-                         observation=ROLLING_OBSERVATION,
-                         bar_contact_cost=self.bar_contact_cost)
+                         observation=ROLLING_OBSERVATION, frame=self.frame,
+                         rest_span=self.rest_span, bar_contact_cost=self.bar_contact_cost,
+                         world=WorldOptions(timestep=self.timestep, cable_law=self.cable_law))
 
 
 ROBOT_FILE = "robot.yaml"  # a structure file's copy in the run folder
@@ -206,11 +227,22 @@ def _learner(settings: TrainSettings, out: Path, state: dict[str, Any]) -> Any:
         if settings.algo == "sac" and (out / "replay_buffer.npz").is_file():
             _load_replay(learner.replay_buffer, out / "replay_buffer.npz")
         return learner, env
-    kwargs: dict[str, Any] = {"n_steps": 256, "batch_size": 256, "n_epochs": 5} \
-        if settings.algo == "ppo" else {"learning_starts": min(1000, settings.steps // 2)}
-    if settings.algo == "ppo":
-        kwargs["batch_size"] = min(256, 256 * settings.envs)
+    kwargs = ppo_recipe(settings.envs) if settings.algo == "ppo" else {
+        "learning_starts": min(1000, settings.steps // 2)}
     return algo("MlpPolicy", env, seed=settings.seed, device="cpu", verbose=0, **kwargs), env
+
+
+ROLLOUT_STEPS = 4096  # env steps per PPO update, all robots together
+
+
+def ppo_recipe(envs: int) -> dict[str, Any]:
+    """PPO's settings: a rollout of about :data:`ROLLOUT_STEPS` env steps per update, ten
+    epochs of minibatches of a quarter of it, Adam at 3e-4, gamma 0.99, GAE 0.95 and an
+    initial action std of exp(-0.5) = 0.61 in the [-1, 1] action box."""
+    n_steps = max(64, ROLLOUT_STEPS // envs)
+    return {"n_steps": n_steps, "batch_size": max(64, n_steps * envs // 4), "n_epochs": 10,
+            "learning_rate": 3e-4, "gamma": 0.99, "gae_lambda": 0.95,
+            "policy_kwargs": {"log_std_init": -0.5, "net_arch": [128, 128]}}
 
 
 class _Curve:
