@@ -129,6 +129,45 @@ def test_rod_axes_and_end_caps_on_the_ground_match_the_build_pose(robot_file):
     np.testing.assert_array_equal(obs[9:], [1, 0, 1, 0, 1, 0])  # the bottom ends touch
 
 
+def test_heading_frame_observations_are_world_vectors_turned_onto_the_heading(robot_file):
+    # x along the rewarded heading, whichever way the robot lies or tumbles: the task reads
+    # (1, 0) and the centre of mass's velocity is MuJoCo's, turned by the heading's angle
+    config = _config(robot_file, frame="heading", direction=(1.0, 1.0),
+                     observation=("velocity", "rod_axis", "task"))
+    env = TensegrityEnv(config)
+    env.reset(seed=3)
+    rng = np.random.default_rng(0)
+    for _ in range(10):
+        obs = env.step(rng.uniform(-1, 1, 6).astype(np.float32))[0]
+    h = env.worlds.target[0]
+    np.testing.assert_allclose(np.hypot(*h), 1.0, rtol=1e-12)
+    layout, w = env.robot.layout, env.worlds
+    np.testing.assert_allclose(obs[slice(*layout["task"])], [1.0, 0.0], atol=1e-12)
+    model, data, bodies = w.models[0], w.data(0), env.robot.compiled.index.body
+    mass = model.body_mass[bodies]
+    velocity = np.array([_body_velocity(model, data, b) for b in bodies])
+    com_velocity = mass @ velocity / mass.sum()
+    side = np.array([-h[1], h[0]])
+    got = obs[slice(*layout["velocity"])][:3]
+    assert np.hypot(*com_velocity[:2]) > 1e-3  # it moves: the check sees the turn
+    np.testing.assert_allclose(got, [com_velocity[:2] @ h, com_velocity[:2] @ side,
+                                     com_velocity[2]], atol=1e-9)
+    # the same start turned about the vertical: the same observation in the heading frame
+    quiet = TensegrityEnv(dataclasses.replace(config, randomization=Randomization(yaw=True)))
+    a, _ = quiet.reset(seed=1)
+    b, _ = quiet.reset(seed=2)
+    np.testing.assert_allclose(a, b, atol=1e-9)  # only round-off of the turned state
+
+
+def _body_velocity(model, data, body):
+    """A body's centre-of-mass velocity in the world [m/s], from MuJoCo's own function."""
+    import mujoco
+
+    out = np.zeros(6)  # (angular, linear) at the body's centre of mass, world frame
+    mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body, out, 0)
+    return out[3:]
+
+
 def test_a_live_env_survives_pickle_and_deepcopy(robot_file):
     env = TensegrityEnv(_config(robot_file, randomization=Randomization.standard(), history=2))
     env.reset(seed=3)

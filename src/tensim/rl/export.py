@@ -13,7 +13,6 @@ from tensim._input import InputError
 from tensim.rl.policy import Policy
 from tensim.rl.train import load_settings
 
-
 FRAMES = {"robot": "robot frame: origin at the centre of mass, z up, x toward the first rigid "
                     "body (docs/rl.md)",
           "heading": "heading frame: origin at the centre of mass, z up, x along the heading "

@@ -31,6 +31,8 @@ ALGOS = ("ppo", "sac")
 TASKS = {"roll": "direction", "turn": "turn", "goal": "goal"}
 CLIP_OBS = 10.0  # the observation normaliser's clip (SB3's VecNormalize default)
 EPSILON = 1e-8  # its variance floor
+ROLLOUT_STEPS = 4096  # env steps per PPO update, all robots together
+MIN_ROLLOUT = 16  # the shortest PPO rollout per robot
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,6 +86,10 @@ class TrainSettings:
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise InputError(f"--{name} must be an integer >= 1, got {value!r}")
+        least = self.envs * (MIN_ROLLOUT if self.algo == "ppo" else 1)
+        if self.steps < least:
+            raise InputError(f"--steps {self.steps} is less than one update's env steps "
+                             f"({least} with --envs {self.envs})")
         if self.cable_law not in CABLE_LAWS:
             raise InputError(f"--cable-law must be one of {', '.join(CABLE_LAWS)}, got "
                              f"{self.cable_law!r}")
@@ -158,8 +164,11 @@ def train(settings: TrainSettings, out: Path, *, resume: bool = False,
     done = int(state["steps_done"])
     start = time.process_time() - float(state.get("cpu_s", 0.0))
     curve = _Curve(state["curve"])
-    while done < settings.steps:
-        chunk = min(checkpoint_steps, settings.steps - done)
+    # PPO collects whole rollouts, SAC one env step of every robot at a time: the run stops
+    # at the last whole one within ``steps``, so it never trains past its budget
+    whole = learner.n_steps * settings.envs if settings.algo == "ppo" else settings.envs
+    while settings.steps - done >= whole:
+        chunk = max(whole, min(checkpoint_steps, settings.steps - done) // whole * whole)
         learner.learn(chunk, reset_num_timesteps=False, callback=curve.callback())
         done = int(learner.num_timesteps)
         state.update(steps_done=done, curve=curve.points, cpu_s=time.process_time() - start)
@@ -227,21 +236,21 @@ def _learner(settings: TrainSettings, out: Path, state: dict[str, Any]) -> Any:
         if settings.algo == "sac" and (out / "replay_buffer.npz").is_file():
             _load_replay(learner.replay_buffer, out / "replay_buffer.npz")
         return learner, env
-    kwargs = ppo_recipe(settings.envs) if settings.algo == "ppo" else {
+    kwargs = ppo_recipe(settings.envs, settings.steps) if settings.algo == "ppo" else {
         "learning_starts": min(1000, settings.steps // 2)}
     return algo("MlpPolicy", env, seed=settings.seed, device="cpu", verbose=0, **kwargs), env
 
 
-ROLLOUT_STEPS = 4096  # env steps per PPO update, all robots together
 
 
-def ppo_recipe(envs: int) -> dict[str, Any]:
-    """PPO's settings: a rollout of about :data:`ROLLOUT_STEPS` env steps per update, ten
+def ppo_recipe(envs: int, steps: int) -> dict[str, Any]:
+    """PPO's settings for ``envs`` robots and a budget of ``steps`` env steps: a rollout of
+    about :data:`ROLLOUT_STEPS` env steps per update (at most the budget), ten
     epochs of minibatches of a quarter of it, Adam at 3e-4, gamma 0.99, GAE 0.95 and an
     initial action std of exp(-0.5) = 0.61 in the [-1, 1] action box."""
-    n_steps = max(64, ROLLOUT_STEPS // envs)
-    return {"n_steps": n_steps, "batch_size": max(64, n_steps * envs // 4), "n_epochs": 10,
-            "learning_rate": 3e-4, "gamma": 0.99, "gae_lambda": 0.95,
+    n_steps = max(MIN_ROLLOUT, min(ROLLOUT_STEPS, steps) // envs)
+    return {"n_steps": n_steps, "batch_size": max(MIN_ROLLOUT, n_steps * envs // 4),
+            "n_epochs": 10, "learning_rate": 3e-4, "gamma": 0.99, "gae_lambda": 0.95,
             "policy_kwargs": {"log_std_init": -0.5, "net_arch": [128, 128]}}
 
 
