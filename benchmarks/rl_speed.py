@@ -5,6 +5,8 @@ the ``TensegrityVectorEnv``, the ``SB3VecEnv`` on top of it, and a plain MuJoCo 
 (tendon springs for the cables, tendon-force actuators, observations qpos and qvel).
 
     python benchmarks/rl_speed.py [--envs 8] [--periods 200] [--repeats 3]
+    python benchmarks/rl_speed.py --model three_bar --dt 0.002 --cable-law implicitfast \
+        --envs 16          # the preset as `tensim rl train` trains it
 
 Each case runs ``--periods`` control periods, the cases take turns, best of ``--repeats``;
 CPU time of this process (time.process_time), so other work on the machine matters less.
@@ -82,6 +84,10 @@ def main() -> None:
     parser.add_argument("--envs", type=int, default=8)
     parser.add_argument("--periods", type=int, default=200)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--model", default=None,
+                        help="a preset or structure file (default: the 3-bar written here)")
+    parser.add_argument("--dt", type=float, default=0.001, help="physics step [s]")
+    parser.add_argument("--cable-law", default="explicit")
     args = parser.parse_args()
 
     from tensim.io.mjcf import save_mjcf
@@ -89,10 +95,13 @@ def main() -> None:
     from tensim.rl.config import ROLLING_OBSERVATION
     from tensim.rl.sb3 import SB3VecEnv
 
+    from tensim.model import WorldOptions
+
     folder = Path(tempfile.mkdtemp())
     (folder / "three_bar.yaml").write_text(three_bar())
-    config = EnvConfig(model=str(folder / "three_bar.yaml"), control_dt=0.02,
-                       observation=ROLLING_OBSERVATION)
+    config = EnvConfig(model=args.model or str(folder / "three_bar.yaml"), control_dt=0.02,
+                       observation=ROLLING_OBSERVATION,
+                       world=WorldOptions(timestep=args.dt, cable_law=args.cable_law))
     vector, sb3 = TensegrityVectorEnv(args.envs, config), SB3VecEnv(args.envs, config)
     single = TensegrityEnv(config)
     save_mjcf(single.robot.compiled, folder / "three_bar.xml")
@@ -129,8 +138,9 @@ def main() -> None:
                 step()
             best[name] = max(best[name], args.periods * args.envs /
                              (time.process_time() - started))
-    print(f"3-bar, {args.envs} robots, control_dt {config.control_dt} s "
-          f"({config.control_steps} physics steps), env steps per CPU second, best of "
+    print(f"{args.model or '3-bar'}, {args.envs} robots, control_dt {config.control_dt} s "
+          f"({config.control_steps} physics steps of {args.dt * 1e3:g} ms, {args.cable_law} "
+          "cable law), env steps per CPU second, best of "
           f"{args.repeats}:")
     for name, rate in best.items():
         print(f"  {name:<32} {rate:8.0f}  ({rate / best['batch engine (tensim model)']:.2f} "

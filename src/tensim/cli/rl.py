@@ -31,8 +31,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
                    default="implicitfast", help="the cable law (default implicitfast: stiff "
                    "cables at a 2 ms step)")
-    t.add_argument("--rest-span", type=positive, default=0.2, metavar="FRACTION",
-                   help="rest-length actions reach l0 (1 +- FRACTION) (default 0.2)")
+    t.add_argument("--rest-span", type=positive, default=0.6, metavar="FRACTION",
+                   help="rest-length actions reach l0 (1 +- FRACTION), within the motor's "
+                   "minimum rest length (default 0.6)")
     t.add_argument("--frame", choices=("heading", "robot"), default="heading",
                    help="observations in the heading's frame (default) or the robot's")
     t.add_argument("--bar-contact-cost", type=positive, default=None,
@@ -45,7 +46,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     e = rl.add_parser("evaluate", help="drive one robot with a trained policy; write a run "
                       "folder with body_lengths_per_s")
-    e.add_argument("run_dir", metavar="DIR", help="a `tensim rl train` folder")
+    e.add_argument("run_dir", metavar="DIR|POLICY",
+                   help="a `tensim rl train` folder or an exported policy.json")
     e.add_argument("--duration", type=positive, default=30.0, help="simulated time [s]")
     e.add_argument("--seed", type=int, default=0, help="the start's seed")
     e.add_argument("--video", action="store_true", help="also video.mp4 (offscreen OpenGL)")
@@ -104,12 +106,18 @@ def evaluate(args: argparse.Namespace) -> int:
     _need_rl_extra()
     from tensim.rl.evaluate import evaluate as run_evaluation
 
-    out = Path(args.out) if args.out else Path(args.run_dir) / "evaluation"
-    s = run_evaluation(Path(args.run_dir), out, args.duration, args.seed, video=args.video)
+    source = Path(args.run_dir)
+    out = Path(args.out) if args.out else (source.parent if source.is_file() else source) \
+        / "evaluation"
+    s = run_evaluation(source, out, args.duration, args.seed, video=args.video)
     print(f"policy of {args.run_dir}: {s['displacement_along_heading_m']:+.3f} m along the "
           f"heading in "
           f"{s['duration_s']:g} s = {s['body_lengths_per_s']:+.4f} body lengths/s "
-          f"(body length {s['body_length_m']:.3f} m); wrote {out}")
+          f"(body length {s['body_length_m']:.3f} m), heading error "
+          f"{s['heading_error_deg']:+.1f} deg; wrote {out}")
+    if s["training"]:
+        print(f"trained {s['training']['env_steps']} env steps in "
+              f"{s['training']['cpu_s']:.0f} CPU s")
     return 0
 
 

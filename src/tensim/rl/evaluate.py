@@ -8,7 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from tensim.rl.policy import Policy
+from tensim._input import InputError
+from tensim.models import PRESETS
+from tensim.rl.policy import Policy, load
 from tensim.rl.train import TrainSettings, load_settings
 
 
@@ -61,11 +63,41 @@ def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed:
             "unstable": unstable}
 
 
+def load_policy(source: Path) -> tuple[TrainSettings, Policy]:
+    """The settings and deterministic policy of a training run folder (its latest
+    checkpoint) or of an exported ``policy.json`` (``tensim rl export``).
+
+    Raises:
+        InputError: ``source`` is neither, or a ``policy.json`` without its settings.
+    """
+    source = Path(source)
+    if not source.is_file():
+        from tensim.rl.export import policy_record
+
+        meta, arrays = policy_record(source)
+        n = len(arrays) // 2
+        return load_settings(source), Policy(meta, [arrays[f"w{k}"] for k in range(n)],
+                                             [arrays[f"b{k}"] for k in range(n)])
+    try:
+        runner = load(source)
+    except (ValueError, KeyError, OSError) as err:
+        raise InputError(f"{source}: not an exported policy ({err})") from err
+    if "settings" not in runner.meta:
+        raise InputError(f"{source}: exported without its training settings; export the run "
+                         "again with `tensim rl export`")
+    data = dict(runner.meta["settings"])
+    if data["model"] not in PRESETS:  # the robot file exported beside it
+        data["model"] = str(source.parent / data["model"])
+    return TrainSettings(**data), runner
+
+
 def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
              video: bool = False) -> dict[str, Any]:
-    """Evaluates the run in ``folder`` and writes a run folder ``out`` (``trajectory.parquet``,
-    ``summary.json`` with ``body_lengths_per_s``, ``path.png``, ``report.html``; with
-    ``video``, ``video.mp4``).
+    """Evaluates the policy of ``folder`` (a training run, or an exported ``policy.json``) and
+    writes a run folder ``out`` (``trajectory.parquet``, ``summary.json`` with
+    ``body_lengths_per_s`` and ``heading_error_deg``, the angle from the heading to the net
+    displacement, counter-clockwise; ``path.png``, ``report.html``; with ``video``,
+    ``video.mp4``).
 
     Raises:
         tensim.viz._gl.OffscreenUnavailable: ``video`` where no offscreen OpenGL works.
@@ -73,20 +105,17 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
     Returns:
         the summary.
     """
-    from tensim.rl.export import policy_record
     from tensim.runs import finish_run, replace_folder
     from tensim.sim import TimeSeries
     from tensim.viz.plots import new_figure, save_figure
 
-    settings = load_settings(folder)
-    meta, arrays = policy_record(folder)
-    n = len(arrays) // 2
-    policy = Policy(meta, [arrays[f"w{k}"] for k in range(n)], [arrays[f"b{k}"]
-                                                                 for k in range(n)])
+    settings, policy = load_policy(folder)
     frames: list[np.ndarray] | None = [] if video else None
     run = run_policy(settings, policy, duration_s, seed, frames)
     t, com, heading = run["time"], run["com"], run["heading"]
-    along = float((com[-1, :2] - com[0, :2]) @ heading)
+    moved = com[-1, :2] - com[0, :2]
+    along = float(moved @ heading)
+    error = np.degrees(np.arctan2(heading[0] * moved[1] - heading[1] * moved[0], along))
     length = body_length(settings.model)
     summary = {"command": "rl evaluate", "policy_run": str(folder), "model": settings.model,
                "algo": settings.algo, "task": settings.task, "seed": seed,
@@ -95,6 +124,8 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
                "speed_m_per_s": round(along / t[-1], 6) if t[-1] > 0 else 0.0,
                "body_lengths_per_s": round(along / t[-1] / length, 6) if t[-1] > 0 else 0.0,
                "heading_world": [round(float(h), 6) for h in heading],
+               "heading_error_deg": round(float(error), 3),
+               "training": policy.meta.get("training"),
                "unstable": run["unstable"]}
     series = TimeSeries(t, {f"pos_{a}/com": com[:, k] for k, a in enumerate("xyz")})
     with replace_folder(out) as stage:

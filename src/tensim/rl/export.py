@@ -3,6 +3,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -10,6 +13,7 @@ import numpy as np
 
 from tensim._files import atomic_path, write_json
 from tensim._input import InputError
+from tensim.models import PRESETS
 from tensim.rl.policy import Policy
 from tensim.rl.train import load_settings
 
@@ -71,8 +75,15 @@ def policy_record(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     else:
         action["build_rest_length_m"] = robot.rest0[robot.motors].tolist()
         action["rest_span"] = config.rest_span
+    progress = json.loads((folder / "progress.json").read_text())
+    trained = dataclasses.asdict(settings) | {"model": Path(settings.model).name
+                                              if settings.model not in PRESETS else
+                                              settings.model}
     meta = {
         "format": "tensim-policy", "version": 1, "model": settings.model,
+        "settings": trained,
+        "training": {"env_steps": int(progress["steps_done"]),
+                     "cpu_s": round(float(progress.get("cpu_s", 0.0)), 1)},
         "algo": settings.algo, "task": settings.task, "heading_deg": settings.heading_deg,
         "control_dt_s": config.control_dt, "physics_step_s": config.world.timestep,
         "cable_law": config.world.cable_law,
@@ -92,7 +103,8 @@ def policy_record(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
 
 def export(folder: Path, onnx: Path | None = None) -> dict[str, Any]:
     """Writes ``policy.json`` and ``policy.npz`` beside ``onnx`` (or into ``folder``) and,
-    with ``onnx``, the ONNX graph: raw observation in, action in [-1, 1] out.
+    with ``onnx``, the ONNX graph: raw observation in, action in [-1, 1] out. A robot file
+    (not a preset) is copied beside them, so ``tensim rl evaluate policy.json`` runs.
 
     Returns:
         the ``policy.json`` record.
@@ -100,6 +112,9 @@ def export(folder: Path, onnx: Path | None = None) -> dict[str, Any]:
     meta, arrays = policy_record(folder)
     where = Path(folder) if onnx is None else Path(onnx).parent
     where.mkdir(parents=True, exist_ok=True)
+    if meta["settings"]["model"] not in PRESETS:  # the robot file, for `rl evaluate`
+        with atomic_path(where / meta["settings"]["model"]) as tmp:
+            shutil.copyfile(load_settings(folder).model, tmp)
     with atomic_path(where / "policy.npz") as tmp, open(tmp, "wb") as f:
         np.savez(f, **arrays)  # type: ignore[arg-type]
     if onnx is not None:

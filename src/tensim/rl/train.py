@@ -74,7 +74,7 @@ class TrainSettings:
     bar_contact_cost: float = 0.0
     timestep: float = 0.002
     cable_law: str = "implicitfast"
-    rest_span: float = 0.2
+    rest_span: float = 0.6
     frame: str = "heading"
 
     def __post_init__(self) -> None:
