@@ -236,7 +236,7 @@ def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, cap
     out = tmp_path / algo
     assert _train(robot_file, out, algo, 512 if algo == "ppo" else 100) == 0  # seconds
     progress = json.loads((out / "progress.json").read_text())
-    assert progress["steps_done"] >= (512 if algo == "ppo" else 100)
+    assert progress["steps_done"] == (512 if algo == "ppo" else 100)  # never past --steps
     assert (out / "learning_curve.png").is_file() and (out / "robot.yaml").is_file()
     assert _train(robot_file, out, algo, 1024) == 2  # no silent restart over a run
     assert "add --resume" in capsys.readouterr().err
@@ -244,7 +244,7 @@ def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, cap
     assert main(["--quiet", "rl", "train", robot_file, "--algo", algo, "--steps", str(budget),
                  "--envs", "2", "--episode", "1", "--out", str(out), "--resume"]) == 0
     resumed = json.loads((out / "progress.json").read_text())
-    assert resumed["steps_done"] >= budget and len(resumed["curve"]) >= len(progress["curve"])
+    assert resumed["steps_done"] == budget and len(resumed["curve"]) >= len(progress["curve"])
     assert main(["--quiet", "rl", "evaluate", str(out), "--duration", "0.4"]) == 0
     summary = json.loads((out / "evaluation" / "summary.json").read_text())
     assert summary["body_length_m"] == pytest.approx(1.4, abs=0.01)  # the longest rod
@@ -252,7 +252,13 @@ def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, cap
     assert summary["body_lengths_per_s"] == pytest.approx(speed, abs=2e-6)  # 6 digits kept
     assert main(["--quiet", "rl", "export", str(out), "--onnx",
                  str(tmp_path / "robot" / "policy.onnx")]) == 0
-    assert (tmp_path / "robot" / "policy.json").is_file()
+    # the exported policy (with the robot file beside it) drives the robot as the run did
+    assert main(["--quiet", "rl", "evaluate", str(tmp_path / "robot" / "policy.json"),
+                 "--duration", "0.4", "--out", str(tmp_path / "exported")]) == 0
+    again = json.loads((tmp_path / "exported" / "summary.json").read_text())
+    assert again["displacement_along_heading_m"] == summary["displacement_along_heading_m"]
+    assert again["training"] == {"env_steps": budget, "cpu_s": pytest.approx(
+        resumed["cpu_s"], abs=0.06)}
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,35 @@
+"""The shipped 3-bar rolling policies (examples/rl/three_bar_roll, PPO seeds of docs/rl.md):
+each, re-run from its exported NumPy policy, rolls along its heading as the page says."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("gymnasium", reason="the rl extra (gymnasium) is not installed")
+
+from tensim.rl.evaluate import body_length, load_policy, run_policy  # noqa: E402
+from tensim.sim import compiled_available  # noqa: E402
+
+pytestmark = pytest.mark.skipif(not compiled_available(),
+                                reason="the environments step on the compiled cable law")
+
+SHIPPED = sorted((Path(__file__).parent.parent / "examples" / "rl" / "three_bar_roll")
+                 .glob("seed*/policy.json"))
+
+
+def test_the_shipped_policies_roll_the_3_bar_a_quarter_body_length_per_second():
+    # the goal: >= 0.25 body lengths/s over 30 s from MjData on two of the three seeds,
+    # each trained within a million env steps
+    assert len(SHIPPED) == 3
+    speeds = []
+    for path in SHIPPED:
+        settings, policy = load_policy(path)
+        assert settings.model == "three_bar" and policy.meta["training"]["env_steps"] <= 10**6
+        run = run_policy(settings, policy, 30.0, seed=0)
+        assert not run["unstable"]
+        along = (run["com"][-1, :2] - run["com"][0, :2]) @ run["heading"]
+        speeds.append(along / run["time"][-1] / body_length("three_bar"))
+    assert sum(s >= 0.25 for s in speeds) >= 2, np.round(speeds, 3)
