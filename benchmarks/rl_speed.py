@@ -91,11 +91,10 @@ def main() -> None:
     args = parser.parse_args()
 
     from tensim.io.mjcf import save_mjcf
+    from tensim.model import WorldOptions
     from tensim.rl import EnvConfig, TensegrityEnv, TensegrityVectorEnv
     from tensim.rl.config import ROLLING_OBSERVATION
     from tensim.rl.sb3 import SB3VecEnv
-
-    from tensim.model import WorldOptions
 
     folder = Path(tempfile.mkdtemp())
     (folder / "three_bar.yaml").write_text(three_bar())

@@ -10,8 +10,8 @@ import pytest
 
 pytest.importorskip("gymnasium", reason="the rl extra (gymnasium) is not installed")
 
-from tensim.rl.evaluate import body_length, load_policy, run_policy  # noqa: E402
-from tensim.sim import compiled_available  # noqa: E402
+from tensim.rl.evaluate import body_length, load_policy, run_policy
+from tensim.sim import compiled_available
 
 pytestmark = pytest.mark.skipif(not compiled_available(),
                                 reason="the environments step on the compiled cable law")

@@ -110,11 +110,12 @@ def evaluate(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else (source.parent if source.is_file() else source) \
         / "evaluation"
     s = run_evaluation(source, out, args.duration, args.seed, video=args.video)
+    error = "no net displacement" if s["heading_error_deg"] is None else \
+        f"heading error {s['heading_error_deg']:+.1f} deg"
     print(f"policy of {args.run_dir}: {s['displacement_along_heading_m']:+.3f} m along the "
           f"heading in "
           f"{s['duration_s']:g} s = {s['body_lengths_per_s']:+.4f} body lengths/s "
-          f"(body length {s['body_length_m']:.3f} m), heading error "
-          f"{s['heading_error_deg']:+.1f} deg; wrote {out}")
+          f"(body length {s['body_length_m']:.3f} m), {error}; wrote {out}")
     if s["training"]:
         print(f"trained {s['training']['env_steps']} env steps in "
               f"{s['training']['cpu_s']:.0f} CPU s")

@@ -13,6 +13,8 @@ from tensim.models import PRESETS
 from tensim.rl.policy import Policy, load
 from tensim.rl.train import TrainSettings, load_settings
 
+MOVED_M = 0.01  # the net displacement [m] below which a heading error means nothing
+
 
 def body_length(model: str) -> float:
     """The robot's body length [m]: its longest rod (its longest cable if it has no rod)."""
@@ -96,8 +98,8 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
     """Evaluates the policy of ``folder`` (a training run, or an exported ``policy.json``) and
     writes a run folder ``out`` (``trajectory.parquet``, ``summary.json`` with
     ``body_lengths_per_s`` and ``heading_error_deg``, the angle from the heading to the net
-    displacement, counter-clockwise; ``path.png``, ``report.html``; with ``video``,
-    ``video.mp4``).
+    displacement, counter-clockwise, None below :data:`MOVED_M`; ``path.png``,
+    ``report.html``; with ``video``, ``video.mp4``).
 
     Raises:
         tensim.viz._gl.OffscreenUnavailable: ``video`` where no offscreen OpenGL works.
@@ -124,7 +126,8 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
                "speed_m_per_s": round(along / t[-1], 6) if t[-1] > 0 else 0.0,
                "body_lengths_per_s": round(along / t[-1] / length, 6) if t[-1] > 0 else 0.0,
                "heading_world": [round(float(h), 6) for h in heading],
-               "heading_error_deg": round(float(error), 3),
+               "heading_error_deg": round(float(error), 3) if np.hypot(*moved) >= MOVED_M
+               else None,
                "training": policy.meta.get("training"),
                "unstable": run["unstable"]}
     series = TimeSeries(t, {f"pos_{a}/com": com[:, k] for k, a in enumerate("xyz")})
