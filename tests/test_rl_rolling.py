@@ -259,6 +259,14 @@ def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, cap
     assert again["displacement_along_heading_m"] == summary["displacement_along_heading_m"]
     assert again["training"] == {"env_steps": budget, "cpu_s": pytest.approx(
         resumed["cpu_s"], abs=0.06)}
+    # and on other physics than it was trained on: the step and law asked for are used
+    assert main(["--quiet", "rl", "evaluate", str(tmp_path / "robot" / "policy.json"),
+                 "--duration", "0.4", "--dt", "0.001", "--cable-law", "explicit",
+                 "--out", str(tmp_path / "other")]) == 0
+    other = json.loads((tmp_path / "other" / "summary.json").read_text())
+    assert (other["timestep_s"], other["cable_law"]) == (0.001, "explicit")
+    assert other["trained_physics"] == {"timestep": 0.002, "cable_law": "implicitfast"}
+    assert other["displacement_along_heading_m"] != again["displacement_along_heading_m"]
 
 
 @pytest.fixture(scope="module")

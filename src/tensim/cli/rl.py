@@ -51,6 +51,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--duration", type=positive, default=30.0, help="simulated time [s]")
     e.add_argument("--seed", type=int, default=0, help="the start's seed")
     e.add_argument("--video", action="store_true", help="also video.mp4 (offscreen OpenGL)")
+    e.add_argument("--dt", type=positive, default=None,
+                   help="physics step [s] (default: the one it was trained at)")
+    e.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
+                   default=None, help="cable law (default: the one it was trained with)")
     e.add_argument("--out", default=None, help="run folder (default DIR/evaluation)")
     e.set_defaults(run=evaluate)
 
@@ -109,7 +113,8 @@ def evaluate(args: argparse.Namespace) -> int:
     source = Path(args.run_dir)
     out = Path(args.out) if args.out else (source.parent if source.is_file() else source) \
         / "evaluation"
-    s = run_evaluation(source, out, args.duration, args.seed, video=args.video)
+    s = run_evaluation(source, out, args.duration, args.seed, video=args.video,
+                       timestep=args.dt, cable_law=args.cable_law)
     error = "no net displacement" if s["heading_error_deg"] is None else \
         f"heading error {s['heading_error_deg']:+.1f} deg"
     print(f"policy of {args.run_dir}: {s['displacement_along_heading_m']:+.3f} m along the "

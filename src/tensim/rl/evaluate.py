@@ -3,6 +3,7 @@ centre of mass's path, read from MjData, gives its speed in body lengths per sec
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -94,12 +95,14 @@ def load_policy(source: Path) -> tuple[TrainSettings, Policy]:
 
 
 def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
-             video: bool = False) -> dict[str, Any]:
+             video: bool = False, timestep: float | None = None,
+             cable_law: str | None = None) -> dict[str, Any]:
     """Evaluates the policy of ``folder`` (a training run, or an exported ``policy.json``) and
     writes a run folder ``out`` (``trajectory.parquet``, ``summary.json`` with
     ``body_lengths_per_s`` and ``heading_error_deg``, the angle from the heading to the net
     displacement, counter-clockwise, None below :data:`MOVED_M`; ``path.png``,
-    ``report.html``; with ``video``, ``video.mp4``).
+    ``report.html``; with ``video``, ``video.mp4``). ``timestep`` [s] and ``cable_law``
+    replace the physics the policy was trained with (None: as trained).
 
     Raises:
         tensim.viz._gl.OffscreenUnavailable: ``video`` where no offscreen OpenGL works.
@@ -112,6 +115,9 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
     from tensim.viz.plots import new_figure, save_figure
 
     settings, policy = load_policy(folder)
+    trained = {"timestep": settings.timestep, "cable_law": settings.cable_law}
+    settings = dataclasses.replace(settings, timestep=timestep or settings.timestep,
+                                   cable_law=cable_law or settings.cable_law)
     frames: list[np.ndarray] | None = [] if video else None
     run = run_policy(settings, policy, duration_s, seed, frames)
     t, com, heading = run["time"], run["com"], run["heading"]
@@ -129,7 +135,8 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
                "heading_error_deg": round(float(error), 3) if np.hypot(*moved) >= MOVED_M
                else None,
                "training": policy.meta.get("training"),
-               "unstable": run["unstable"]}
+               "unstable": run["unstable"], "timestep_s": settings.timestep,
+               "cable_law": settings.cable_law, "trained_physics": trained}
     series = TimeSeries(t, {f"pos_{a}/com": com[:, k] for k, a in enumerate("xyz")})
     with replace_folder(out) as stage:
         series.to_parquet(stage / "trajectory.parquet")
