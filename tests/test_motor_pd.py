@@ -46,6 +46,14 @@ def test_the_servo_starts_relaxed_at_the_build_length_and_its_gains_have_their_s
     # the target starts at the build length (0.5 m), where the servo pulls nothing
     assert compiled.command[0] == pytest.approx(0.5, abs=1e-12)
     assert compiled.rest_length[0] == 0.6
+    # or at its pd_target, pulling kp (0.5 - 0.47) = 12 N from the first step
+    s = compiled.structure
+    s = dataclasses.replace(s, cables=(dataclasses.replace(
+        s.cables[0], motor=_pd(pd_target=0.47)),))
+    with Simulation(compile_structure(s, compiled.world)) as sim:
+        assert sim.drive.rest_command[0] == 0.47
+        sim.step(1)
+        assert sim.drive.tension[0] == pytest.approx(12.0, abs=1e-12)  # rounding of 0.03 m
 
 
 @pytest.mark.parametrize("law", ["explicit", "implicit"])
@@ -171,6 +179,8 @@ def test_pd_options_are_validated_and_survive_the_structure_file(tmp_path):
 
     for fields, words in (({"pd_stiffness": -1.0}, "pd_stiffness must be >= 0"),
                           ({"pd_damping": 2.0}, "needs pd_stiffness > 0"),
+                          ({"pd_target": 0.4}, "needs pd_stiffness > 0"),
+                          ({"pd_stiffness": 1.0, "pd_target": 0.0}, "pd_target must be > 0"),
                           ({"pd_stiffness": 10.0, "lag_time": 0.1}, "takes no lag_time"),
                           ({"pd_stiffness": 10.0, "saturate": True}, "takes no saturate")):
         with pytest.raises(StructureError, match=words):
@@ -181,3 +191,16 @@ def test_pd_options_are_validated_and_survive_the_structure_file(tmp_path):
         save_structure(s, tmp_path / "s.yaml")
         assert ("pd_stiffness" in (tmp_path / "s.yaml").read_text()) is written
         assert load_structure(tmp_path / "s.yaml") == s
+
+
+def test_the_step_bound_counts_the_servo():
+    """The bob's only stiffness is the servo's (its spring is slack): the bound of the
+    linearised Euler step is that of m x'' = -kp x - kd x', near 2 / w = 0.1 s
+    (w = 20 rad/s; the damping lowers it a little), and no bound without the servo."""
+    from tensim.design import stable_timestep, stiffness
+
+    s = _hanging("explicit").structure
+    bound = float(stable_timestep(stiffness(s, count=False))[0])
+    assert 0.07 < bound < 0.1
+    slack = dataclasses.replace(s, cables=(dataclasses.replace(s.cables[0], motor=Motor()),))
+    assert not np.isfinite(float(stable_timestep(stiffness(slack, count=False))[0]))

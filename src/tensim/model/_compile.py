@@ -433,8 +433,8 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
 
 def _relax_pd_targets(structure: Structure, spec: mujoco.MjSpec,
                       model: mujoco.MjModel) -> None:
-    """Starts each PD motor's target at its cable's build length (the build keyframe's
-    ``ctrl``), where it pulls nothing: the build pose's statics stay the springs'."""
+    """Starts each PD motor's target (the build keyframe's ``ctrl``) at its ``pd_target``, or
+    at its cable's build length, where it pulls nothing."""
     pd = [i for i, c in enumerate(structure.cables) if c.motor.pd]
     if not pd:
         return
@@ -444,7 +444,9 @@ def _relax_pd_targets(structure: Structure, spec: mujoco.MjSpec,
     mujoco.mj_kinematics(model, data)
     mujoco.mj_tendon(model, data)
     for i in pd:
-        model.key_ctrl[key, i] = data.ten_length[model.actuator_trnid[i, 0]]
+        target = structure.cables[i].motor.pd_target
+        model.key_ctrl[key, i] = data.ten_length[model.actuator_trnid[i, 0]] \
+            if target is None else target
     spec.key(BUILD_KEY).ctrl = model.key_ctrl[key].tolist()
 
 
@@ -569,9 +571,9 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float,
         actuator.forcelimited = True
         actuator.forcerange = [-np.inf, 0.0]
     motor, dc = cable.motor, cable.motor.dc
-    actuator.dynprm[:] = dynprm(MODE_PD if motor.pd else MODE_REST, motor.max_speed, motor.max_tension,
-                                motor.min_rest_length, motor.min_length, 0.0, 0.0, 0.0,
-                                rest_length)
+    actuator.dynprm[:] = dynprm(MODE_PD if motor.pd else MODE_REST, motor.max_speed,
+                                motor.max_tension, motor.min_rest_length, motor.min_length,
+                                0.0, 0.0, 0.0, rest_length)
     actuator.actdim = (ACTDIM if dc is None else DC_ACTDIM) + (IMPLICIT_EXTRA if implicit else 0)
     slots = None
     if dc is not None:

@@ -379,11 +379,13 @@ class Motor:
         pd_stiffness: kp of a PD motor [N/m] (0, the default: none). A PD motor is a lab's
             position servo on the cable's length, in parallel with the cable's spring: it
             pulls T = kp (x - L) + kd dx/dt, clamped to [0, max_tension] (it never pushes),
-            toward its target length L, the cable's command (starting at the build length,
-            where it pulls nothing, so the build pose's statics are the spring's). The rest
-            length then stays as built; max_speed, min_rest_length and min_length do not
+            toward its target length L, the cable's command (starting at ``pd_target``). The
+            rest length then stays as built; max_speed, min_rest_length and min_length do not
             apply.
         pd_damping: kd of a PD motor [N s/m] (needs pd_stiffness > 0).
+        pd_target: a PD motor's target length at build [m]; None (the default): the cable's
+            build length, where the servo pulls nothing, so the build pose's statics are the
+            spring's (the design tools see the spring only).
     """
 
     max_speed: float = 0.07
@@ -396,6 +398,7 @@ class Motor:
     saturate: bool = False
     pd_stiffness: float = 0.0
     pd_damping: float = 0.0
+    pd_target: float | None = None
 
     def __post_init__(self) -> None:
         _check(isinstance(self.passive, bool), "motor",
@@ -408,6 +411,7 @@ class Motor:
                             ("min_rest_length", "m"), ("min_length", "m"), ("lag_time", "s"),
                             ("pd_stiffness", "N/m"), ("pd_damping", "N s/m")):
             _real(self, "motor", field, unit)
+        _real(self, "motor", "pd_target", "m", optional=True)
         self._check_pd()
         _check(self.lag_time >= 0, "motor", f"lag_time must be >= 0 s, got {self.lag_time}")
         _check(isinstance(self.saturate, bool), "motor",
@@ -424,8 +428,12 @@ class Motor:
         for field in ("pd_stiffness", "pd_damping"):
             value = getattr(self, field)
             _check(value >= 0, "motor", f"{field} must be >= 0, got {value}")
-        _check(self.pd_damping == 0 or self.pd_stiffness > 0, "motor",
-               f"pd_damping {self.pd_damping} N s/m needs pd_stiffness > 0 N/m (a PD motor)")
+        for field, value, unit in (("pd_damping", self.pd_damping, "N s/m"),
+                                   ("pd_target", self.pd_target, "m")):
+            _check(not value or self.pd_stiffness > 0, "motor",
+                   f"{field} {value} {unit} needs pd_stiffness > 0 N/m (a PD motor)")
+        _check(self.pd_target is None or self.pd_target > 0, "motor",
+               f"pd_target must be > 0 m, got {self.pd_target}")
         if self.pd_stiffness > 0:
             other = [name for name, on in (("passive", self.passive),
                                            ("dc", self.dc is not None),
