@@ -102,4 +102,4 @@ def standing(structure: Structure) -> Structure:
 
     rest = np.array([structure.rest_length(c) for c in structure.cables])
     explicit = with_rest_lengths(structure, rest)
-    return settle(explicit, feet(explicit)).pose
+    return settle(explicit, feet(explicit), sliding=True).pose
