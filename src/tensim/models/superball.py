@@ -12,8 +12,14 @@ kg/s^2), damping 200 N s/m, pretension 2452 kg dm/s^2 = 245.2 N.
 The geometry is the symmetric form of :mod:`tensim.models.six_bar` (parallel struts half a
 strut apart), in which equal pretensions are a state of self-stress; the toolkit's file spaces
 the pairs 15 dm apart instead, a pose its cables then pull towards this one. Motor limits are
-not in the toolkit's model (it leaves them effectively unlimited); 0.1 m/s and 1 kN here are
-placeholders, not hardware data.
+not in the toolkit's models (they leave them effectively unlimited: ``maxTens`` 100000 and
+``targetVelocity`` 10000 in every SUPERball/T6 model, v2 included) and the papers' actuator
+figures were not available (docs/models.md lists what was searched); 0.1 m/s and 1 kN here
+are placeholders, not hardware data.
+
+As built, it rests on a closed triangle of cables (as SUPERball rests between rolls) in its
+static pose under gravity on frictionless feet, so it stands still when released (under
+1 mm in 5 s at 1 ms, ``tests/test_standing.py``).
 """
 
 from __future__ import annotations
