@@ -72,6 +72,16 @@ def pd_tension(length: np.ndarray | float, velocity: np.ndarray | float,
     return static, applied
 
 
+def load_cell_reading(length: np.ndarray, rest_length: np.ndarray, stiffness: np.ndarray,
+                      pd: np.ndarray, command: np.ndarray, pd_stiffness: np.ndarray,
+                      max_tension: np.ndarray) -> np.ndarray:
+    """The load cell's reading [N]: k max(0, x - l) (:func:`load_cell_tension`), plus a PD
+    motor's static pull (:func:`pd_tension`) where ``pd``, its target the command ``command``.
+    The first of :func:`motor_cable_tension`'s results, without the rates."""
+    static = pd_tension(length, 0.0, command, pd_stiffness, 0.0, max_tension)[0]
+    return load_cell_tension(length, rest_length, stiffness) + np.where(pd, static, 0.0)
+
+
 def motor_cable_tension(length: np.ndarray, velocity: np.ndarray, rest_length: np.ndarray,
                         stiffness: np.ndarray, damping: np.ndarray, pd: np.ndarray,
                         command: np.ndarray, pd_stiffness: np.ndarray, pd_damping: np.ndarray,
