@@ -381,7 +381,8 @@ class Motor:
             pulls T = kp (x - L) + kd dx/dt, clamped to [0, max_tension] (it never pushes),
             toward its target length L, the cable's command (starting at ``pd_target``). The
             rest length then stays as built; max_speed, min_rest_length and min_length do not
-            apply.
+            apply. A controller that puts the cable under the impedance law (impedance, CPG
+            and sine gaits) replaces the servo by it.
         pd_damping: kd of a PD motor [N s/m] (needs pd_stiffness > 0).
         pd_target: a PD motor's target length at build [m]; None (the default): the cable's
             build length, where the servo pulls nothing, so the build pose's statics are the
