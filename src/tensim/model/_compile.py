@@ -241,7 +241,7 @@ class CompiledModel:
     @property
     def command(self) -> np.ndarray:
         """(n_cables,) each cable's command at build (the build keyframe's ``ctrl``): its rest
-        length, or a PD motor's target, the cable's build length [m]."""
+        length, or a PD motor's target (its ``pd_target``, else the cable's build length) [m]."""
         return self.model.key(BUILD_KEY).ctrl[:self.n_cables].copy()
 
     def with_load_nodes(self, nodes: tuple[str, ...]) -> CompiledModel:
