@@ -332,18 +332,23 @@ class _WarpRun:
                 time = float(self.samples.time[i, self.count[i] - 1])
                 self.error[i] = f"trial {i}: " + ring_message(
                     self.compiled.index.cables, ring[i], self.forces.force[i], time, self.dt)
+        if fresh:
+            self._check_energy(qvel, fine)
+        self._check_room(fine)  # after: a diverging world also overflows; instability first
+        if self._contact is not None:
+            self._check_contact(np.flatnonzero(fine))
+
+    def _check_energy(self, qvel: np.ndarray, fine: np.ndarray) -> None:
+        """Fails the worlds whose mechanical energy runs away (see
+        :func:`tensim.sim._loop.energy_growing`), as the CPU engines do."""
         parts = [qvel, *(getattr(self.d, name).numpy() for name in ("xpos", "ten_length", "act"))]
-        growing = self.energies.push(slice(None), self.energy.total(*parts)) & fine \
-            if fresh else np.zeros_like(fine)
+        growing = self.energies.push(slice(None), self.energy.total(*parts)) & fine
         for i in np.flatnonzero(growing):
             if self.error[i] is None:
                 time = float(self.samples.time[i, self.count[i] - 1])
                 what = self.energy.largest(*(part[i:i + 1] for part in parts))
                 self.error[i] = f"trial {i}: " + energy_message(
                     what, self.energies.energy[i] - self.energies.lowest[i], time, self.dt)
-        self._check_room(fine)  # after: a diverging world also overflows; instability first
-        if self._contact is not None:
-            self._check_contact(np.flatnonzero(fine))
 
     def _check_room(self, fine: np.ndarray) -> None:
         """Fails the worlds MuJoCo Warp ran out of room for (contacts or constraint rows
