@@ -214,11 +214,8 @@ def _check(structure: Structure, config: EnvConfig) -> list[Finding]:
     Raises:
         InputError: the physics step is above the structure's stable bound.
     """
-    # the implicit laws take at least the damping implicitly (implicit: stiffness too, so the
-    # implicitfast bound is the cautious one for it)
-    integrator = "euler" if config.world.cable_law == "explicit" else "implicitfast"
     findings = check_structure(structure, config.world.timestep, source=config.model,
-                               integrator=integrator)
+                               cable_law=config.world.cable_law)
     for finding in findings:
         if finding.severity == "error" and finding.item == "timestep":
             raise InputError(f"model {config.model!r} at world.timestep = "
