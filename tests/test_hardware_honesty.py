@@ -445,3 +445,31 @@ def test_sensor_noise_does_not_narrow_the_stiffness_interval(robot, impedance, t
         intervals.append(result.parameters()["stiffness"]["ci95"])
     # 0.9: the fit point itself moves with the noise draw (a few percent here)
     assert intervals[1] >= 0.9 * intervals[0], intervals
+
+
+def test_correlation_time_is_a_property_of_the_signal_in_seconds():
+    """The residuals' correlation time, on closed-form signals: a 1 Hz model error over 6 s
+    has the same correlation time [s] sampled every 200 ms or every 10 ms (a Riemann sum of
+    one integral of |rho|; within 15 %), and independent noise about half a sample period
+    (its chance correlations add a little: at most 0.75 periods)."""
+    from tensim.hardware.uncertainty import correlation_time, effective_samples
+
+    rng = np.random.default_rng(0)
+
+    def cells(values):
+        rows = np.repeat(np.arange(len(values)), values.shape[1])
+        cables = np.tile(np.arange(values.shape[1]), len(values))
+        return values.ravel(), rows, cables
+
+    taus = []
+    for period in (0.2, 0.01):
+        t = np.arange(0.0, 6.0, period)
+        error = np.sin(2 * np.pi * t[:, None] + np.array([0.0, 1.0, 2.0]))
+        taus.append(correlation_time(*cells(error), period))
+    assert taus[1] == pytest.approx(taus[0], rel=0.15), taus
+    assert taus[0] > 0.5  # a periodic error correlates over much of the window
+    noise = rng.normal(size=(600, 12))
+    tau = correlation_time(*cells(noise), 0.01)
+    assert 0.005 <= tau <= 0.0075, tau
+    samples, effective, _ = effective_samples(*cells(noise), np.array([0.01]))
+    assert samples == 600 and effective == pytest.approx(600, rel=0.35)
