@@ -1,9 +1,10 @@
 """Figures of docs/cables.md: contact cables against closed forms, and their bead-mass bound.
 
-Usage: python examples/contact_cables.py [--climb]
+Usage: python examples/contact_cables.py [--climb [SECONDS]]
 
-``--climb`` also runs the 12-segment Tetraspine's 75 s wall climb with straight cables and with
-its lowest cables as contact cables, at two timesteps (a few minutes).
+``--climb`` also runs the first SECONDS (default 75, the whole scenario; a few minutes) of the
+12-segment Tetraspine's wall climb with straight cables and with its lowest cables as contact
+cables, at two timesteps.
 """
 
 from __future__ import annotations
@@ -109,9 +110,11 @@ def preset_masses() -> None:
               f"dt {dt * 1e3:g} ms: bead inertia {stable_inertia(cable, 0.04, dt) * 1e3:.3g} g")
 
 
-def climb(contact: CableContact | None, dt: float, touching: bool = True) -> str:
-    """The climb scenario's outcome with the lowest cables as contact cables (None: straight);
-    ``touching=False`` keeps the beads but lets them pass through the world."""
+def climb(contact: CableContact | None, dt: float, touching: bool = True,
+          duration: float | None = None) -> str:
+    """The climb scenario's outcome after ``duration`` seconds (None: the whole scenario) with
+    the lowest cables as contact cables (None: straight); ``touching=False`` keeps the beads but
+    lets them pass through the world."""
     from tensim.benchmarks.engine import CONTACT_TAGS
     from tensim.experiments.climb import (
         CLIMB_DURATION,
@@ -137,7 +140,7 @@ def climb(contact: CableContact | None, dt: float, touching: bool = True) -> str
         with Simulation(compiled, controller=controller) as sim:
             if not touching:  # its cables pass through the wall, as the check would report
                 sim._contact = None
-            series = sim.run(CLIMB_DURATION)
+            series = sim.run(duration or CLIMB_DURATION)
     except SimulationError as err:
         return f"dt {dt * 1e3:g} ms, {what}: {str(err)[:80]}..."
     progress = wall_progress(series, CLIMB_TERRAIN)
@@ -150,7 +153,9 @@ if __name__ == "__main__":
     stability_scan()
     preset_masses()
     if "--climb" in sys.argv[1:]:
-        print("wall climb, 75 s (robot 10.57 kg):")
+        rest = sys.argv[sys.argv.index("--climb") + 1:]
+        seconds = float(rest[0]) if rest else 75.0
+        print(f"wall climb, first {seconds:g} s (robot 10.57 kg):")
         for contact, dt in ((None, 1e-3), (CableContact(), 1e-3), (CableContact(), 2.5e-4)):
-            print(" ", climb(contact, dt))
-        print(" ", climb(CableContact(), 2.5e-4, touching=False))
+            print(" ", climb(contact, dt, duration=seconds))
+        print(" ", climb(CableContact(), 2.5e-4, touching=False, duration=seconds))

@@ -311,8 +311,9 @@ def _sysid(args: argparse.Namespace) -> int:
     if result.kept_nominal:
         print("  (refused below: no interval is claimed for these values)")
     else:
-        print(f"  (±: 95 % interval; x{u['model_error_factor']:.2f} for the residuals' "
-              f"correlation in time, sum |rho| = {u['residual_correlation']:.2f}; see "
+        taus = ", ".join(f"{t:.2g}" for t in u["correlation_time_s"])
+        print(f"  (±: 95 % interval; {u['samples']} readings, correlated over {taus} s: "
+              f"{u['effective_samples']:.3g} effective, x{u['factor']:.2f}; see "
               "docs/hardware.md)")
     v = summary["validation"]
     window = v["window_s"]

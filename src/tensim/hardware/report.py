@@ -160,10 +160,11 @@ def write_sysid(out: Path, result: SysidResult, sources: Sequence[str], info: di
           summary["max_system_tension_error_after_percent"],
           summary["max_settled_system_tension_error_after_percent"]]])
     sections = ["<h2>Parameters</h2>", parameter_table(summary["parameters"]),
-                "<p>Standard errors: the larger of the scatter of the Jacobian-weighted "
-                "residuals over 5 time blocks per log and the independent-sample error "
-                "(residuals are correlated in time, so counting every sample as independent "
-                "understates the uncertainty); intervals use Student's t.</p>",
+                "<p>Standard errors: the larger of the independent-sample and the "
+                "per-reading error, counted over the effective sample size n_eff = T / "
+                "(2 tau) of the residuals' correlation time tau (residuals are correlated "
+                "in time, so counting every sample as independent understates the "
+                "uncertainty); intervals use Student's t.</p>",
                 "<h2>The gap before and after</h2>", gap]
     for k, (source, before, after) in enumerate(zip(sources, result.before, result.after,
                                                     strict=True), start=1):

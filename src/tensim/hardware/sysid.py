@@ -47,7 +47,6 @@ from tensim.structure import Structure
 
 _CACHE_SIZE = 16
 DEFAULT_PARAMS = ("stiffness", "friction", "offset", "delay")
-BLOCKS = 5  # time blocks per log for the standard errors
 
 
 class SysidError(ValueError):
@@ -99,8 +98,8 @@ class SysidResult:
     Attributes:
         space: the fitted parameters (names, bounds, starting values).
         fitted: (n,) fitted values.
-        stderr: (n,) standard errors: the largest of the independent-sample, per-reading and
-            time-block errors times the model-error factor of the residuals' correlation
+        stderr: (n,) standard errors: the larger of the independent-sample and per-reading
+            errors times sqrt(samples / effective samples) of the residuals' correlation time
             (:func:`~tensim.hardware.uncertainty.fit_stderr`; inf: not determined).
         naive_stderr: (n,) the textbook s^2 (J^T J)^-1 errors, which assume independent
             residuals (kept for comparison; too small on autocorrelated residuals).
@@ -116,8 +115,8 @@ class SysidResult:
         kept_nominal: the fit was worse than nominal on the validation samples, so
             ``structure``, ``sensor`` and ``vstar_scale`` are the nominal ones.
         world: the fitted world options (torsional and rolling friction; else as given).
-        uncertainty: how ``stderr`` was found: each estimate's errors, the residuals'
-            strongest autocorrelation and the model-error factor.
+        uncertainty: how ``stderr`` was found: the samples, the effective samples, each
+            log's correlation time [s], the factor and each estimate's errors.
     """
 
     space: SysidSpace
@@ -151,7 +150,7 @@ class SysidResult:
                            "start": p.bounds.nominal, "fitted": float(self.fitted[k]),
                            "stderr": _finite(self.stderr[k]),
                            "ci95": None if self.kept_nominal
-                           else _finite(interval_factor(BLOCKS, len(self.before))
+                           else _finite(interval_factor(len(self.before))
                                         * self.stderr[k]),
                            "naive_stderr": _finite(self.naive_stderr[k]),
                            "bounds": [p.bounds.low, p.bounds.high]}
@@ -320,6 +319,11 @@ class _Problem:
                                           c.hardware.shape)[keep])
         return np.concatenate(labels), np.concatenate(cables)
 
+    def periods(self) -> np.ndarray:
+        """(logs,) each log's time between tension samples [s] (the median spacing)."""
+        times = [log.samples("tension")[0] for log in self.logs]
+        return np.array([float(np.median(np.diff(t))) if t.size > 1 else 1.0 for t in times])
+
     def jacobian(self, unit: np.ndarray) -> np.ndarray:
         """Forward differences with a fixed step of ``diff_step`` of each bound range.
 
@@ -406,15 +410,16 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     jac = problem.jacobian(space.to_unit(fitted))
     residual = problem.residuals(space.to_unit(fitted))
     scale = space.high - space.low
-    errors = fit_stderr(jac, residual, *problem.sample_cells(space.to_unit(fitted)), BLOCKS)
+    rows, cables = problem.sample_cells(space.to_unit(fitted))
+    errors = fit_stderr(jac, residual, rows, cables, problem.periods())
     stderr, naive = errors.stderr * scale, errors.naive * scale
     uncertainty = {
-        "residual_correlation": round(errors.correlation, 6),
-        "model_error_factor": round(errors.factor, 6),
+        "samples": int(errors.samples), "effective_samples": round(errors.effective, 3),
+        "correlation_time_s": [round(t, 6) for t in errors.correlation_time],
+        "factor": round(errors.factor, 6),
         **{f"{key}_stderr": {p.name: _finite(v * s) for p, v, s in
                              zip(space.parameters, values, scale, strict=True)}
-           for key, values in (("naive", errors.naive), ("row", errors.row),
-                               ("block", errors.block))}}
+           for key, values in (("naive", errors.naive), ("row", errors.row))}}
     validation = _validation(problem, nominal, space, fitted, before)
     kept = validation["fitted_rmse_N"] > validation["nominal_rmse_N"] and not settings.force
     named = nominal.as_dict(nominal.structure_values()) if kept else space.as_dict(fitted)

@@ -1,8 +1,9 @@
 """Robust gaits: a CPG gait learned on the nominal robot and one learned on randomised robots,
-both scored on held-out perturbed robots. Prints the figures docs/learning.md quotes and writes
-docs/figures/robust_gaits.png.
+both scored on held-out perturbed robots. Prints the figures docs/learning.md quotes and, with
+``--figure``, draws them (docs/figures/robust_gaits.png).
 
-    python docs/robust_gaits.py [--evaluations 60] [--robots 4] [--held-out 32] [--out DIR]
+    python examples/robust_gaits.py [--evaluations 60] [--robots 4] [--held-out 32] [--out DIR]
+        [--figure PNG]
 
 Both runs use ``tensim learn`` (CMA-ES, Tetraspine3 CPG, 10 s trials, sideways) from the same
 start; the randomised one scores each candidate by the mean over ``--robots`` robots drawn
@@ -25,7 +26,6 @@ from tensim.learn import Objective, TrialProblem, parse_direction
 from tensim.models import preset
 
 RANDOMIZE = "friction=0.5:1.5,stiffness=0.85:1.15,mass=0.85:1.15,motor_speed=0.7:1.3"
-HERE = Path(__file__).resolve().parent
 
 
 def _learn(out: Path, evaluations: int, extra: list[str]) -> Path:
@@ -66,6 +66,7 @@ def main() -> int:
     parser.add_argument("--robots", type=int, default=4)
     parser.add_argument("--held-out", type=int, default=32)
     parser.add_argument("--out", type=Path, default=None, help="keep the two runs here")
+    parser.add_argument("--figure", type=Path, default=None, help="draw the scores here (.png)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         root = args.out or Path(scratch)
@@ -78,7 +79,8 @@ def main() -> int:
         print(f"{label}: held-out sideways distance in 10 s: mean {values.mean():.3f} m, "
               f"worst {values.min():.3f} m, best {values.max():.3f} m "
               f"({len(values)} robots, {RANDOMIZE})")
-    _plot(scores, HERE / "figures" / "robust_gaits.png")
+    if args.figure is not None:
+        _plot(scores, args.figure)
     return 0
 
 
