@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from tensim.structure import PASSIVE, Cable, Motor, Node, Rod, Structure
 
@@ -63,6 +62,9 @@ def _lying(nodes: dict[str, np.ndarray], clearance: float) -> dict[str, np.ndarr
     centre = np.mean(list(nodes.values()), axis=0)
     if normal @ (a - centre) < 0:
         normal = -normal
+    # scipy loads here, not with the preset registry (0.25 s and 30 MiB of every command)
+    from scipy.spatial.transform import Rotation
+
     turn, _ = Rotation.align_vectors([[0.0, 0.0, -1.0]], [normal / np.linalg.norm(normal)])
     turned = {n: turn.apply(p - centre) for n, p in nodes.items()}
     lowest = min(p[2] for p in turned.values())
