@@ -43,10 +43,9 @@ def fields(obj: Any) -> dict[str, Any]:
 def set_fields(obj: Any, values: dict[str, Any]) -> None:
     """Sets the fields :func:`fields` read."""
     for name, value in values.items():
-        current = getattr(obj, name)
-        if isinstance(current, np.ndarray):
-            current[...] = value
-        else:
+        if isinstance(value, np.ndarray):
+            getattr(obj, name)[...] = value
+        else:  # not read first: a geom not yet used holds no valid text
             setattr(obj, name, value)
 
 
@@ -58,13 +57,18 @@ def context(backend: str, width: int, height: int) -> Any:
     return ctx
 
 
-def trial(backend: str) -> None:
-    """Makes a small context and MuJoCo's rendering context in it; raises if it cannot."""
-    ctx = context(backend, 16, 16)
-    model = mujoco.MjModel.from_xml_string(_EMPTY)
-    model.vis.quality.shadowsize = 0  # no 4096 x 4096 shadow map for a trial
-    mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100).free()
-    ctx.free()
+def trial(backend: str, width: int = 640, height: int = 480) -> Any:
+    """A current context of ``backend`` in which MuJoCo's rendering context can be made (the
+    trial of a backend; raises if it fails). The caller frees it."""
+    ctx = context(backend, width, height)
+    try:
+        model = mujoco.MjModel.from_xml_string(_EMPTY)
+        model.vis.quality.shadowsize = 0  # no 4096 x 4096 shadow map for a trial
+        mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100).free()
+    except BaseException:
+        ctx.free()
+        raise
+    return ctx
 
 
 def rendering_context(model: mujoco.MjModel, shadows: bool) -> mujoco.MjrContext:
@@ -109,36 +113,32 @@ def paint(mjr: mujoco.MjrContext, scene: mujoco.MjvScene, width: int, height: in
     return np.flipud(image)
 
 
-def paint_job(backend: str, job: dict[str, Any]) -> np.ndarray:
-    """Paints a scene sent by :meth:`tensim.viz.render.FrameScene.job` in a fresh context.
+def paint_job(job: dict[str, Any]) -> np.ndarray:
+    """Paints a scene sent by :meth:`tensim.viz.render.FrameScene.job`, in the current
+    OpenGL context (MuJoCo draws into its own offscreen buffer, whatever the context's size).
 
     MuJoCo's own geoms, lights and camera come from ``mjv_updateScene`` on the job's model and
     data (as where the job was made); the geoms added there (cables, grid) are appended.
     """
     model, data = job["model"], job["data"]
-    width, height = job["width"], job["height"]
-    ctx = context(backend, width, height)
+    mjr = rendering_context(model, job["shadows"])
     try:
-        mjr = rendering_context(model, job["shadows"])
-        try:
-            scene = mujoco.MjvScene(model, job["maxgeom"])
-            scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = job["shadows"]
-            scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = job["shadows"]
-            option, camera = mujoco.MjvOption(), mujoco.MjvCamera()
-            set_fields(option, job["option"])
-            set_fields(camera, job["camera"])
-            mujoco.mjv_updateScene(model, data, option, None, camera,
-                                   mujoco.mjtCatBit.mjCAT_ALL, scene)
-            for values in job["geoms"]:
-                if scene.ngeom >= scene.maxgeom:
-                    break
-                set_fields(scene.geoms[scene.ngeom], values)
-                scene.ngeom += 1
-            return paint(mjr, scene, width, height, job["legend"])
-        finally:
-            mjr.free()
+        scene = mujoco.MjvScene(model, job["maxgeom"])
+        scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = job["shadows"]
+        scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = job["shadows"]
+        option, camera = mujoco.MjvOption(), mujoco.MjvCamera()
+        set_fields(option, job["option"])
+        set_fields(camera, job["camera"])
+        mujoco.mjv_updateScene(model, data, option, None, camera, mujoco.mjtCatBit.mjCAT_ALL,
+                               scene)
+        for values in job["geoms"]:
+            if scene.ngeom >= scene.maxgeom:
+                break
+            set_fields(scene.geoms[scene.ngeom], values)
+            scene.ngeom += 1
+        return paint(mjr, scene, job["width"], job["height"], job["legend"])
     finally:
-        ctx.free()
+        mjr.free()
 
 
 def serve(fd: int, backend: str) -> None:
@@ -149,7 +149,7 @@ def serve(fd: int, backend: str) -> None:
 
     conn = Connection(fd)
     try:
-        trial(backend)
+        ctx = trial(backend)
     except Exception as err:  # the GL stacks raise ImportError, RuntimeError, OSError, ...
         conn.send(f"{type(err).__name__}: {err}")
         return
@@ -157,12 +157,13 @@ def serve(fd: int, backend: str) -> None:
     try:
         while (job := conn.recv()) is not None:
             try:
-                answer: tuple[str, Any] = ("image", paint_job(backend, job))
+                answer: tuple[str, Any] = ("image", paint_job(job))
             except Exception:
                 answer = ("error", traceback.format_exc())
             conn.send(answer)
     except (EOFError, OSError):
         pass  # the parent has gone
+    ctx.free()
 
 
 if __name__ == "__main__":

@@ -126,7 +126,7 @@ class FrameScene:
     def legend(self, label: str = "") -> dict[str, Any]:
         """The legend (:func:`tensim.viz._glserver.paint`): the colour bar, its range, the
         slack-cable line style and ``label`` top left (e.g. the time)."""
-        bar_w, bar_h = _BAR
+        bar_h = _BAR[1]
         left, bottom = 10, 28
         return {"texts": [(f"0 N  cable tension  {self.artist.colors.max_tension:g} N",
                            left / self.width, (bottom + bar_h + 4) / self.height),
