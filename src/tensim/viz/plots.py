@@ -337,7 +337,7 @@ def plot_velocity_input(table: VelocityTable, path: Path, *,
     times = table.times[:stop]
 
     def draw(ax: Axes, name: str) -> None:
-        ax.step(times, table.values[:stop, table.cables.index(name)], where="post",
+        ax.plot(*thin(*_held(times, table.values[:stop, table.cables.index(name)])),
                 color="tab:green", lw=0.9, label="V*")
         ax.axhline(0.0, color="black", lw=0.5)
 
@@ -350,6 +350,12 @@ def plot_velocity_input(table: VelocityTable, path: Path, *,
     chosen = [c for c in (cables or table.cables) if c in table.cables]
     return save_figure(_panels(grid, "velocity_input", chosen, columns, title, draw,
                                draw_group, tags), path)
+
+
+def _held(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The corners of ``y`` held from each ``t`` to the next (a step line, ``where="post"``)
+    as a plain line, so that :func:`thin` can reduce it."""
+    return np.repeat(t, 2)[1:], np.repeat(y, 2)[:-1]
 
 
 def new_figure(size: tuple[float, float], dpi: int = DPI) -> Figure:
