@@ -417,13 +417,16 @@ class _Block:
                 fields = {name: v[:, -1] for name, v in out.items()}
                 for step in range(last, nstep) if watch else ():
                     run.forces.push(at, out["actuator_force"][:, step, :n])
-            else:  # a few runs of constant inputs: one call sets each step's inputs
-                # (one Batch.rollout recording nothing costs less than a Batch.step per run)
-                record = ("actuator_force",) if watch else ()
-                forces = run.batch.rollout(nstep, rows, record=record, ids=ids)
+            else:  # a few runs of constant inputs: one Batch.step each (Batch.rollout would
+                # stop a trial whose warning counters rise, where a single run goes on)
                 if watch:  # the forces after each of the last RING_STEPS steps
-                    for step in range(last, nstep):
-                        run.forces.push(at, forces["actuator_force"][:, step, :n])
+                    cuts = sorted({*cuts, *range(max(1, last + 1), nstep)})
+                ctrl, force = run._bound["ctrl"], run._bound["actuator_force"]
+                for start, stop in itertools.pairwise(cuts):
+                    ctrl[at] = rows[:, start]  # a view of the state rows
+                    run.batch.step(ids, stop - start)
+                    if watch and stop > last:
+                        run.forces.push(at, force[at, :n])
                 # every trial of the chunk: the bound arrays themselves (read before the next
                 # call refreshes them)
                 fields = run._bound if whole else \
