@@ -87,12 +87,17 @@ def stiffness(structure: Structure, count: bool = True, *,
     tensions = cable_tensions(structure, geometry.lengths)
     taut = np.array([structure.rest_length(c) <= L + 1e-12
                      for c, L in zip(structure.cables, geometry.lengths, strict=True)], dtype=bool)
-    k = np.array([c.stiffness for c in structure.cables]) * taut
+    # a PD motor's servo counts as engaged (it starts at or past its target): the step
+    # bound must hold while it pulls
+    servo = np.array([(c.motor.pd_stiffness, c.motor.pd_damping)
+                      for c in structure.cables]).reshape(-1, 2)
+    k = np.array([c.stiffness for c in structure.cables]) * taut + servo[:, 0]
     grads = geometry.gradients
     material = (grads.T * k) @ grads
     geometric = geometry.geometric(tensions)
     mass = body_set.mass_matrix()
-    damping = (grads.T * np.array([c.damping for c in structure.cables]) * taut) @ grads
+    b = np.array([c.damping for c in structure.cables]) * taut + servo[:, 1]
+    damping = (grads.T * b) @ grads
     values, modes = eigh(material + geometric, mass)
     frequencies = np.sqrt(np.clip(values, 0.0, None)) / (2 * np.pi)
     counts = (0, 0, 0)

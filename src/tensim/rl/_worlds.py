@@ -11,7 +11,7 @@ import numpy as np
 from mujoco import batch as mjbatch
 
 from tensim.rl._robot import Robot
-from tensim.sim import PhysicsScale, StabilityLimits, Trial, load_cell_tension
+from tensim.sim import MODE_PD, PhysicsScale, StabilityLimits, Trial, load_cell_reading
 from tensim.sim._batch import setup_trial
 from tensim.sim._loop import RING_EVERY, ForceHistory, prestress_band, split_steps
 
@@ -276,10 +276,16 @@ class Worlds:
             terms["cable_length"] = f["ten_length"][r][:, robot.compiled.index.tendon]
         if "rest_length" in layout or "tension" in layout:
             terms["rest_length"] = robot.compiled.index.cable_act(f["act"][r])
-        if "tension" in layout:  # the load cells, with each robot's own stiffness
-            stiffness = np.stack([robot.compiled.law(self.models[i]).stiffness for i in ids])
-            terms["tension"] = load_cell_tension(terms["cable_length"], terms["rest_length"],
-                                                 stiffness)
+        if "tension" in layout:  # the load cells, with each robot's own law parameters
+            laws = [robot.compiled.law(self.models[i]) for i in ids]
+
+            def each(name: str) -> np.ndarray:
+                return np.stack([getattr(law, name) for law in laws])
+            n = robot.compiled.n_cables
+            terms["tension"] = load_cell_reading(
+                terms["cable_length"], terms["rest_length"], each("stiffness"),
+                each("mode") == MODE_PD, f["ctrl"][r][:, :n], each("pd_stiffness"),
+                each("max_tension"))
         ends = None
         if "rod_axis" in layout or "end_contact" in layout:
             ends = self._end_positions(ids)
