@@ -214,7 +214,8 @@ def _check(structure: Structure, config: EnvConfig) -> list[Finding]:
     Raises:
         InputError: the physics step is above the structure's stable bound.
     """
-    findings = check_structure(structure, config.world.timestep, source=config.model)
+    findings = check_structure(structure, config.world.timestep, source=config.model,
+                               cable_law=config.world.cable_law)
     for finding in findings:
         if finding.severity == "error" and finding.item == "timestep":
             raise InputError(f"model {config.model!r} at world.timestep = "
