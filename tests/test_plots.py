@@ -8,6 +8,7 @@ from tensim.sim import TimeSeries
 from tensim.viz.plots import (
     PANEL_PIXELS,
     _commanded,
+    _held,
     cable_panels,
     plot_cable_tensions,
     plot_lengths,
@@ -36,6 +37,23 @@ def test_thinning_keeps_each_columns_extremes_and_the_ends():
             data, line = y[column == c], ty[thinned == c]
             if np.isfinite(data).any():
                 assert np.nanmax(line) == np.nanmax(data) and np.nanmin(line) == np.nanmin(data)
+
+
+def test_a_held_input_thinned_keeps_each_columns_extremes():
+    """The V* figure draws each command held until the next (a step line) from the step's
+    corners, thinned: every pixel column still reaches the commands' extremes there."""
+    rng = np.random.default_rng(5)
+    t = np.arange(6001) * 0.01
+    v = np.sin(t) + (rng.random(t.size) < 0.01) * rng.choice([-3.0, 3.0], t.size)  # spikes
+    x, y = _held(t, v)
+    assert x.size == 2 * t.size - 1 and np.all(np.diff(x) >= 0)
+    tx, ty = thin(x, y)
+    assert ty.size < y.size / 5 and (tx[0], ty[0], tx[-1], ty[-1]) == (0.0, v[0], 60.0, v[-1])
+    edges = np.linspace(x[0], x[-1], PANEL_PIXELS + 1)[1:-1]
+    column, thinned = np.digitize(x, edges), np.digitize(tx, edges)
+    for c in range(PANEL_PIXELS):
+        assert ty[thinned == c].max() == y[column == c].max()
+        assert ty[thinned == c].min() == y[column == c].min()
 
 
 def test_short_lines_are_drawn_whole():

@@ -195,3 +195,24 @@ def test_renderer_needs_no_model_change_but_its_buffer() -> None:
         image = renderer.render(data, np.zeros(0), np.zeros(0))
     assert image.shape == (600, 800, 3)
     assert np.array_equal(compiled.model.tendon_rgba, tendon_rgba)
+
+
+def test_the_painting_process_draws_what_this_process_draws() -> None:
+    """frame.png is painted by a child (the backend's trial, kept): the same scene, cables and
+    legend as the in-process renderer, pixel for pixel; a model with cables and a ground."""
+    from tensim.models import preset
+    from tensim.viz.render import FrameScene
+
+    _backend()
+    compiled = compile_structure(preset("prism3").build())
+    with Simulation(compiled) as sim:
+        sim.step(300)
+        tension, rest = sim.drive.tension.copy(), sim.drive.rest.copy()
+        with OffscreenRenderer(compiled, 200, 150) as renderer:
+            here = renderer.render(sim.data, tension, rest, "t = 0.30 s")
+        job = FrameScene(compiled, 200, 150).job(sim.data, tension, rest, "t = 0.30 s")
+    assert len(job["geoms"]) > 6  # the grid and every cable were sent, not only MuJoCo's own
+    with _gl.start_server() as server:
+        there = server.paint(job)
+    assert there.shape == (150, 200, 3)
+    assert np.array_equal(here, there)

@@ -75,6 +75,7 @@ def test_report_without_a_trajectory_or_backend(tmp_path: Path, monkeypatch) -> 
         raise _gl.OffscreenUnavailable("none here")
 
     monkeypatch.setattr(_gl, "select_backend", unavailable)
+    monkeypatch.setattr(_gl, "start_server", unavailable)
     plt.imsave(tmp_path / "study.png", [[0.0, 1.0], [1.0, 0.0]])
     finish_run(tmp_path, {"experiment": "timestep", "max_change_percent": {"250": 2.0},
                           "figures": ["study.png"]})
@@ -89,6 +90,7 @@ def test_frame_note_when_no_backend(run_folder: Path, tmp_path: Path, monkeypatc
         raise _gl.OffscreenUnavailable("no offscreen OpenGL backend works here")
 
     monkeypatch.setattr(_gl, "select_backend", unavailable)
+    monkeypatch.setattr(_gl, "start_server", unavailable)
     copy = tmp_path / "copy"
     shutil.copytree(run_folder, copy)
     (copy / "frame.png").unlink(missing_ok=True)

@@ -33,6 +33,16 @@ def test_import_tensim_does_not_load_scipy():
     assert out == "False"
 
 
+def test_the_presets_and_the_main_experiments_load_no_scipy():
+    # the 3-bar and SUPERball presets turn a face down with scipy's Rotation when built:
+    # the registry that lists them must not load it for every command (0.25 s, 30 MiB)
+    probe = ("import sys, tensim.models, tensim.experiments.disturbance, "
+             "tensim.experiments.gait; print('scipy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "False"
+
+
 def test_the_sysid_help_lists_every_parameter_with_its_unit():
     from tensim.hardware.parameters import DEFINITIONS
 

@@ -25,7 +25,6 @@ import platform
 import shutil
 import sys
 import tempfile
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -107,30 +106,22 @@ def _install() -> RunLog:
 RUN_LOG = _install()
 
 
-def prepare_outputs() -> threading.Thread | None:
-    """Starts the trial of an offscreen OpenGL backend for frame.png in a background thread.
+def prepare_outputs() -> None:
+    """Starts the child process that paints frame.png (:class:`tensim.viz._gl.GLServer`).
 
-    Call it before simulating: the trial runs in a child process, so the thread only waits
-    (it holds no Python lock the simulation needs) and the trial overlaps the simulation
-    instead of following it. With a single usable core it would take that core from the
-    simulation (and skew its real-time factor), so then it does nothing and the report runs
-    the trial later. A failure is left for the report to meet and note. (Loading matplotlib
-    this way was tried and dropped: an import holds Python's lock and slowed the simulation,
-    and the real-time factor it reports, by as much as it saved.)
+    Call it before simulating: the child starts and tries the offscreen OpenGL backends
+    while the run simulates (a thread only waits for it, holding no Python lock the
+    simulation needs), instead of after it. With a single usable core it would take that
+    core from the simulation (and skew its real-time factor), so then it does nothing and the
+    report starts the child later. A failure is left for the report to meet and note. (Loading
+    matplotlib this way was tried and dropped: an import holds Python's lock and slowed the
+    simulation, and the real-time factor it reports, by as much as it saved.)
     """
     if len(os.sched_getaffinity(0)) < 2:
-        return None
-    from tensim.viz import _gl  # imported here: an import in the thread would hold the lock
+        return
+    from tensim.viz import _gl
 
-    def trial() -> None:
-        try:
-            _gl.select_backend()
-        except _gl.OffscreenUnavailable as err:
-            logging.getLogger(__name__).debug("no offscreen OpenGL backend: %s", err)
-
-    thread = threading.Thread(target=trial, name="tensim-gl-trial", daemon=True)
-    thread.start()
-    return thread
+    _gl.prepare_server()
 
 
 def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = None,

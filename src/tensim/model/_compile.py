@@ -12,6 +12,7 @@ via nodes of a routed cable). A contact cable's tendon also runs over the beads 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 
@@ -183,11 +184,18 @@ class ModelIndex:
         """Each cable's activation ``part`` (0: rest length, 1: peak tension) from ``act``
         (..., na): a view where every cable has as many activations (two, or three under the
         implicit law), else a copy."""
-        n = len(self.cables)
-        for stride in (2, 3):
-            if np.array_equal(self.rest_act, np.arange(0, stride * n, stride)):
-                return act[..., part:stride * n:stride]
+        stride = self._act_stride
+        if stride:
+            return act[..., part:stride * len(self.cables):stride]
         return act[..., self.rest_act + part]
+
+    @functools.cached_property
+    def _act_stride(self) -> int:
+        """The activations per cable where every cable has as many (2 or 3), else 0 (looked
+        up once: the recorder and the checks call :meth:`cable_act` every few steps)."""
+        n = len(self.cables)
+        return next((stride for stride in (2, 3)
+                     if np.array_equal(self.rest_act, np.arange(0, stride * n, stride))), 0)
 
     def cable_id(self, name: str) -> int:
         """Position of cable ``name`` in the per-cable arrays."""

@@ -8,7 +8,6 @@ static pose on frictionless feet, it stands still as built.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from tensim.structure import Structure
 
@@ -22,6 +21,9 @@ def face_down(nodes: dict[str, np.ndarray], face: tuple[str, str, str], lift: fl
     centre = np.mean(list(nodes.values()), axis=0)
     if normal @ (a - centre) < 0:
         normal = -normal
+    # scipy loads here, not with the preset registry (0.25 s and 30 MiB of every command)
+    from scipy.spatial.transform import Rotation
+
     turn, _ = Rotation.align_vectors([[0.0, 0.0, -1.0]], [normal / np.linalg.norm(normal)])
     turned = {n: turn.apply(p - centre) for n, p in nodes.items()}
     lowest = min(p[2] for p in turned.values())

@@ -428,27 +428,32 @@ class _Block:
         every = live.size == self.ids.size  # live is a subset of ids: then equal to them
         rows = self.control[:, a:a + nstep] if every else \
             self.control[np.searchsorted(self.ids, live), a:a + nstep]
+        # every trial of the chunk: MuJoCo's "all" (None) and plain slices, not ids to check
+        whole = live.size == len(run.trials)
+        ids, at = (None, slice(None)) if whole else (live, live)
         self.at += nstep
         cuts = [0, *(np.flatnonzero(self.change[a:a + nstep - 1]) + 1).tolist(), nstep]
         last = max(0, nstep - RING_STEPS)  # the watched steps start here
         try:
             if len(cuts) > _MAX_STEP_CALLS + 1:  # inputs change often: set them step by step
                 out = run._buffers(live.size, nstep)
-                run.batch.rollout(nstep, rows, record=_RECORD, ids=live, out=out)
+                run.batch.rollout(nstep, rows, record=_RECORD, ids=ids, out=out)
                 fields = {name: v[:, -1] for name, v in out.items()}
                 for step in range(last, nstep) if watch else ():
-                    run.forces.push(live, out["actuator_force"][:, step, :n])
-            else:  # a few runs of constant inputs: one Batch.step each
+                    run.forces.push(at, out["actuator_force"][:, step, :n])
+            else:  # a few runs of constant inputs: one Batch.step each (Batch.rollout would
+                # stop a trial whose warning counters rise, where a single run goes on)
                 if watch:  # the forces after each of the last RING_STEPS steps
                     cuts = sorted({*cuts, *range(max(1, last + 1), nstep)})
+                ctrl, force = run._bound["ctrl"], run._bound["actuator_force"]
                 for start, stop in itertools.pairwise(cuts):
-                    run._bound["ctrl"][live] = rows[:, start]  # a view of the state rows
-                    run.batch.step(live, stop - start)
+                    ctrl[at] = rows[:, start]  # a view of the state rows
+                    run.batch.step(ids, stop - start)
                     if watch and stop > last:
-                        run.forces.push(live, run._bound["actuator_force"][live, :n])
+                        run.forces.push(at, force[at, :n])
                 # every trial of the chunk: the bound arrays themselves (read before the next
                 # call refreshes them)
-                fields = run._bound if live.size == len(run.trials) else \
+                fields = run._bound if whole else \
                     {name: field[live] for name, field in run._bound.items()}
         except mjbatch.SimulationError as exc:  # the only way a live trial fails here
             run._fail(exc.ids)

@@ -126,7 +126,7 @@ class SampleRows:
 
     def take(self) -> None:
         """Stores the data's current sample as the next row."""
-        np.take(self._flat, self._columns, out=self._rows[self.k])
+        self._flat.take(self._columns, out=self._rows[self.k])  # the method: no wrapper
         self._time[self.k] = self._data.time
         self.k += 1
 

@@ -10,13 +10,19 @@ skips the trial and uses that backend alone.
 
 from __future__ import annotations
 
+import concurrent.futures
 import functools
 import importlib
+import multiprocessing
 import os
 import subprocess
 import sys
+import threading
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 OFFSCREEN = ("egl", "osmesa")
 _PROBE = """
@@ -117,3 +123,145 @@ def gl_context(width: int, height: int) -> tuple[Any, str]:
         raise OffscreenUnavailable(f"offscreen OpenGL through {backend} failed: {err}; "
                                    f"{_INSTALL_HINT}") from err
     return context, backend
+
+
+class GLServer:
+    """A child process that holds a working offscreen OpenGL backend and paints scenes.
+
+    The child (:mod:`tensim.viz._glserver`, run by file so that it loads numpy and MuJoCo but
+    not tensim) first makes a context of ``backend`` current, which is the trial
+    :func:`select_backend` runs; where that works it stays, and :meth:`paint` sends it a
+    :meth:`tensim.viz.render.FrameScene.job`. So a run folder's ``frame.png`` costs one
+    child's start, and the command's own process never loads the OpenGL driver.
+
+    Raises:
+        OffscreenUnavailable: the backend does not work here (the message gives the reason).
+    """
+
+    def __init__(self, backend: str, timeout: float = _PROBE_TIMEOUT_S):
+        self.backend = backend
+        ours, theirs = multiprocessing.Pipe()
+        env = {**os.environ, "MUJOCO_GL": backend}
+        env.pop("PYOPENGL_PLATFORM", None)
+        script = Path(__file__).with_name("_glserver.py")
+        try:
+            # -P: the script's folder (tensim/viz) is not put on the path
+            self._process = subprocess.Popen(
+                [sys.executable, "-P", str(script), str(theirs.fileno()), backend],
+                pass_fds=(theirs.fileno(),), env=env, stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        except OSError as err:
+            ours.close()
+            raise OffscreenUnavailable(f"{backend}: no child process ({err})") from err
+        finally:
+            theirs.close()
+        self._conn = ours
+        try:
+            if not ours.poll(timeout):
+                raise OffscreenUnavailable(f"{backend}: no answer within {timeout:g} s")
+            reason = ours.recv()
+        except (EOFError, OSError):
+            reason = self._stderr_line()
+        except OffscreenUnavailable:
+            self.close()
+            raise
+        if reason is not None:
+            self.close()
+            raise OffscreenUnavailable(f"{backend}: {reason}")
+
+    def _stderr_line(self) -> str:
+        """The child's last line of error output (it died without an answer)."""
+        self._process.kill()
+        _, err = self._process.communicate()
+        lines = [line for line in err.decode(errors="replace").splitlines() if line.strip()]
+        return lines[-1] if lines else f"exit status {self._process.returncode}"
+
+    def paint(self, job: dict[str, Any]) -> np.ndarray:
+        """The (height, width, 3) uint8 image of a scene job.
+
+        Raises:
+            OffscreenUnavailable: the child failed (its traceback) or died.
+        """
+        try:
+            self._conn.send(job)
+            kind, value = self._conn.recv()
+        except (EOFError, OSError) as err:
+            raise OffscreenUnavailable(f"the {self.backend} drawing process ended ({err}: "
+                                       f"{self._stderr_line()})") from err
+        if kind != "image":
+            raise OffscreenUnavailable(f"offscreen OpenGL through {self.backend} failed:\n"
+                                       f"{value}")
+        return np.asarray(value)
+
+    def close(self) -> None:
+        """Ends the child."""
+        try:
+            self._conn.send(None)
+        except (OSError, ValueError):
+            pass
+        self._conn.close()
+        try:
+            self._process.wait(timeout=5.0)
+        except subprocess.TimeoutExpired:
+            self._process.kill()
+            self._process.wait()
+        if self._process.stderr is not None:
+            self._process.stderr.close()
+
+    def __enter__(self) -> GLServer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def start_server() -> GLServer:
+    """A :class:`GLServer` of the first backend of :func:`backend_order` that works here.
+
+    Raises:
+        OffscreenUnavailable: none works; the message gives each one's reason and the fix.
+    """
+    reasons = []
+    for backend in backend_order():
+        try:
+            return GLServer(backend)
+        except OffscreenUnavailable as err:
+            reasons.append(str(err))
+    raise OffscreenUnavailable("no offscreen OpenGL backend works here ("
+                               + "; ".join(reasons) + f"); {_INSTALL_HINT}")
+
+
+_prepared: concurrent.futures.Future[GLServer] | None = None
+_prepared_lock = threading.Lock()
+
+
+def prepare_server() -> None:
+    """Starts :func:`start_server` in a background thread, for :func:`take_server` to
+    collect (the child starts and tries the backends while the caller goes on)."""
+    global _prepared
+    with _prepared_lock:
+        if _prepared is not None:
+            return
+        future: concurrent.futures.Future[GLServer] = concurrent.futures.Future()
+
+        def start() -> None:
+            try:
+                future.set_result(start_server())
+            except BaseException as err:  # handed to take_server
+                future.set_exception(err)
+
+        threading.Thread(target=start, name="tensim-gl-server", daemon=True).start()
+        _prepared = future
+
+
+def take_server() -> GLServer:
+    """The server :func:`prepare_server` started (waiting for it), else a new one; the caller
+    closes it.
+
+    Raises:
+        OffscreenUnavailable: no backend works here.
+    """
+    global _prepared
+    with _prepared_lock:
+        future, _prepared = _prepared, None
+    return future.result() if future is not None else start_server()

@@ -8,12 +8,13 @@ the robot's centre of mass (MuJoCo's tracking camera on the world body's subtree
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from tensim.model import CompiledModel
-from tensim.viz import _gl
+from tensim.viz import _gl, _glserver
 from tensim.viz._scene import grid_spacing, ground_grid, ground_height, robot_size
 from tensim.viz.cables import CableArtist, TensionColors, hide_model_tendons
 
@@ -67,6 +68,85 @@ class CameraView:
         return camera
 
 
+class FrameScene:
+    """The scene of a robot's state, without OpenGL: MuJoCo's geoms, the cables coloured by
+    tension, the ground grid, the camera and the legend.
+
+    :class:`OffscreenRenderer` paints it here; :meth:`job` packs it for a process that holds
+    an OpenGL context (:class:`tensim.viz._gl.GLServer`).
+
+    Args:
+        compiled: the compiled model (not changed, except its offscreen buffer size).
+        width, height: image size [px].
+        view: the camera.
+        colors: tension colour map (default: scaled to the strongest motor).
+        shadows: draw shadows and reflections (slow with software OpenGL).
+    """
+
+    def __init__(self, compiled: CompiledModel, width: int = 640, height: int = 480,
+                 view: CameraView | None = None, colors: TensionColors | None = None,
+                 shadows: bool = False):
+        if width < 16 or height < 16:
+            raise ValueError(f"image size must be at least 16 x 16 px, got {width} x {height}")
+        model = compiled.model
+        model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
+        model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+        self.model, self.width, self.height, self.shadows = model, width, height, shadows
+        self.view = view or CameraView()
+        self.artist = CableArtist(compiled, colors)
+        self._ground = ground_height(model)  # the grid is drawn on the ground plane, if any
+        self._size = robot_size(compiled.structure)
+        self._grid = grid_spacing(self._size)
+        self.scene = mujoco.MjvScene(model, _MAX_GEOM + self.artist.max_geoms)
+        self.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
+        self.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = shadows
+        self.option = mujoco.MjvOption()
+        hide_model_tendons(self.option)
+        self.option.sitegroup[:] = 0  # anchor sites lie under the cable drawings
+        self._camera: mujoco.MjvCamera | None = None
+        self._bar = np.flipud(self.artist.colors.colorbar(*_BAR))
+
+    def camera(self, data: mujoco.MjData) -> mujoco.MjvCamera:
+        """The camera, aimed at the robot in ``data`` the first time."""
+        if self._camera is None:
+            self._camera = self.view.camera(data, self._size)
+        return self._camera
+
+    def update(self, data: mujoco.MjData, tension: np.ndarray, rest_length: np.ndarray) -> int:
+        """Fills the scene with ``data`` (positions after kinematics), its cables and the grid;
+        the number of MuJoCo's own geoms (those before the added ones)."""
+        mujoco.mjv_updateScene(self.model, data, self.option, None, self.camera(data),
+                               mujoco.mjtCatBit.mjCAT_ALL, self.scene)
+        own = self.scene.ngeom
+        if self._ground is not None:
+            ground_grid(self.scene, data.subtree_com[0], self._grid, self._ground)
+        self.artist.draw(self.scene, data, tension, rest_length)
+        return own
+
+    def legend(self, label: str = "") -> dict[str, Any]:
+        """The legend (:func:`tensim.viz._glserver.paint`): the colour bar, its range, the
+        slack-cable line style and ``label`` top left (e.g. the time)."""
+        bar_h = _BAR[1]
+        left, bottom = 10, 28
+        return {"texts": [(f"0 N  cable tension  {self.artist.colors.max_tension:g} N",
+                           left / self.width, (bottom + bar_h + 4) / self.height),
+                          ("grey dashed: slack", left / self.width, 8 / self.height)],
+                "label": label, "bar": self._bar, "bar_at": (left, bottom)}
+
+    def job(self, data: mujoco.MjData, tension: np.ndarray, rest_length: np.ndarray,
+            label: str = "") -> dict[str, Any]:
+        """The scene of ``data`` as plain data, for :func:`tensim.viz._glserver.paint_job`:
+        the model and data, the option and the camera as they were before the update, and
+        the geoms added after MuJoCo's own."""
+        camera = _glserver.fields(self.camera(data))
+        own = self.update(data, tension, rest_length)
+        return {"model": self.model, "data": data, "option": _glserver.fields(self.option),
+                "camera": camera, "maxgeom": self.scene.maxgeom, "shadows": self.shadows,
+                "geoms": [_glserver.fields(self.scene.geoms[i])
+                          for i in range(own, self.scene.ngeom)],
+                "width": self.width, "height": self.height, "legend": self.legend(label)}
+
+
 class OffscreenRenderer:
     """Renders states of one compiled model to (height, width, 3) uint8 images.
 
@@ -84,29 +164,11 @@ class OffscreenRenderer:
     def __init__(self, compiled: CompiledModel, width: int = 640, height: int = 480,
                  view: CameraView | None = None, colors: TensionColors | None = None,
                  shadows: bool = False):
-        if width < 16 or height < 16:
-            raise ValueError(f"image size must be at least 16 x 16 px, got {width} x {height}")
-        model = compiled.model
-        model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
-        model.vis.global_.offheight = max(model.vis.global_.offheight, height)
-        self.model, self.width, self.height = model, width, height
-        self.view = view or CameraView()
-        self.artist = CableArtist(compiled, colors)
+        self.frame = FrameScene(compiled, width, height, view, colors, shadows)
+        self.model, self.width, self.height = self.frame.model, width, height
+        self.artist, self.scene = self.frame.artist, self.frame.scene
         self._context, self.backend = _gl.gl_context(width, height)
-        self._mjr = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100)
-        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
-        self._ground = ground_height(model)  # the grid is drawn on the ground plane, if any
-        self._size = robot_size(compiled.structure)
-        self._grid = grid_spacing(self._size)
-        self.scene = mujoco.MjvScene(model, _MAX_GEOM + self.artist.max_geoms)
-        self.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
-        self.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = shadows
-        self.option = mujoco.MjvOption()
-        hide_model_tendons(self.option)
-        self.option.sitegroup[:] = 0  # anchor sites lie under the cable drawings
-        self._camera: mujoco.MjvCamera | None = None
-        self._rect = mujoco.MjrRect(0, 0, width, height)
-        self._bar = np.ascontiguousarray(np.flipud(self.artist.colors.colorbar(*_BAR)))
+        self._mjr = _glserver.rendering_context(self.model, shadows)
 
     def render(self, data: mujoco.MjData, tension: np.ndarray, rest_length: np.ndarray,
                label: str = "") -> np.ndarray:
@@ -121,34 +183,9 @@ class OffscreenRenderer:
         if self._context is None:
             raise RuntimeError("render called after close")
         self._context.make_current()
-        if self._camera is None:
-            self._camera = self.view.camera(data, self._size)
-        mujoco.mjv_updateScene(self.model, data, self.option, None, self._camera,
-                               mujoco.mjtCatBit.mjCAT_ALL, self.scene)
-        if self._ground is not None:
-            ground_grid(self.scene, data.subtree_com[0], self._grid, self._ground)
-        self.artist.draw(self.scene, data, tension, rest_length)
-        mujoco.mjr_render(self._rect, self.scene, self._mjr)
-        self._legend(label)
-        image = np.empty((self.height, self.width, 3), dtype=np.uint8)
-        mujoco.mjr_readPixels(image, None, self._rect, self._mjr)
-        return np.flipud(image)
-
-    def _legend(self, label: str) -> None:
-        bar_w, bar_h = _BAR
-        left, bottom = 10, 28
-        font = mujoco.mjtFont.mjFONT_NORMAL
-        colors = self.artist.colors
-        mujoco.mjr_text(font, f"0 N  cable tension  {colors.max_tension:g} N", self._mjr,
-                        left / self.width, (bottom + bar_h + 4) / self.height, 0.1, 0.1, 0.1)
-        mujoco.mjr_text(font, "grey dashed: slack", self._mjr, left / self.width,
-                        8 / self.height, 0.1, 0.1, 0.1)
-        if label:
-            mujoco.mjr_overlay(font, mujoco.mjtGridPos.mjGRID_TOPLEFT, self._rect, label, "",
-                               self._mjr)
-        # the bar goes after the text: drawn straight after mjr_render it did not show
-        mujoco.mjr_drawPixels(self._bar.ravel(), None,
-                              mujoco.MjrRect(left, bottom, bar_w, bar_h), self._mjr)
+        self.frame.update(data, tension, rest_length)
+        return _glserver.paint(self._mjr, self.scene, self.width, self.height,
+                               self.frame.legend(label))
 
     def close(self) -> None:
         """Frees the OpenGL resources."""

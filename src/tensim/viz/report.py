@@ -23,6 +23,7 @@ from tensim._files import atomic_path, run_folder_name, write_text
 from tensim.sim import TimeSeries
 
 if TYPE_CHECKING:
+    from tensim.viz._gl import GLServer
     from tensim.viz.drawing import FigureDrawer
 
 log = logging.getLogger(__name__)
@@ -80,8 +81,9 @@ def write_report(out: Path, summary: dict[str, Any] | None = None, *,
     if drawer is not None and not drawer.enabled:
         frame = False
     with concurrent.futures.ThreadPoolExecutor(1) as pool:
-        # the backend trial runs in a child process while the figures are drawn
-        backend = pool.submit(_gl.select_backend) if frame and series is not None else None
+        # the child that paints the frame starts (and tries the backends) while the figures
+        # are drawn, unless the command started it before it simulated
+        backend = pool.submit(_gl.take_server) if frame and series is not None else None
         if drawer is None or drawer.enabled:
             _figures(out, series, drawer.pending if drawer is not None else frozenset())
         note = _frame(out, summary, series, backend) \
@@ -133,23 +135,23 @@ def figure_names(out: Path, summary: dict[str, Any]) -> list[str]:
 
 
 def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
-           backend: concurrent.futures.Future[str]) -> str | None:
-    """Renders ``frame.png`` at the last recorded sample; a note for the page if it cannot."""
+           server: concurrent.futures.Future[GLServer]) -> str | None:
+    """Renders ``frame.png`` at the last recorded sample (painted by the OpenGL child of
+    :class:`tensim.viz._gl.GLServer`); a note for the page if it cannot."""
     from PIL import Image
 
     from tensim.viz._gl import OffscreenUnavailable
     from tensim.viz.cables import TensionColors
-    from tensim.viz.render import OffscreenRenderer
+    from tensim.viz.render import FrameScene
     from tensim.viz.replay import PoseReplay, RunFolderError, recorded_run
 
     try:
-        backend.result()
-        replay = PoseReplay(recorded_run(out, summary, series))
-        k = replay.time.size - 1
-        colors = TensionColors.for_run(replay.tension)
-        with OffscreenRenderer(replay.compiled, colors=colors) as renderer:
-            image = renderer.render(replay.place(k), replay.tension[k], replay.rest_length[k],
-                                    f"t = {replay.time[k]:.2f} s")
+        with server.result() as painter:
+            replay = PoseReplay(recorded_run(out, summary, series))
+            k = replay.time.size - 1
+            scene = FrameScene(replay.compiled, colors=TensionColors.for_run(replay.tension))
+            image = painter.paint(scene.job(replay.place(k), replay.tension[k],
+                                            replay.rest_length[k], f"t = {replay.time[k]:.2f} s"))
     except (OffscreenUnavailable, RunFolderError) as err:
         log.info("report without a frame of the robot: %s", err)
         return f"No frame of the robot: {err}"
