@@ -23,7 +23,16 @@ from typing import Any
 import numpy as np
 
 from tensim.control import ControllerConfig
-from tensim.control.rolling import RollSettings, heading_vector, plan_tip, support_face
+from tensim.control.rolling import (
+    RollSettings,
+    default_settings,
+    heading_vector,
+    plan_tip,
+    support_edges,
+    support_face,
+    tip_rotation,
+    yaw_between,
+)
 from tensim.design import DesignError
 from tensim.model import WorldOptions, compile_structure
 from tensim.runs import world_record, write_run
@@ -32,6 +41,10 @@ from tensim.structure import Structure
 
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
 LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
+TURN_TOLERANCE = 10.0  # deg: turning in place stops once the yaw is this near the target
+TURN_DEPTH = 4  # tips ahead turning in place looks (rigid hull)
+TURN_RADIUS = 0.25  # body lengths from the start that turning in place moves freely within
+TURN_WEIGHT = 4.0  # rad of yaw error that one body length beyond TURN_RADIUS costs as much as
 
 
 def node_positions(sim: Simulation) -> dict[str, np.ndarray]:
@@ -67,6 +80,45 @@ class _Gait:
     pushing: bool = False
     faces: list[tuple[str, ...]] = dataclasses.field(default_factory=list)
     plans: int = 0
+    turn: float | None = None  # rad: the yaw to turn by in place (None: roll on the heading)
+    start: np.ndarray | None = None  # (n, 3) the nodes at the start (turning's reference)
+    turned: bool = False
+
+    def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
+        """Turning in place: the outward normal of the support edge whose rigid-hull tip best
+        brings the yaw toward the target while the centre stays near the start (None: no tip
+        does better than standing, so the turn is done)."""
+        assert self.turn is not None and self.start is not None
+        names = list(positions)
+        points = np.array([positions[n] for n in names])
+        feet = np.array([positions[n] for n in support_face(positions)])
+        origin = self.start.mean(axis=0)[:2]
+
+        def cost(p: np.ndarray) -> float:
+            error = abs(math.remainder(self.turn - yaw_between(self.start, p), 2 * math.pi))
+            away = float(np.linalg.norm(p.mean(axis=0)[:2] - origin)) / self.length
+            return error + TURN_WEIGHT * max(0.0, away - TURN_RADIUS)
+
+        if abs(math.remainder(self.turn - yaw_between(self.start, points), 2 * math.pi)) \
+                <= math.radians(TURN_TOLERANCE):
+            self.turned = True
+            return None
+        best, heading = cost(points), None
+        frontier: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = [(points, feet, None)]
+        for _ in range(TURN_DEPTH):  # breadth first over sequences of rigid-hull tips
+            grown = []
+            for p, f, first in frontier:
+                for edge in support_edges(f[:, :2]):
+                    rotation, anchor = tip_rotation(p, f, edge)
+                    q = (p - anchor) @ rotation.T + anchor
+                    q[:, 2] -= q[:, 2].min() - points[:, 2].min()
+                    face = support_face(dict(zip(names, q, strict=True)))
+                    lead = edge[:2].copy() if first is None else first
+                    grown.append((q, q[[names.index(n) for n in face]], lead))
+                    if (c := cost(q)) < best - 1e-3:
+                        best, heading = c, lead
+            frontier = grown
+        return heading
 
     def heading(self, com: np.ndarray) -> np.ndarray:
         """Toward the goal; without one toward a point on the heading's line through the
@@ -104,9 +156,12 @@ class _Gait:
             dataclasses.replace(n, position=tuple(positions[n.name]))
             for n in self.structure.nodes))
         com = sim.data.subtree_com[0]
+        heading = self.heading(com) if self.turn is None else self._turn_heading(positions)
+        if heading is None or self.turned:
+            sim.drive.rest_command[self.motorised] = self.built[self.motorised]
+            return
         try:
-            plan = plan_tip(pose, sim.drive.rest.copy(), self.built, self.heading(com),
-                            self.settings)
+            plan = plan_tip(pose, sim.drive.rest.copy(), self.built, heading, self.settings)
         except DesignError:
             return
         self.plans += 1
@@ -117,9 +172,17 @@ class _Gait:
 def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
          goal: tuple[float, float] | None = None, world: WorldOptions | None = None,
          settings: RollSettings | None = None, record_dt: float = 0.01,
+         turn_deg: float | None = None,
          progress: Callable[[float, float], None] | None = None
          ) -> tuple[SimulationResult, dict[str, Any]]:
-    """Rolls ``structure`` for ``duration`` seconds toward a heading or a goal point.
+    """Rolls ``structure`` for ``duration`` seconds toward a heading or a goal point, or turns
+    it in place by ``turn_deg``.
+
+    Turning in place tips, at each plan, over the support edge whose tip (the hull rolled as a
+    rigid body over that edge) best brings the robot's yaw toward ``turn_deg`` while its
+    centre stays near the start (beyond :data:`TURN_RADIUS` body lengths from the start a body length weighs as much as
+    :data:`TURN_WEIGHT` rad of yaw error);
+    it stops once the yaw is within :data:`TURN_TOLERANCE` of the target or no tip improves.
 
     Args:
         structure: a closed robot (its nodes' convex hull is what it rolls on).
@@ -127,14 +190,19 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
         heading_deg: heading, counter-clockwise from +x [deg] (used without a goal).
         goal: (x, y) of a goal point [m]; the gait heads toward it from where the robot is.
         world: physics step, terrain and other world options.
-        settings: the gait's parameters.
+        settings: the gait's parameters (None: :func:`~tensim.control.rolling.default_settings`).
         record_dt: recording period [s]; a whole number of physics steps.
+        turn_deg: turn in place by this yaw, counter-clockwise [deg] (the heading and goal
+            are then unused); the summary adds ``turn_deg``, ``yaw_deg`` and
+            ``displacement_m`` (:func:`turn_summary`).
         progress: called as progress(done_s, total_s).
 
     Returns:
         The result and its summary (:func:`roll_summary` plus the run's headline figures).
     """
-    settings = settings or RollSettings()
+    if turn_deg is not None and not math.isfinite(turn_deg):
+        raise ValueError(f"turn_deg must be a finite angle in degrees, got {turn_deg!r}")
+    settings = settings or default_settings(structure)
     world = world or WorldOptions()
     compiled = compile_structure(structure, world)
     sim = Simulation(compiled, record_dt=record_dt)
@@ -142,6 +210,9 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
     gait = _Gait(compiled.structure, built, motorised, settings, heading_deg, goal,
                  sim.data.subtree_com[0][:2].copy(), body_length(structure))
+    if turn_deg is not None:
+        gait.turn = math.radians(turn_deg)
+        gait.start = np.array(list(node_positions(sim).values()))
     chunks: list[TimeSeries] = []
     period = max(record_dt, round(settings.period_s / record_dt) * record_dt)
     done, start = 0.0, time.perf_counter()
@@ -165,7 +236,45 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                "goal_xy_m": list(goal) if goal is not None else None,
                "faces_visited": len(set(gait.faces)), "rolls": max(0, len(gait.faces) - 1),
                "plans": gait.plans}
+    if turn_deg is not None:
+        summary.update(turn_summary(trajectory, turn_deg, body_length(structure)))
     return result, summary
+
+
+def turn_summary(trajectory: TimeSeries, turn_deg: float, length: float) -> dict[str, Any]:
+    """A turn in place's figures, from the recorded bodies' paths.
+
+    Returns:
+        ``turn_deg`` (the target), ``yaw_deg`` (the yaw of the best-fitting rotation taking
+        the bodies' centres at the start to those at the end, :func:`yaw_between`; with one
+        body, its own yaw), ``displacement_m`` (the centre of mass's horizontal displacement)
+        and ``displacement_body_lengths``.
+    """
+    bodies = sorted({k.split("/", 1)[1] for k in trajectory.channels
+                     if k.startswith("pos_x/") and k != f"pos_x/{COM}"})
+
+    def centres(i: int) -> np.ndarray:
+        return np.array([[trajectory[f"pos_{a}/{b}"][i] for a in "xyz"] for b in bodies])
+
+    if len(bodies) >= 3:
+        yaw = yaw_between(centres(0), centres(-1))
+    else:  # one or two bodies: the first body's own rotation
+        q = [np.array([trajectory[f"quat_{a}/{bodies[0]}"][i] for a in "wxyz"]) for i in (0, -1)]
+        yaw = yaw_between(_frame(q[0]), _frame(q[1]))
+    moved = float(np.hypot(trajectory[f"pos_x/{COM}"][-1] - trajectory[f"pos_x/{COM}"][0],
+                           trajectory[f"pos_y/{COM}"][-1] - trajectory[f"pos_y/{COM}"][0]))
+    return {"turn_deg": turn_deg, "yaw_deg": round(math.degrees(yaw), 3),
+            "displacement_m": round(moved, 6),
+            "displacement_body_lengths": round(moved / length, 6)}
+
+
+def _frame(quat: np.ndarray) -> np.ndarray:
+    """(4, 3) the origin and unit axes of a body frame of quaternion (w, x, y, z)."""
+    w, x, y, z = quat / np.linalg.norm(quat)
+    rotation = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return np.vstack([np.zeros(3), rotation.T])
 
 
 def play(structure: Structure, config: ControllerConfig, duration: float, *,
