@@ -182,7 +182,8 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     rigid body over that edge) best brings the robot's yaw toward ``turn_deg`` while its
     centre stays near the start (beyond :data:`TURN_RADIUS` body lengths from the start a body length weighs as much as
     :data:`TURN_WEIGHT` rad of yaw error);
-    it stops once the yaw is within :data:`TURN_TOLERANCE` of the target or no tip improves.
+    it stops once the yaw is within :data:`TURN_TOLERANCE` of the target, and the run ends
+    there (``duration`` is then the longest it may take).
 
     Args:
         structure: a closed robot (its nodes' convex hull is what it rolls on).
@@ -217,7 +218,7 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     period = max(record_dt, round(settings.period_s / record_dt) * record_dt)
     done, start = 0.0, time.perf_counter()
     with sim:
-        while done < duration - 1e-9:
+        while done < duration - 1e-9 and not gait.turned:
             gait.control(sim)
             span = min(period, duration - done)
             series = sim.run(span)
@@ -227,7 +228,7 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                 progress(done, duration)
         trajectory = _join(chunks)
         result = SimulationResult(trajectory, sim.drive.peak.copy(), time.perf_counter() - start,
-                                  duration, sim.dt,
+                                  done, sim.dt,
                                   sim.index.cables)
     direction = heading_vector(heading_deg) if goal is None else None
     summary = {**result.summary(), **world_record(compiled.world),
