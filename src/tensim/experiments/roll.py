@@ -43,7 +43,7 @@ ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
 LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
 TURN_TOLERANCE = 10.0  # deg: turning in place stops once the yaw is this near the target
 TURN_DEPTH = 4  # tips ahead turning in place looks (rigid hull)
-TURN_RADIUS = 0.25  # body lengths from the start that turning in place moves freely within
+TURN_RADIUS = 0.1  # body lengths from the start that turning in place moves freely within
 TURN_WEIGHT = 4.0  # rad of yaw error that one body length beyond TURN_RADIUS costs as much as
 
 
@@ -178,11 +178,12 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     """Rolls ``structure`` for ``duration`` seconds toward a heading or a goal point, or turns
     it in place by ``turn_deg``.
 
-    Turning in place tips, at each plan, over the support edge whose tip (the hull rolled as a
-    rigid body over that edge) best brings the robot's yaw toward ``turn_deg`` while its
-    centre stays near the start (beyond :data:`TURN_RADIUS` body lengths from the start a body length weighs as much as
-    :data:`TURN_WEIGHT` rad of yaw error);
-    it stops once the yaw is within :data:`TURN_TOLERANCE` of the target, and the run ends
+    Turning in place tips, at each plan, over the first support edge of the sequence of up to
+    :data:`TURN_DEPTH` tips (the hull rolled as a rigid body over each edge) that best brings
+    the robot's yaw toward ``turn_deg`` while its centre stays near the start (beyond
+    :data:`TURN_RADIUS` body lengths from the start, a body length weighs as much as
+    :data:`TURN_WEIGHT` rad of yaw error); it stops once the yaw is within
+    :data:`TURN_TOLERANCE` of the target, and the run ends
     there (``duration`` is then the longest it may take).
 
     Args:
@@ -228,7 +229,7 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                 progress(done, duration)
         trajectory = _join(chunks)
         result = SimulationResult(trajectory, sim.drive.peak.copy(), time.perf_counter() - start,
-                                  done, sim.dt,
+                                  round(done, 9) if gait.turned else duration, sim.dt,
                                   sim.index.cables)
     direction = heading_vector(heading_deg) if goal is None else None
     summary = {**result.summary(), **world_record(compiled.world),
