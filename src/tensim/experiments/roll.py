@@ -85,21 +85,23 @@ class _Gait:
     turned: bool = False
 
     def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
-        """Turning in place: the outward normal of the support edge whose rigid-hull tip best
-        brings the yaw toward the target while the centre stays near the start (None: no tip
-        does better than standing, so the turn is done)."""
+        """Turning in place: the outward normal of the first edge of the sequence of rigid-hull
+        tips that best brings the yaw toward the target while the centre stays near the start
+        (None: the yaw is within :data:`TURN_TOLERANCE`, or no sequence does better than
+        standing)."""
         assert self.turn is not None and self.start is not None
+        turn, start = self.turn, self.start
         names = list(positions)
         points = np.array([positions[n] for n in names])
         feet = np.array([positions[n] for n in support_face(positions)])
-        origin = self.start.mean(axis=0)[:2]
+        origin = start.mean(axis=0)[:2]
 
         def cost(p: np.ndarray) -> float:
-            error = abs(math.remainder(self.turn - yaw_between(self.start, p), 2 * math.pi))
+            error = abs(math.remainder(turn - yaw_between(start, p), 2 * math.pi))
             away = float(np.linalg.norm(p.mean(axis=0)[:2] - origin)) / self.length
             return error + TURN_WEIGHT * max(0.0, away - TURN_RADIUS)
 
-        if abs(math.remainder(self.turn - yaw_between(self.start, points), 2 * math.pi)) \
+        if abs(math.remainder(turn - yaw_between(start, points), 2 * math.pi)) \
                 <= math.radians(TURN_TOLERANCE):
             self.turned = True
             return None
@@ -239,30 +241,40 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                "faces_visited": len(set(gait.faces)), "rolls": max(0, len(gait.faces) - 1),
                "plans": gait.plans}
     if turn_deg is not None:
-        summary.update(turn_summary(trajectory, turn_deg, body_length(structure)))
+        bodies = dict(zip((int(b) for b in sim.index.body), sim.index.bodies, strict=True))
+        nodes = {n: (bodies[b], sim.index.node_local[n])
+                 for n, b in sim.index.node_body.items() if b in bodies}
+        summary.update(turn_summary(trajectory, turn_deg, body_length(structure), nodes))
     return result, summary
 
 
-def turn_summary(trajectory: TimeSeries, turn_deg: float, length: float) -> dict[str, Any]:
+def turn_summary(trajectory: TimeSeries, turn_deg: float, length: float,
+                 nodes: dict[str, tuple[str, np.ndarray]]) -> dict[str, Any]:
     """A turn in place's figures, from the recorded bodies' paths.
 
+    Args:
+        trajectory: the recorded run (its bodies' ``pos_*`` and ``quat_*`` channels).
+        turn_deg: the target yaw [deg].
+        length: the body length [m].
+        nodes: node name -> (its body's name, its position in the body's frame [m]).
+
     Returns:
-        ``turn_deg`` (the target), ``yaw_deg`` (the yaw of the best-fitting rotation taking
-        the bodies' centres at the start to those at the end, :func:`yaw_between`; with one
-        body, its own yaw), ``displacement_m`` (the centre of mass's horizontal displacement)
-        and ``displacement_body_lengths``.
+        ``turn_deg`` (the target), ``yaw_deg`` (the yaw of the best-fitting rotation,
+        :func:`yaw_between`, taking the nodes at the start to the nodes at the end; nodes, not
+        body frames, since a rod's spin about its own axis moves no node),
+        ``displacement_m`` (the centre of mass's horizontal displacement) and
+        ``displacement_body_lengths``.
     """
-    bodies = sorted({k.split("/", 1)[1] for k in trajectory.channels
-                     if k.startswith("pos_x/") and k != f"pos_x/{COM}"})
 
-    def centres(i: int) -> np.ndarray:
-        return np.array([[trajectory[f"pos_{a}/{b}"][i] for a in "xyz"] for b in bodies])
+    def points(i: int) -> np.ndarray:
+        out = []
+        for body, local in nodes.values():
+            w, x, y, z = (trajectory[f"quat_{a}/{body}"][i] for a in "wxyz")
+            out.append(np.array([trajectory[f"pos_{a}/{body}"][i] for a in "xyz"])
+                       + _rotation(np.array([w, x, y, z])) @ local)
+        return np.array(out)
 
-    if len(bodies) >= 3:
-        yaw = yaw_between(centres(0), centres(-1))
-    else:  # one or two bodies: the first body's own rotation
-        q = [np.array([trajectory[f"quat_{a}/{bodies[0]}"][i] for a in "wxyz"]) for i in (0, -1)]
-        yaw = yaw_between(_frame(q[0]), _frame(q[1]))
+    yaw = yaw_between(points(0), points(-1))
     moved = float(np.hypot(trajectory[f"pos_x/{COM}"][-1] - trajectory[f"pos_x/{COM}"][0],
                            trajectory[f"pos_y/{COM}"][-1] - trajectory[f"pos_y/{COM}"][0]))
     return {"turn_deg": turn_deg, "yaw_deg": round(math.degrees(yaw), 3),
@@ -270,13 +282,12 @@ def turn_summary(trajectory: TimeSeries, turn_deg: float, length: float) -> dict
             "displacement_body_lengths": round(moved / length, 6)}
 
 
-def _frame(quat: np.ndarray) -> np.ndarray:
-    """(4, 3) the origin and unit axes of a body frame of quaternion (w, x, y, z)."""
+def _rotation(quat: np.ndarray) -> np.ndarray:
+    """(3, 3) the rotation of a unit quaternion (w, x, y, z)."""
     w, x, y, z = quat / np.linalg.norm(quat)
-    rotation = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-    return np.vstack([np.zeros(3), rotation.T])
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def play(structure: Structure, config: ControllerConfig, duration: float, *,
