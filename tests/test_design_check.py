@@ -124,10 +124,12 @@ def _mixed_prism() -> tensim.Structure:
         for c in base.cables))
 
 
-def _grows(structure: tensim.Structure, dt: float) -> bool:
-    """Whether a small random kick of the free, weightless structure grows over 2 s: the
-    tensions' largest deviation in the last tenth of the run above that in the first."""
-    world = tensim.WorldOptions(timestep=dt, gravity=(0.0, 0.0, 0.0), ground=False)
+def _grows(structure: tensim.Structure, dt: float, law: str = "explicit") -> bool:
+    """Whether a small random kick of the free, weightless structure grows over 2 s under the
+    cable law ``law``: the tensions' largest deviation in the last tenth of the run above that
+    in the first."""
+    world = tensim.WorldOptions(timestep=dt, gravity=(0.0, 0.0, 0.0), ground=False,
+                                cable_law=law)
     with tensim.Simulation(tensim.compile_structure(structure, world), record_dt=dt) as sim:
         sim.data.qvel[:] += 1e-4 * np.random.default_rng(0).standard_normal(sim.model.nv)
         try:
@@ -286,3 +288,78 @@ def test_a_rod_given_its_axial_inertia_keeps_it(tmp_path, caplog) -> None:
     assert compiled.model.body_inertia[body].min() == pytest.approx(moments[0], rel=1e-9)
     with pytest.raises(tensim.structure.StructureError, match="axial_inertia must be > 0"):
         dataclasses.replace(base.rods[0], axial_inertia=-1.0)
+
+
+def _damped_prism(vertical: float = 50.0, triangle: float = 10.0) -> tensim.Structure:
+    """prism3 with strongly damped verticals and lightly damped triangles: MuJoCo's
+    implicitfast keeps each body's own block of their damping, not the blocks between bodies."""
+    base = prism(3)
+    return dataclasses.replace(base, cables=tuple(
+        dataclasses.replace(c, damping=vertical if "vertical" in c.tags else triangle)
+        for c in base.cables))
+
+
+def test_two_free_masses_under_implicitfast_lose_their_damping_bonus() -> None:
+    # x1'' = -w^2 (x1 - x2) - c (x1' - x2'), and the same for x2 (unit masses): implicitfast
+    # takes each mass's own damping c implicitly but the cross term -c x2' explicitly; on the
+    # vibration mode u = x1 - x2 the two cancel in the flip condition
+    # r^2 u = K u + r (C - 2 D) u = 2 w^2 u + r (2 c - 2 c) u, so dt = 2 / (sqrt(2) w) whatever
+    # c, against 2 (sqrt(1 + z^2) + z) / (sqrt(2) w) with all of C implicit
+    w, c = 30.0, 25.0
+    stiff = w**2 * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    damp = c * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    own = np.diag(np.diag(damp))
+    closed = 2 / (np.sqrt(2) * w)
+    assert _flip_step(stiff, damp, "implicitfast", (stiff, damp, own)) == pytest.approx(closed)
+    for dt, grows in ((0.99 * closed, False), (1.01 * closed, True)):
+        radius = np.abs(np.linalg.eigvals(
+            step_matrix(stiff, damp, np.eye(2), dt, "implicitfast", own))).max()
+        assert (radius > 1 + 1e-9) == grows
+    zeta = 2 * c / (2 * np.sqrt(2) * w)  # the mode's damping ratio (its C is 2 c)
+    full = 2 * (np.sqrt(1 + zeta**2) + zeta) / (np.sqrt(2) * w)
+    assert _flip_step(stiff, damp, "implicitfast") == pytest.approx(full)
+
+
+def test_implicitfast_bound_brackets_simulation_under_the_implicitfast_law() -> None:
+    structure = _damped_prism()
+    result = stiffness(structure, count=False)
+    bound = step_bound(result, "implicitfast").limit
+    # all of C implicit would promise a step 2.2x longer: the test tells the two apart
+    everything = dataclasses.replace(result, dof_body=np.zeros_like(result.dof_body))
+    assert step_bound(everything, "implicitfast").limit > 2 * bound
+    # bisection in simulation under the implicitfast law, from 30 % either side down to 2 %
+    low, high = 0.7 * bound, 1.3 * bound
+    assert not _grows(structure, low, "implicitfast") and _grows(structure, high, "implicitfast")
+    while high - low > 0.02 * bound:
+        middle = (low + high) / 2
+        low, high = (low, middle) if _grows(structure, middle, "implicitfast") \
+            else (middle, high)
+    # within 2 %: the linearisation against the nonlinear run (as for the explicit bound)
+    assert 0.98 * bound < low < high < 1.02 * bound
+    found = check_structure(structure, 1.05 * bound, cable_law="implicitfast")
+    assert [f.severity for f in found if f.item == "timestep"] == ["error"]
+    assert f"implicitfast step is stable below {bound * 1e3:.4g} ms" in str(found[0])
+
+
+def test_the_implicit_law_has_no_bound_and_check_says_so(capsys) -> None:
+    structure = _damped_prism()
+    result = stiffness(structure, count=False)
+    assert step_bound(result, "discrete").limit == np.inf
+    # backward Euler in K and C: the step matrix does not grow at any step (the rigid motions'
+    # eigenvalue 1 is a Jordan block, which round-off splits by ~sqrt(eps) = 1e-8), while the
+    # Euler step grows far above its bound
+    explicit = step_bound(result).limit
+    for dt in np.geomspace(1e-4, 1.0, 9):
+        matrix = step_matrix(result.matrix, result.damping, result.mass, dt, "discrete")
+        assert np.abs(np.linalg.eigvals(matrix)).max() <= 1 + 1e-6
+    euler = step_matrix(result.matrix, result.damping, result.mass, 10 * explicit)
+    assert np.abs(np.linalg.eigvals(euler)).max() > 2
+    found = check_structure(structure, 10 * explicit, cable_law="implicit")
+    assert [(f.severity, f.item) for f in found] == [("note", "timestep")]
+    assert f"Euler step is stable below {explicit * 1e3:.4g} ms" in found[0].message
+    assert main(["check", "prism3", "--dt", "0.05", "--cable-law", "implicit"]) == 0
+    assert "stable at any step" in capsys.readouterr().out
+    assert main(["check", "prism3", "--dt", "0.05", "--cable-law", "implicitfast"]) == 1
+    assert "the implicitfast step is stable below" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="cable_law must be one of"):
+        check_structure(structure, cable_law="stiff")

@@ -75,15 +75,15 @@ def test_prism_generalises_prism3():
                                [c.pretension for c in reference.cables], rtol=1e-14)
 
 
-@pytest.mark.parametrize("build", [prism4, prism5, superball], ids=["prism4", "prism5",
-                                                                   "superball"])
+@pytest.mark.parametrize("build", [prism4, prism5, lambda: superball(standing=False)],
+                         ids=["prism4", "prism5", "superball"])
 def test_self_stressed_form_holds_in_zero_gravity(build):
     # an equilibrium up to rounding stays put; a wrong pretension moves nodes by millimetres
     assert _moved(compile_structure(build(), ZERO_G), 1.0) < 1e-9
 
 
 def test_superball_scale():
-    s = superball()
+    s = superball(clearance=0.01, standing=False)  # the form, before it settles
     lengths = {round(s.distance(*r.nodes), 12) for r in s.rods}
     assert lengths == {1.684}
     # a strut of 16.84 dm, radius 0.31 dm, 0.688 kg/dm^3 (the toolkit's model): 3.50 kg

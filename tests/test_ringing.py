@@ -144,3 +144,16 @@ def test_the_contact_cable_example_is_quiet() -> None:
     compiled = tensim.compile_structure(load_structure("examples/contact_edge.yaml"), world)
     run = tensim.simulate(compiled, 0.3)  # a ringing cable would raise SimulationError
     assert run.trajectory.time[-1] == pytest.approx(0.3)
+
+
+def test_rl_environment_checks_the_step_of_its_own_cable_law(tmp_path) -> None:
+    from tensim.rl import EnvConfig, TensegrityEnv
+
+    path = tmp_path / "lab3.yaml"
+    save_structure(_lab_three_bar(), path)
+    # refused at 1 ms under the explicit law (above), taken under the implicit one: its
+    # discrete step has no bound, and the check says so in a note
+    env = TensegrityEnv(EnvConfig(model=str(path),
+                                  world=tensim.WorldOptions(cable_law="implicit")))
+    assert [(f.severity, f.item) for f in env.robot.findings if f.item == "timestep"] == [
+        ("note", "timestep")]

@@ -115,6 +115,33 @@ def test_observed_tensions_use_each_robots_randomised_stiffness(robot_file):
     np.testing.assert_allclose(tension, load_cell_tension(length, rest, 2.0 * k), rtol=1e-12)
 
 
+def test_observed_tensions_include_a_pd_motors_pull(tmp_path):
+    """Triangle cables with a PD motor (Motor.pd_stiffness): the actions are the servos'
+    targets (around their build length), and the load cell reads the spring's k max(0, x - l)
+    plus the servo's min(max(0, kp (x - L)), max_tension), L the command; V* actions, which
+    would replace the servos by the impedance law, are refused."""
+    path = tmp_path / "servo.yaml"
+    path.write_text(three_bar().replace("min_length: 0.1}", "min_length: 0.1, "
+                                        "pd_stiffness: 800.0}"))
+    config = _config(str(path), randomization=Randomization(),
+                     observation=("cable_length", "rest_length", "tension"))
+    env = TensegrityEnv(config)
+    env.reset(seed=0)
+    for _ in range(3):
+        obs = env.step(np.full(6, -1.0, dtype=np.float32))[0]  # pull the servos in
+    n = env.robot.n
+    length, rest, tension = obs[:n], obs[n:2 * n], obs[2 * n:]
+    target = env.worlds.f["ctrl"][0, :n]
+    servo = np.clip(800.0 * (length - target), 0.0, 2000.0)
+    servo[6:] = 0.0  # the verticals have no motor
+    assert servo.max() > 10.0  # the servos pull: the check sees them
+    np.testing.assert_allclose(target[:6], env.robot.low)  # the action -1: the box's floor
+    np.testing.assert_allclose(tension, load_cell_tension(length, rest, 3000.0) + servo,
+                               rtol=1e-12, atol=1e-9)
+    with pytest.raises(InputError, match="cable 'bottom_0' has a PD motor"):
+        TensegrityEnv(_config(str(path), action="vstar"))
+
+
 def test_rod_axes_and_end_caps_on_the_ground_match_the_build_pose(robot_file):
     config = _config(robot_file, randomization=Randomization(),
                      observation=("rod_axis", "end_contact"))

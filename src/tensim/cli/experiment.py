@@ -375,7 +375,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="goal: the target point in the world frame [m] (default 1.5,0, "
                         "2.7 m ahead of the robot; write --target=-2,1 for a negative X)")
     p.add_argument("--cases", default=None, metavar="NAME,...",
-                   help="laws: tetraspine3, superball, three_bar, twelve_bar (default all)")
+                   help="laws: tetraspine3, superball, three_bar, twelve_bar (default all "
+                        "but twelve_bar), tetraspine3_soft, tetraspine3_free_motors")
     p.add_argument("--ntrt", default=None, metavar="NTRTSIM_DIR",
                    help="laws: a checkout of the original toolkit, for its 12-bar cube")
     p.add_argument("--cpu", action="store_true", help="laws: print the CPU time per step")

@@ -66,7 +66,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_figures:
         prepare_outputs()  # the GL trial for frame.png runs while the simulation does
     structure = load_model(args.model)
-    warn_findings(structure, args.dt, args.model)  # tensim check's findings, as warnings
+    warn_findings(structure, args.dt, args.model,  # tensim check's findings, as warnings
+                  getattr(args, "cable_law", None) or "explicit")
     config = resolve_controller(args.model, structure, args.controller)
     if args.velocity_input:
         if config is None:

@@ -7,7 +7,10 @@ Each finding names the item, what is wrong and the change that fixes it:
   step applies the cable forces explicitly; it is stable while the step matrix's spectral
   radius is at most 1 (:func:`~tensim.design.stiffness.step_bound`; for one mode
   x'' = -omega^2 x - 2 zeta omega x' that is dt < 2 (sqrt(1 + zeta^2) - zeta) / omega), and
-  above half of that bound it rings and damps wrongly;
+  above half of that bound it rings and damps wrongly. Under the ``implicitfast`` cable law
+  the bound is MuJoCo's ``implicitfast`` step's (each body's own share of the damping
+  implicit); under the ``implicit`` law (``discrete``) the linearised step is stable at every
+  step, which a note says with the explicit law's bound;
 - thin rods: a rod body whose axial inertia is under 1e-4 of its transverse one;
 - slack cables at the build pose (rest length at or above the length);
 - a build pose far from equilibrium: the cables' net force on a body above twice the robot's
@@ -31,7 +34,7 @@ from tensim._input import load_yaml_file
 from tensim.design._blas import one_blas_thread
 from tensim.design._bodies import BuildPose, build_pose, cable_tensions
 from tensim.design.equilibrium import residuals
-from tensim.design.stiffness import step_bound, stiffness
+from tensim.design.stiffness import LAW_INTEGRATORS, step_bound, stiffness
 from tensim.structure import Structure, StructureError, mass_properties
 
 _log = logging.getLogger(__name__)
@@ -77,7 +80,8 @@ def nice_step(limit: float) -> float:
 @one_blas_thread
 def check_structure(structure: Structure, timestep: float = 1e-3,
                     source: str | os.PathLike[str] | None = None,
-                    integrator: str = "euler") -> list[Finding]:
+                    integrator: str | None = None, cable_law: str = "explicit"
+                    ) -> list[Finding]:
     """Every finding for ``structure`` simulated with the physics step ``timestep`` [s].
 
     Args:
@@ -85,10 +89,21 @@ def check_structure(structure: Structure, timestep: float = 1e-3,
         timestep: the physics step to check [s].
         source: the YAML file it was read from, if any: cables whose motor the file leaves out
             (so they are passive) are then named in a note.
-        integrator: how the step sees the cable forces, ``euler`` (explicit, as tensim's cable
-            law today) or ``implicitfast`` (their damping implicit); see
-            :func:`~tensim.design.stiffness.step_bound`.
+        integrator: how the step sees the cable forces, ``euler`` (explicit), ``implicitfast``
+            (each body's share of their damping implicit) or ``discrete`` (their stiffness and
+            damping implicit); see :func:`~tensim.design.stiffness.step_bound`. None: the
+            integrator of ``cable_law``.
+        cable_law: the cable law the runs use (``explicit``, ``implicit``, ``implicitfast``:
+            ``WorldOptions.cable_law``), when ``integrator`` is None.
+
+    Raises:
+        ValueError: an unknown cable law or integrator.
     """
+    if integrator is None:
+        if cable_law not in LAW_INTEGRATORS:
+            raise ValueError(f"cable_law must be one of {', '.join(LAW_INTEGRATORS)}, got "
+                             f"{cable_law!r}"[:200])
+        integrator = LAW_INTEGRATORS[cable_law]
     findings = (_units(structure) + _slack(structure) + _motors(structure, source)
                 + _thin(structure))
     try:
@@ -107,8 +122,11 @@ def _timestep(structure: Structure, timestep: float, pose: BuildPose,
     if pose.bodies.n_dof > MAX_DOF:
         return [Finding("warning", "timestep", f"not checked: more than {MAX_DOF} degrees of "
                         "freedom", "compare runs at two values of --dt")]
-    bound = step_bound(stiffness(structure, count=False, pose=pose), integrator)
+    result = stiffness(structure, count=False, pose=pose)
+    bound = step_bound(result, integrator)
     limit = bound.limit
+    if integrator == "discrete":
+        return _any_step(step_bound(result, "euler").limit)
     if not np.isfinite(limit):
         return []
     needed = nice_step(limit / 2)
@@ -122,6 +140,18 @@ def _timestep(structure: Structure, timestep: float, pose: BuildPose,
         return [Finding("warning", "timestep", f"{text}; {timestep * 1e3:g} ms rings and "
                         "damps wrongly", f"use --dt {needed:g}")]
     return []
+
+
+def _any_step(explicit: float) -> list[Finding]:
+    """The implicit law's note: its linearised step is stable at every step (backward Euler in
+    the cables' stiffness and damping); the explicit law's bound beside it."""
+    if not np.isfinite(explicit):
+        return []
+    return [Finding("note", "timestep", "under the implicit cable law (MuJoCo's discrete "
+                    "step) the linearised motion is stable at any step; the explicit law's "
+                    f"Euler step is stable below {explicit * 1e3:.4g} ms",
+                    "a long step is stable, not exact: docs/speed.md gives the error at "
+                    "0.5-10 ms")]
 
 
 def _thin(structure: Structure) -> list[Finding]:
@@ -222,9 +252,10 @@ def _units(structure: Structure) -> list[Finding]:
 
 
 def warn_findings(structure: Structure, timestep: float,
-                  source: str | os.PathLike[str] | None = None) -> None:
+                  source: str | os.PathLike[str] | None = None,
+                  cable_law: str = "explicit") -> None:
     """Logs every finding as a warning, notes at INFO (``simulate`` runs the check before it
-    starts)."""
-    for finding in check_structure(structure, timestep, source):
+    starts, for its cable law)."""
+    for finding in check_structure(structure, timestep, source, cable_law=cable_law):
         level = logging.INFO if finding.severity == "note" else logging.WARNING
         _log.log(level, "%s: %s; %s", finding.item, finding.message, finding.fix)

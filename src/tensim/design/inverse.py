@@ -139,7 +139,8 @@ class _Linear:
 
 
 def _linearise(pose: Structure, anchors: dict[str, np.ndarray], gravity: float,
-               loads: dict[str, np.ndarray] | None = None) -> _Linear:
+               loads: dict[str, np.ndarray] | None = None,
+               held: dict[str, np.ndarray] | None = None) -> _Linear:
     body_set = bodies(pose)
     geometry = cable_geometry(pose, body_set)
     rest = np.array([pose.rest_length(c) for c in pose.cables])
@@ -155,9 +156,32 @@ def _linearise(pose: Structure, anchors: dict[str, np.ndarray], gravity: float,
     for name, anchor in anchors.items():
         jac = body_set.point_jacobian(body_set.node_body[name], pose.position(name)) \
             @ body_set.basis
-        stiffness += PIN_STIFFNESS * jac.T @ jac
-        force += PIN_STIFFNESS * jac.T @ (pose.position(name) - anchor)
+        # a pin holds its node along the directions ``held`` gives (all three by default)
+        along = np.eye(3) if held is None else held[name].T @ held[name]
+        stiffness += PIN_STIFFNESS * jac.T @ along @ jac
+        force += PIN_STIFFNESS * jac.T @ along @ (pose.position(name) - anchor)
     return _Linear(pose, body_set, stiffness, grads, tensions, taut, force, anchors)
+
+
+def _sliding_feet(anchors: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The held directions ((k, 3) rows) of feet on frictionless ground (see :func:`settle`).
+
+    Raises:
+        DesignError: fewer than two feet apart on the ground (its turn is not held).
+    """
+    names = list(anchors)
+    across = np.zeros(3)
+    if len(names) >= 2:
+        line = anchors[names[1]] - anchors[names[0]]
+        across = np.array([-line[1], line[0], 0.0])
+    if np.linalg.norm(across) < 1e-9:
+        raise DesignError(f"feet {names} on frictionless ground: two feet apart on the "
+                          "ground are needed to hold its turn")
+    up = np.array([[0.0, 0.0, 1.0]])
+    held = {n: up for n in names}
+    held[names[0]] = np.eye(3)
+    held[names[1]] = np.vstack([up, across / np.linalg.norm(across)])
+    return held
 
 
 def _newton_step(lin: _Linear) -> np.ndarray:
@@ -175,27 +199,34 @@ def _newton_step(lin: _Linear) -> np.ndarray:
 @one_blas_thread
 def settle(structure: Structure, pinned: tuple[str, ...], gravity: float = GRAVITY,
            iterations: int = 100, loads: dict[str, np.ndarray] | None = None,
-           start: Structure | None = None) -> _Linear:
+           start: Structure | None = None, sliding: bool = False) -> _Linear:
     """The static pose of ``structure`` (explicit rest lengths) with ``pinned`` nodes held
     where ``structure`` has them, under gravity and external node ``loads`` (node -> (3,)
     world-frame force [N]); Newton's method from ``start`` (default: ``structure``).
+
+    With ``sliding``, the pinned nodes are feet on frictionless ground: each is held only in
+    height, except that the first is also held across the ground and the second across the
+    line from the first (the three rigid motions in the ground's plane, which friction needs
+    not resist). The pose is then the one in which the ground pushes only straight up, so the
+    robot stands without leaning on friction (no creep of soft contacts).
 
     Raises:
         DesignError: no static pose found (the structure folds or falls).
     """
     anchors = {n: structure.position(n) for n in pinned}
+    held = _sliding_feet(anchors) if sliding else None
     pose = structure if start is None else start
     size = float(np.ptp([n.position for n in structure.nodes], axis=0).max())
     for _ in range(iterations):
-        lin = _linearise(pose, anchors, gravity, loads)
+        lin = _linearise(pose, anchors, gravity, loads, held)
         step = _newton_step(lin)
         longest = np.abs(step).max()
         if longest > 0.05 * size:  # keep each step where the linearisation holds
             step *= 0.05 * size / longest
         pose = _move(pose, lin.body_set, lin.body_set.basis @ step)
         if longest < 1e-12 * max(size, 1.0):
-            return _linearise(pose, anchors, gravity, loads)
-    lin = _linearise(pose, anchors, gravity, loads)
+            return _linearise(pose, anchors, gravity, loads, held)
+    lin = _linearise(pose, anchors, gravity, loads, held)
     if np.abs(lin.force).max() > 1e-6 * max(np.abs(lin.tensions).max(), 1.0):
         raise DesignError(f"{structure.name}: no static pose found on its feet "
                           f"({', '.join(pinned)}): it folds or falls under gravity")

@@ -16,6 +16,7 @@ K_m v = 0) that is no rigid motion is stiffened by prestress where v^T K_g v > 0
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import numpy as np
 from scipy.linalg import eigh
@@ -87,12 +88,17 @@ def stiffness(structure: Structure, count: bool = True, *,
     tensions = cable_tensions(structure, geometry.lengths)
     taut = np.array([structure.rest_length(c) <= L + 1e-12
                      for c, L in zip(structure.cables, geometry.lengths, strict=True)], dtype=bool)
-    k = np.array([c.stiffness for c in structure.cables]) * taut
+    # a PD motor's servo counts as engaged (it starts at or past its target): the step
+    # bound must hold while it pulls
+    servo = np.array([(c.motor.pd_stiffness, c.motor.pd_damping)
+                      for c in structure.cables]).reshape(-1, 2)
+    k = np.array([c.stiffness for c in structure.cables]) * taut + servo[:, 0]
     grads = geometry.gradients
     material = (grads.T * k) @ grads
     geometric = geometry.geometric(tensions)
     mass = body_set.mass_matrix()
-    damping = (grads.T * np.array([c.damping for c in structure.cables]) * taut) @ grads
+    b = np.array([c.damping for c in structure.cables]) * taut + servo[:, 1]
+    damping = (grads.T * b) @ grads
     values, modes = eigh(material + geometric, mass)
     frequencies = np.sqrt(np.clip(values, 0.0, None)) / (2 * np.pi)
     counts = (0, 0, 0)
@@ -119,9 +125,14 @@ def _stiffened(mechanisms: np.ndarray, rigid: np.ndarray, geometric: np.ndarray)
     return int(np.sum(values > STIFF_TOLERANCE * scale))
 
 
-INTEGRATORS = ("euler", "implicitfast")  # how MuJoCo's step sees the cable forces (step_bound)
+INTEGRATORS = ("euler", "implicitfast", "discrete")  # how MuJoCo's step sees the cable forces
 GROWTH_TOLERANCE = 1e-8  # |eigenvalue| - 1 of the step matrix that counts as growth
 STEP_RESOLUTION = 1e-4  # relative width of the bracket the bisection leaves around the bound
+# each cable law's MuJoCo integrator, as step_bound names it (tensim.model.INTEGRATORS)
+LAW_INTEGRATORS = {"explicit": "euler", "implicitfast": "implicitfast", "implicit": "discrete"}
+
+# the implicit damping of a step of dt [s]: (n, n), in the coordinates of the step matrix
+ImplicitDamping = Callable[[float], np.ndarray]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -130,7 +141,7 @@ class StepBound:
 
     Attributes:
         limit: the step [s] above which the step matrix has an eigenvalue of modulus > 1
-            (inf when nothing springs or damps).
+            (inf when nothing springs or damps, or the integrator is stable at every step).
         frequency: the natural frequency of the vibration mode that grows first [Hz].
         damping_ratio: that mode's modal damping ratio v^T C v / (2 omega) [-].
         integrator: the integrator the bound is for (see :func:`step_bound`).
@@ -142,30 +153,52 @@ class StepBound:
     integrator: str
 
 
+def _check_integrator(integrator: str) -> None:
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got "
+                         f"{integrator!r}")
+
+
 def step_matrix(stiffness: np.ndarray, damping: np.ndarray, mass: np.ndarray, dt: float,
-                integrator: str = "euler") -> np.ndarray:
+                integrator: str = "euler", implicit: np.ndarray | None = None) -> np.ndarray:
     """(2 n, 2 n) the map (x, v) -> (x', v') of one step of M x'' = -K x - C v.
 
     MuJoCo's ``euler`` is semi-implicit: v' = v + dt a, x' = x + dt v'. With ``euler`` the
     forces are explicit, a = M^-1 (-K x - C v), as MuJoCo applies forces that a user callback
-    adds (tensim's cable law today). With ``implicitfast`` the damping is implicit,
-    a = (M + dt C)^-1 (-K x - C v), as MuJoCo treats a force whose velocity derivative it knows.
+    adds (tensim's explicit cable law). With ``implicitfast`` the damping MuJoCo knows is
+    implicit, a = (M + dt D)^-1 (-K x - C v), where D is ``implicit`` (default C): MuJoCo keeps
+    only the blocks of C inside the sparsity of M, each body's own (see
+    :func:`body_blocks`). With ``discrete`` stiffness and damping are implicit, a = (M + dt C
+    + dt^2 K)^-1 (-K x - C v - dt K v): stable at every step.
 
     Args:
         stiffness: (n, n) K.
         damping: (n, n) C.
         mass: (n, n) M.
         dt: the step [s].
-        integrator: ``euler`` or ``implicitfast``.
+        integrator: ``euler``, ``implicitfast`` or ``discrete``.
+        implicit: (n, n) the damping ``implicitfast`` takes implicitly (None: all of C).
     """
-    if integrator not in INTEGRATORS:
-        raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got "
-                         f"{integrator!r}")
-    inertia = mass + dt * damping if integrator == "implicitfast" else mass
-    gain = np.linalg.solve(inertia, np.hstack([stiffness, damping]))  # a = -gain @ (x, v)
+    _check_integrator(integrator)
+    force = np.hstack([stiffness, damping])
+    inertia = mass
+    if integrator == "implicitfast":
+        inertia = mass + dt * (damping if implicit is None else implicit)
+    elif integrator == "discrete":
+        inertia = mass + dt * damping + dt**2 * stiffness
+        force = np.hstack([stiffness, damping + dt * stiffness])
+    gain = np.linalg.solve(inertia, force)  # a = -gain @ (x, v)
     n = len(mass)
     velocity = np.hstack([np.zeros((n, n)), np.eye(n)]) - dt * gain
     return np.vstack([np.hstack([np.eye(n), np.zeros((n, n))]) + dt * velocity, velocity])
+
+
+def body_blocks(result: Stiffness) -> np.ndarray:
+    """(n_dof, n_dof) the damping MuJoCo's ``implicitfast`` takes implicitly: each body's own
+    block of C (its sparsity is the mass matrix's, one block per free body), without the
+    blocks that couple two bodies through a cable."""
+    same = result.dof_body[:, None] == result.dof_body[None, :]
+    return np.where(same, result.damping, 0.0)
 
 
 def step_bound(result: Stiffness, integrator: str = "euler") -> StepBound:
@@ -175,25 +208,29 @@ def step_bound(result: Stiffness, integrator: str = "euler") -> StepBound:
     damping matrices as they are (each cable its own damping-to-stiffness ratio), is stepped
     by the matrix of :func:`step_matrix`; the bound is the smallest step at which its spectral
     radius exceeds 1. Its eigenvalue leaves the unit circle at -1 (x' = -x, v' = -v), which
-    happens where (K + s C - r^2 M) x = 0 (s = r with ``euler``, -r with ``implicitfast``) for
-    r = 2 / dt: a quadratic eigenvalue problem. Its root is confirmed on the step matrix
+    happens where (K + r (C - 2 D) - r^2 M) x = 0 for r = 2 / dt (D: the implicit damping, 0
+    with ``euler``): a quadratic eigenvalue problem. Its root is confirmed on the step matrix
     (stable just below, growing just above); where it is not (a pair of complex eigenvalues
     leaves first), a scan and a bisection on the spectral radius find the bound. The analysis
     runs in the coordinates of the vibration modes without the motions nothing springs or
     damps (rigid motions, unstiffened mechanisms: eigenvalue 1 at every step); modes that
-    prestress softens (omega^2 < 0) count as unstiffened.
+    prestress softens (omega^2 < 0) count as unstiffened. Under ``implicitfast`` each body's
+    own damping block (:func:`body_blocks`) also weighs on those motions, which the step
+    matrix takes into account (their Schur complement). ``discrete`` has no bound (inf).
 
     Args:
         result: the structure's stiffness (:func:`stiffness`).
-        integrator: ``euler`` (cable forces explicit) or ``implicitfast`` (their damping
-            implicit), see :func:`step_matrix`.
+        integrator: ``euler`` (cable forces explicit: the explicit cable law),
+            ``implicitfast`` (each body's own block of their damping implicit) or
+            ``discrete`` (their stiffness and damping implicit: the implicit cable law), see
+            :func:`step_matrix`.
 
     Raises:
         ValueError: an unknown integrator.
     """
-    if integrator not in INTEGRATORS:
-        raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got "
-                         f"{integrator!r}")
+    _check_integrator(integrator)
+    if integrator == "discrete":  # backward Euler in K and C: no step grows
+        return StepBound(np.inf, 0.0, 0.0, integrator)
     with blas_threads(2 * result.mass.shape[0]):
         return _step_bound(result, integrator)
 
@@ -207,56 +244,89 @@ def _step_bound(result: Stiffness, integrator: str) -> StepBound:
     if scale <= 0 or not keep.any():  # nothing springs or damps
         return StepBound(np.inf, 0.0, 0.0, integrator)
     stiff, damp = np.diag(values[keep]), damping[np.ix_(keep, keep)]
-    limit = _flip_step(stiff, damp, integrator)
-    if not (_grows(stiff, damp, limit * (1 + STEP_RESOLUTION), integrator)
-            and not _grows(stiff, damp, limit * (1 - STEP_RESOLUTION), integrator)):
-        limit = _scanned_step(stiff, damp, integrator, limit)
+    implicit, full = None, None
+    if integrator == "implicitfast":
+        blocks = modes.T @ body_blocks(result) @ modes
+        implicit = _reduced_implicit(blocks, keep)
+        full = (np.diag(values), damping, blocks)
+    limit = _flip_step(stiff, damp, integrator, full)
+    if not (_grows(stiff, damp, limit * (1 + STEP_RESOLUTION), integrator, implicit)
+            and not _grows(stiff, damp, limit * (1 - STEP_RESOLUTION), integrator, implicit)):
+        limit = _scanned_step(stiff, damp, integrator, limit, implicit)
     if not np.isfinite(limit):
         return StepBound(np.inf, 0.0, 0.0, integrator)
-    return _growing(stiff, damp, limit, integrator)
+    return _growing(stiff, damp, limit, integrator, implicit)
 
 
-def _flip_step(stiff: np.ndarray, damp: np.ndarray, integrator: str) -> float:
+def _reduced_implicit(blocks: np.ndarray, keep: np.ndarray) -> ImplicitDamping:
+    """The implicit damping of the kept modes at a step dt: with (I + dt B) a = f and f zero
+    on the dropped modes (nothing springs or damps there), the kept modes' accelerations
+    solve (I + dt B_kk - dt^2 B_kd (I + dt B_dd)^-1 B_dk) a_k = f_k."""
+    kk, kd = blocks[np.ix_(keep, keep)], blocks[np.ix_(keep, ~keep)]
+    dd = blocks[np.ix_(~keep, ~keep)]
+
+    def at(dt: float) -> np.ndarray:
+        if not kd.size:
+            return kk
+        return kk - dt * kd @ np.linalg.solve(np.eye(len(dd)) + dt * dd, kd.T)
+    return at
+
+
+def _flip_step(stiff: np.ndarray, damp: np.ndarray, integrator: str,
+               full: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> float:
     """The smallest step [s] at which the step matrix has the eigenvalue -1 (inf if none):
-    2 / r for the largest real r > 0 with r^2 x = K x + s C x (s = r, or -r when implicit),
-    as the eigenvalues of the companion matrix [[0, I], [K, +-C]] (mass-normalised modes)."""
+    2 / r for the largest real r > 0 with r^2 x = K x + r (C - 2 D) x (D the implicit damping:
+    0, C, or ``full``'s body blocks), as the eigenvalues of the companion matrix
+    [[0, I], [K, C - 2 D]] (mass-normalised modes; ``full``: (K, C, D) over every mode)."""
+    if integrator == "discrete":
+        return np.inf
+    if full is not None:
+        stiff, damp, implicit = full
+    else:
+        implicit = damp if integrator == "implicitfast" else np.zeros_like(damp)
     n = len(stiff)
-    sign = -1.0 if integrator == "implicitfast" else 1.0
-    companion = np.block([[np.zeros((n, n)), np.eye(n)], [stiff, sign * damp]])
+    companion = np.block([[np.zeros((n, n)), np.eye(n)], [stiff, damp - 2 * implicit]])
     roots = np.linalg.eigvals(companion)
-    real = roots.real[(np.abs(roots.imag) <= 1e-9 * np.abs(roots).max()) & (roots.real > 0)]
+    size = np.abs(roots).max()
+    real = roots.real[(np.abs(roots.imag) <= 1e-9 * size) & (roots.real > 1e-9 * size)]
     return 2 / float(real.max()) if real.size else np.inf
 
 
-def _grows(stiff: np.ndarray, damp: np.ndarray, dt: float, integrator: str) -> bool:
+def _grows(stiff: np.ndarray, damp: np.ndarray, dt: float, integrator: str,
+           implicit: ImplicitDamping | None = None) -> bool:
     """Whether a step of ``dt`` [s] has an eigenvalue of modulus above 1 (+ tolerance)."""
     if not np.isfinite(dt):
         return False
-    matrix = step_matrix(stiff, damp, np.eye(len(stiff)), dt, integrator)
+    matrix = step_matrix(stiff, damp, np.eye(len(stiff)), dt, integrator,
+                         None if implicit is None else implicit(dt))
     return bool(np.abs(np.linalg.eigvals(matrix)).max() > 1 + GROWTH_TOLERANCE)
 
 
-def _scanned_step(stiff: np.ndarray, damp: np.ndarray, integrator: str, guess: float) -> float:
+def _scanned_step(stiff: np.ndarray, damp: np.ndarray, integrator: str, guess: float,
+                  implicit: ImplicitDamping | None = None) -> float:
     """The bound by a scan up from a stable step and a bisection (inf if none grows)."""
     rate = max(float(np.sqrt(stiff.max())), float(np.linalg.eigvalsh(damp).max()))
     low = min(guess, 1.0 / rate) / 2
-    while _grows(stiff, damp, low, integrator) and low * rate > 1e-9:
+    while _grows(stiff, damp, low, integrator, implicit) and low * rate > 1e-9:
         low /= 2
     high = low * 1.25
-    while not _grows(stiff, damp, high, integrator):
+    while not _grows(stiff, damp, high, integrator, implicit):
         low, high = high, high * 1.25
         if high * rate > 1e6:  # no step makes it grow
             return np.inf
     while high - low > STEP_RESOLUTION * low:
         middle = (low + high) / 2
-        low, high = (low, middle) if _grows(stiff, damp, middle, integrator) else (middle, high)
+        low, high = (low, middle) if _grows(stiff, damp, middle, integrator, implicit) \
+            else (middle, high)
     return low
 
 
-def _growing(stiff: np.ndarray, damp: np.ndarray, limit: float, integrator: str) -> StepBound:
+def _growing(stiff: np.ndarray, damp: np.ndarray, limit: float, integrator: str,
+             implicit: ImplicitDamping | None = None) -> StepBound:
     """The bound, with the vibration mode that dominates what grows just above it."""
-    matrix = step_matrix(stiff, damp, np.eye(len(stiff)), limit * (1 + STEP_RESOLUTION),
-                         integrator)
+    dt = limit * (1 + STEP_RESOLUTION)
+    matrix = step_matrix(stiff, damp, np.eye(len(stiff)), dt, integrator,
+                         None if implicit is None else implicit(dt))
     values, vectors = np.linalg.eig(matrix)
     shape = vectors[:len(stiff), int(np.argmax(np.abs(values)))]
     k = int(np.argmax(np.abs(shape) ** 2 * (np.diag(stiff) + np.diag(damp) ** 2)))

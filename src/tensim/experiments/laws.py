@@ -9,7 +9,11 @@ Cases:
 - ``three_bar``: a lab's 3-bar prism, built here: 1.376 m, 4 kg bars, cables of 10 kN/m and
   1000 N s/m, two of them wound in by a quarter of their length over 4 s;
 - ``twelve_bar`` (given ``ntrt``, a checkout of the original toolkit): its 12-bar cube,
-  ``src/dev/mcdaly/12BarTensegrity/12BarCube.yaml``, dropped for 3 s.
+  ``src/dev/mcdaly/12BarTensegrity/12BarCube.yaml``, dropped for 3 s;
+- ``tetraspine3_soft`` and ``tetraspine3_free_motors`` (asked for by name): the disturbance
+  test with the impedance laws' damping gains B divided by 5, and with motors of 10 m/s
+  instead of 0.07 m/s, reference included: what sets its error at long steps
+  (docs/speed.md).
 
 Each case runs under each law (``explicit``, ``implicit``, ``implicitfast``; see
 docs/architecture.md) at each step; a line gives the worst cable's change of maximum tension
@@ -22,6 +26,7 @@ is reported as unstable.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -30,6 +35,8 @@ from typing import Any
 
 import numpy as np
 
+from tensim.control import ControllerConfig
+from tensim.control.impedance import ImpedanceController
 from tensim.control.rest import RestCommand
 from tensim.experiments.disturbance import run_disturbance
 from tensim.model import WorldOptions, compile_structure
@@ -79,6 +86,28 @@ Run = Callable[[WorldOptions], SimulationResult]
 
 def _tetraspine3(world: WorldOptions) -> SimulationResult:
     return run_disturbance(dt=world.timestep, world=world)[0]
+
+
+def _tetraspine3_variant(damping_scale: float = 1.0, max_speed: float | None = None) -> Run:
+    """The disturbance test with the impedance laws' B scaled by ``damping_scale`` and every
+    motor's speed limit set to ``max_speed`` [m/s] (None: as built)."""
+    model = preset("tetraspine3")
+    structure = model.build()
+    if max_speed is not None:
+        structure = dataclasses.replace(structure, cables=tuple(
+            dataclasses.replace(c, motor=dataclasses.replace(c.motor, max_speed=max_speed))
+            for c in structure.cables))
+    laws = model.controller()
+    if not isinstance(laws, ImpedanceController):
+        raise TypeError("tetraspine3's controller is no longer its impedance laws")
+    laws = dataclasses.replace(laws, gains={
+        name: dataclasses.replace(g, damping_gain=damping_scale * g.damping_gain)
+        for name, g in laws.gains.items()})
+
+    def run(world: WorldOptions) -> SimulationResult:
+        return run_disturbance(dt=world.timestep, world=world, structure=structure,
+                               controller=ControllerConfig(laws), model="tetraspine3")[0]
+    return run
 
 
 def _superball(world: WorldOptions) -> SimulationResult:
@@ -181,7 +210,9 @@ def run_law_study(cases: tuple[str, ...] = CASES, ntrt: Path | None = None,
         ValueError: an unknown case, or twelve_bar without ``ntrt``.
     """
     runners: dict[str, Run] = {"tetraspine3": _tetraspine3, "superball": _superball,
-                               "three_bar": _three_bar}
+                               "three_bar": _three_bar,
+                               "tetraspine3_soft": _tetraspine3_variant(damping_scale=0.2),
+                               "tetraspine3_free_motors": _tetraspine3_variant(max_speed=10.0)}
     if ntrt is not None:
         runners["twelve_bar"] = _twelve_bar(ntrt)
     for name in cases:

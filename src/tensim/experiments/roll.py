@@ -37,7 +37,7 @@ from tensim.design import DesignError
 from tensim.model import WorldOptions, compile_structure
 from tensim.runs import world_record, write_run
 from tensim.sim import COM, Simulation, SimulationResult, TimeSeries, simulate
-from tensim.structure import Structure
+from tensim.structure import Structure, body_length
 
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
 LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
@@ -52,14 +52,6 @@ def node_positions(sim: Simulation) -> dict[str, np.ndarray]:
     d, index = sim.data, sim.index
     return {name: d.xpos[body] + d.xmat[body].reshape(3, 3) @ index.node_local[name]
             for name, body in index.node_body.items()}
-
-
-def body_length(structure: Structure) -> float:
-    """The longest rod's length [m] (the field's body length of a rolling robot)."""
-    if not structure.rods:
-        raise ValueError(f"{structure.name}: a rolling robot needs rods (body length = the "
-                         "longest rod)")
-    return max(structure.distance(*r.nodes) for r in structure.rods)
 
 
 @dataclasses.dataclass

@@ -11,7 +11,11 @@ toward a command at up to ``max_speed`` (a floor ``min_rest_length``, a stop at
   (the file's actuator shortens the cable as far as its pull folds the robot), and a
   ``filter`` time constant tau a speed (the range over tau, the filter's fastest rate);
 - a position actuator (``position``, or ``general`` with bias [b0, -kp, -kv]) is a PD on
-  tendon length: beside the spring it is one cable of stiffness k + gear^2 kp and damping
+  tendon length, tension gear^2 kp (x - L) + gear^2 kv dx/dt with the target
+  L = (u + b0 / kp) / gear: beside a tendon spring it becomes tensim's PD motor
+  (``Motor.pd_stiffness``) on the spring's cable, the command a target length, exact where the
+  file's force range lets it only pull; without a spring (or with integrator dynamics, where
+  the control is the target's rate) it is one cable of stiffness k + gear^2 kp and damping
   b + gear^2 kv whose rest length is the stiffness-weighted mean of the two targets;
 - tensim's own export carries its motors in each actuator's ``user`` numbers (read back
   exactly);
@@ -39,7 +43,8 @@ NODE_SITE = "node_"  # tensim's export marks each node with a site named node_<n
 USER_FIELDS = ("motor", "stiffness", "damping", "rest_length", "max_speed", "max_tension",
                "min_rest_length", "min_length", "spool_radius", "stall_torque", "no_load_speed",
                "rotor_inertia", "viscous_friction", "coulomb_friction", "back_drivable",
-               "position_time")
+               "position_time", "lag_time", "saturate", "pd_stiffness", "pd_damping",
+               "pd_target")
 MOTOR_KIND = {"passive": 0.0, "kinematic": 1.0, "dc": 2.0}
 _DYN = mujoco.mjtDyn
 _FILTERS = (_DYN.mjDYN_FILTER, _DYN.mjDYN_FILTEREXACT)
@@ -111,8 +116,10 @@ def map_actuator(f: Loaded, a: int, cable: str, spring: Spring) -> ActuatorMappi
     """
     m = f.model
     name = f.name(mujoco.mjtObj.mjOBJ_ACTUATOR, a, f"actuator{a}")
-    if f.spec.text(USER_TEXT) is not None and m.nuser_actuator >= len(USER_FIELDS):
-        return _tensim(name, cable, dict(zip(USER_FIELDS, m.actuator_user[a], strict=False)))
+    text = f.spec.text(USER_TEXT)
+    fields = text.data.split() if text is not None else []
+    if fields and m.nuser_actuator >= len(fields):  # an older export may name fewer
+        return _tensim(name, cable, dict(zip(fields, m.actuator_user[a], strict=False)))
     bias = m.actuator_biasprm[a]
     fixed = m.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED and \
         not np.any(m.actuator_gainprm[a][1:])
@@ -236,6 +243,52 @@ def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actuator
 
 
 def _position(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> ActuatorMapping:
+    if spring.stiffness > 0 and f.model.actuator_dyntype[a] != _DYN.mjDYN_INTEGRATOR:
+        return _servo(f, a, name, cable, spring)
+    return _stiffer_cable(f, a, name, cable, spring)
+
+
+def _servo(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> ActuatorMapping:
+    """A position actuator beside a tendon spring: the spring's cable with a PD motor."""
+    m = f.model
+    gear, kp = float(m.actuator_gear[a][0]), float(m.actuator_gainprm[a][0])
+    b0, kv = float(m.actuator_biasprm[a][0]), -float(m.actuator_biasprm[a][2])
+    command = CommandMap(b0 / (kp * gear), 1.0 / gear)  # the target length L [m]
+    lo, hi = _range(f, a)
+    target = command.offset + command.scale * _start(f, a, lo, hi)
+    if target <= 0:
+        raise f.refuse(f"actuator {name!r}", f"its initial target length for tendon {cable!r} "
+                       f"is {target:.4g} m; give a keyframe whose ctrl sets the targets, or a "
+                       "ctrlrange above 0")
+    notes = []
+    if m.actuator_dyntype[a] in _FILTERS:
+        notes.append(f"a filter lags the target with time constant "
+                     f"{float(m.actuator_dynprm[a][0]):g} s; tensim's PD motor takes its target "
+                     "at once")
+    cap, push = gear**2 * kp * spring.length, True  # no force limit: never binds before L = 0
+    if m.actuator_forcelimited[a]:
+        tensions = sorted(-gear * v for v in m.actuator_forcerange[a])
+        push = tensions[0] < 0
+        if tensions[1] > 0:
+            cap = tensions[1]
+        if tensions[0] > 0:
+            notes.append(f"the file's force range makes the servo pull at least "
+                         f"{tensions[0]:.4g} N; tensim's servo lets go at its target")
+    if push:
+        notes.append("the file's servo also pushes when the tendon is shorter than its target "
+                     "(its force range allows lengthening force); tensim's PD motor never pushes")
+    if not m.actuator_forcelimited[a]:
+        notes.append(f"no force limit in the file; chosen max_tension {cap:.4g} N (kp x the "
+                     "tendon's length: it never binds before the target reaches 0)")
+    motor = Motor(max_tension=cap, pd_stiffness=gear**2 * kp, pd_damping=gear**2 * kv,
+                  pd_target=target)
+    return ActuatorMapping(name, cable, "position", motor, spring.stiffness, spring.damping,
+                           spring.dead_band[1], command, tuple(notes))
+
+
+def _stiffer_cable(f: Loaded, a: int, name: str, cable: str,
+                   spring: Spring) -> ActuatorMapping:
+    """A position actuator without a spring, or driven through its target's rate: one cable."""
     m = f.model
     gear, kp = float(m.actuator_gear[a][0]), float(m.actuator_gainprm[a][0])
     b0, kv = float(m.actuator_biasprm[a][0]), -float(m.actuator_biasprm[a][2])
@@ -303,8 +356,13 @@ def _tensim(name: str, cable: str, user: dict[str, float]) -> ActuatorMapping:
             viscous_friction=user["viscous_friction"],
             coulomb_friction=user["coulomb_friction"],
             back_drivable=bool(user["back_drivable"]), position_time=user["position_time"])
+        target = user.get("pd_target", 0.0)
         motor = Motor(max_speed=user["max_speed"], max_tension=user["max_tension"],
                       min_rest_length=user["min_rest_length"], min_length=user["min_length"],
-                      dc=dc)
+                      dc=dc, lag_time=user.get("lag_time", 0.0),
+                      saturate=bool(user.get("saturate", 0.0)),
+                      pd_stiffness=user.get("pd_stiffness", 0.0),
+                      pd_damping=user.get("pd_damping", 0.0),
+                      pd_target=target if target > 0 else None)
     return ActuatorMapping(name, cable, "tensim", motor, user["stiffness"], user["damping"],
                            user["rest_length"], None, ())

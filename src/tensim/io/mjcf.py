@@ -98,7 +98,9 @@ def _user(cable: Cable, rest_length: float) -> list[float]:
     values = {"motor": MOTOR_KIND[kind], "stiffness": cable.stiffness, "damping": cable.damping,
               "rest_length": rest_length, "max_speed": motor.max_speed,
               "max_tension": motor.max_tension, "min_rest_length": motor.min_rest_length,
-              "min_length": motor.min_length}
+              "min_length": motor.min_length, "lag_time": motor.lag_time,
+              "saturate": float(motor.saturate), "pd_stiffness": motor.pd_stiffness,
+              "pd_damping": motor.pd_damping, "pd_target": motor.pd_target or 0.0}
     if motor.dc is not None:
         values.update({k: float(v) for k, v in dataclasses.asdict(motor.dc).items()})
     return [float(values.get(field, 0.0)) for field in USER_FIELDS]

@@ -106,7 +106,7 @@ class MjcfImport:
             raise KeyError(f"{self.source}: no actuator {unknown[0]!r} whose control is a "
                            f"target; those are {sorted(targets)}")
         return {a.cable: command.offset + command.scale * controls[name]
-                if name in controls else a.rest_length
+                if name in controls else _start(a)
                 for name, (a, command) in targets.items()}
 
     def header(self) -> list[str]:
@@ -120,10 +120,16 @@ class MjcfImport:
         for a in self.actuators:
             if a.command is not None:
                 u = "rate of ctrl" if a.command.rate else "ctrl"
+                what = "target-length" if a.motor.pd else "rest-length"
                 lines.append(f"actuator {a.actuator!r} -> cable {a.cable!r} ({a.kind}): "
-                             f"rest-length command = {a.command.offset:.6g} + "
+                             f"{what} command = {a.command.offset:.6g} + "
                              f"{a.command.scale:.6g} x {u} [m]")
         return lines + [f"note: {n}" for n in self.notes]
+
+
+def _start(a: ActuatorMapping) -> float:
+    """The command a cable starts with: a PD motor's target, else its rest length [m]."""
+    return a.motor.pd_target if a.motor.pd_target is not None else a.rest_length
 
 
 def import_mjcf(path: str | os.PathLike[str] | None = None, *, xml: str | None = None,

@@ -28,6 +28,7 @@ from tensim.model._law_layout import (
     LAW_EXPLICIT,
     LAW_IMPLICIT,
     LAW_IMPLICITFAST,
+    MODE_PD,
     MODE_REST,
     LawParameters,
     biasprm,
@@ -237,6 +238,12 @@ class CompiledModel:
         """
         return LawParameters(self.model if model is None else model, self.n_cables)
 
+    @property
+    def command(self) -> np.ndarray:
+        """(n_cables,) each cable's command at build (the build keyframe's ``ctrl``): its rest
+        length, or a PD motor's target (its ``pd_target``, else the cable's build length) [m]."""
+        return self.model.key(BUILD_KEY).ctrl[:self.n_cables].copy()
+
     def with_load_nodes(self, nodes: tuple[str, ...]) -> CompiledModel:
         """This model with force inputs at ``nodes`` (itself if it already has them)."""
         wanted = tuple(dict.fromkeys((*self.index.load_nodes, *nodes)))
@@ -418,9 +425,29 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     spec.add_key(name=BUILD_KEY, act=act, ctrl=rest + [0.0] * (3 * len(load_nodes)))
     model = _compile_spec(spec)
     _check_wraps(structure, model)
+    _relax_pd_targets(structure, spec, model)
     return dataclasses.replace(
         _assemble(structure, world, model, node_body, node_local, tuple(adjusted), load_nodes),
         spec=spec)
+
+
+def _relax_pd_targets(structure: Structure, spec: mujoco.MjSpec,
+                      model: mujoco.MjModel) -> None:
+    """Starts each PD motor's target (the build keyframe's ``ctrl``) at its ``pd_target``, or
+    at its cable's build length, where it pulls nothing."""
+    pd = [i for i, c in enumerate(structure.cables) if c.motor.pd]
+    if not pd:
+        return
+    key = model.key(BUILD_KEY).id
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, key)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_tendon(model, data)
+    for i in pd:
+        target = structure.cables[i].motor.pd_target
+        model.key_ctrl[key, i] = data.ten_length[model.actuator_trnid[i, 0]] \
+            if target is None else target
+    spec.key(BUILD_KEY).ctrl = model.key_ctrl[key].tolist()
 
 
 def _compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
@@ -533,7 +560,8 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float,
     actuator = spec.add_actuator(name=cable.name, target=cable.name,
                                  trntype=mujoco.mjtTrn.mjTRN_TENDON)
     actuator.dyntype = mujoco.mjtDyn.mjDYN_USER
-    actuator.gainprm[:] = gainprm(cable.stiffness, cable.damping)
+    actuator.gainprm[:] = gainprm(cable.stiffness, cable.damping, cable.motor.pd_stiffness,
+                                  cable.motor.pd_damping)
     actuator.gainprm[0] = GAIN
     actuator.biastype = mujoco.mjtBias.mjBIAS_USER
     implicit = law != LAW_EXPLICIT
@@ -543,9 +571,9 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float,
         actuator.forcelimited = True
         actuator.forcerange = [-np.inf, 0.0]
     motor, dc = cable.motor, cable.motor.dc
-    actuator.dynprm[:] = dynprm(MODE_REST, motor.max_speed, motor.max_tension,
-                                motor.min_rest_length, motor.min_length, 0.0, 0.0, 0.0,
-                                rest_length)
+    actuator.dynprm[:] = dynprm(MODE_PD if motor.pd else MODE_REST, motor.max_speed,
+                                motor.max_tension, motor.min_rest_length, motor.min_length,
+                                0.0, 0.0, 0.0, rest_length)
     actuator.actdim = (ACTDIM if dc is None else DC_ACTDIM) + (IMPLICIT_EXTRA if implicit else 0)
     slots = None
     if dc is not None:

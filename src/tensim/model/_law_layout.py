@@ -32,7 +32,7 @@ REFERENCE_MARKER = 7318.0  # the Python reference law (a Simulation with backend
 # -- the slots, in order: (name, meaning [unit]) ---------------------------------------------
 DYNPRM = (
     ("marker", "CABLE_MARKER or REFERENCE_MARKER: a tensim cable, and its law's body"),
-    ("mode", "MODE_REST or MODE_IMPEDANCE"),
+    ("mode", "MODE_REST, MODE_IMPEDANCE or MODE_PD"),
     ("max_speed", "motor speed limit [m/s]"),
     ("max_tension", "the motor reels in no further at this static tension [N]"),
     ("min_rest", "floor on the rest length [m]"),
@@ -46,6 +46,8 @@ GAINPRM = (
     ("gain", "stays 0: the constant of the gain (the explicit law's whole gain)"),
     ("stiffness", "cable k [N/m]: the implicit law's gain per metre of length"),
     ("damping", "cable b [N s/m]: the implicit law's gain per m/s of lengthening"),
+    ("pd_stiffness", "PD motor kp [N/m]: its tension per metre of length past the target"),
+    ("pd_damping", "PD motor kd [N s/m]: its tension per m/s of lengthening"),
 )
 BIASPRM = (
     ("lag_time", "kinematic motor's first-order lag [s] (0: none)"),
@@ -77,6 +79,7 @@ CABLE_LAWS = (LAW_EXPLICIT, LAW_IMPLICIT, LAW_IMPLICITFAST)
 
 MODE_REST = 0  # the motor follows a commanded rest length (ctrl: the rest length [m])
 MODE_IMPEDANCE = 1  # the motor realises the impedance law's setpoint (ctrl: V* [m/s])
+MODE_PD = 2  # a tension-only PD on length beside the cable's spring (ctrl: its target [m])
 ACTDIM = 2  # a kinematic motor's activations: rest length, peak tension
 DC_ACTDIM = 3  # a DC motor's: rest length, peak tension, line speed
 IMPLICIT_EXTRA = 1  # the implicit law adds the pull after them
@@ -92,6 +95,7 @@ P_MIN_REST, P_MIN_LENGTH = _slot(DYNPRM, "min_rest"), _slot(DYNPRM, "min_length"
 P_OFFSET, P_GAIN_K = _slot(DYNPRM, "offset_tension"), _slot(DYNPRM, "gain_k")
 P_GAIN_B, P_TARGET_LENGTH = _slot(DYNPRM, "gain_b"), _slot(DYNPRM, "target_length")
 G_STIFFNESS, G_DAMPING = _slot(GAINPRM, "stiffness"), _slot(GAINPRM, "damping")
+G_PD_STIFFNESS, G_PD_DAMPING = _slot(GAINPRM, "pd_stiffness"), _slot(GAINPRM, "pd_damping")
 B_STALL_FORCE, B_NO_LOAD_SPEED = _slot(BIASPRM, "stall_force"), _slot(BIASPRM, "no_load_speed")
 B_MASS, B_VISCOUS, B_COULOMB = (_slot(BIASPRM, n) for n in ("mass", "viscous", "coulomb"))
 B_POSITION_TIME = _slot(BIASPRM, "position_time")
@@ -116,10 +120,12 @@ def dynprm(mode: int, max_speed: float, max_tension: float, min_rest: float, min
     return row
 
 
-def gainprm(stiffness: float, damping: float) -> list[float]:
+def gainprm(stiffness: float, damping: float, pd_stiffness: float = 0.0,
+            pd_damping: float = 0.0) -> list[float]:
     """A cable actuator's ``gainprm`` row (MuJoCo's mjNGAIN = 10 values)."""
     row = [0.0] * 10
     row[G_STIFFNESS], row[G_DAMPING] = float(stiffness), float(damping)
+    row[G_PD_STIFFNESS], row[G_PD_DAMPING] = float(pd_stiffness), float(pd_damping)
     return row
 
 
@@ -165,15 +171,17 @@ class LawParameters:
 
     Attributes:
         stiffness, damping: cable k [N/m] and b [N s/m].
-        mode: MODE_REST or MODE_IMPEDANCE per cable.
+        mode: MODE_REST, MODE_IMPEDANCE or MODE_PD per cable.
         max_speed, max_tension, min_rest, min_length: motor limits [m/s], [N], [m], [m].
         offset_tension, gain_k, gain_b, target_length: impedance T0 [N], K [N/m], B [N s/m],
             L* [m].
+        pd_stiffness, pd_damping: a PD motor's kp [N/m] and kd [N s/m] (MODE_PD).
     """
 
     def __init__(self, model: mujoco.MjModel, n: int):
         p, g = model.actuator_dynprm[:n], model.actuator_gainprm[:n]
         self.stiffness, self.damping = g[:, G_STIFFNESS], g[:, G_DAMPING]
+        self.pd_stiffness, self.pd_damping = g[:, G_PD_STIFFNESS], g[:, G_PD_DAMPING]
         self.mode = p[:, P_MODE]
         self.max_speed, self.max_tension = p[:, P_MAX_SPEED], p[:, P_MAX_TENSION]
         self.min_rest, self.min_length = p[:, P_MIN_REST], p[:, P_MIN_LENGTH]
@@ -186,6 +194,7 @@ def _definitions() -> list[str]:
              f"#define TENSIM_REFERENCE_MARKER {REFERENCE_MARKER!r}",
              f"#define TENSIM_MODE_REST {float(MODE_REST)!r}",
              f"#define TENSIM_MODE_IMPEDANCE {float(MODE_IMPEDANCE)!r}",
+             f"#define TENSIM_MODE_PD {float(MODE_PD)!r}",
              f"#define TENSIM_ACTDIM {ACTDIM}", f"#define TENSIM_DC_ACTDIM {DC_ACTDIM}",
              f"#define TENSIM_IMPLICIT_EXTRA {IMPLICIT_EXTRA}"]
     for prefix, table in (("P", DYNPRM), ("G", GAINPRM), ("B", BIASPRM), ("A", ACT)):

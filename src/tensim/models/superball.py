@@ -12,8 +12,14 @@ kg/s^2), damping 200 N s/m, pretension 2452 kg dm/s^2 = 245.2 N.
 The geometry is the symmetric form of :mod:`tensim.models.six_bar` (parallel struts half a
 strut apart), in which equal pretensions are a state of self-stress; the toolkit's file spaces
 the pairs 15 dm apart instead, a pose its cables then pull towards this one. Motor limits are
-not in the toolkit's model (it leaves them effectively unlimited); 0.1 m/s and 1 kN here are
-placeholders, not hardware data.
+not in the toolkit's models (they leave them effectively unlimited: ``maxTens`` 100000 and
+``targetVelocity`` 10000 in every SUPERball/T6 model, v2 included) and the papers' actuator
+figures were not available (docs/models.md lists what was searched); 0.1 m/s and 1 kN here
+are placeholders, not hardware data.
+
+As built, it rests on a closed triangle of cables (as SUPERball rests between rolls) in its
+static pose under gravity on frictionless feet, so it stands still when released (under
+1 mm in 5 s at 1 ms, ``tests/test_standing.py``).
 """
 
 from __future__ import annotations
@@ -22,6 +28,8 @@ import itertools
 
 import numpy as np
 
+from tensim.models._standing import face_down
+from tensim.models._standing import standing as settled
 from tensim.models.six_bar import six_bar_nodes
 from tensim.structure import Cable, Motor, Node, Rod, Structure
 
@@ -35,21 +43,29 @@ PRETENSION = 245.2  # N, the same in every cable
 MOTOR = Motor(max_speed=0.1, max_tension=1000.0)  # placeholders, see the module docstring
 
 
-def superball(clearance: float = 0.01) -> Structure:
-    """SUPERball resting above the ground: its lowest strut surface ``clearance`` metres up."""
+def superball(clearance: float = 0.0, standing: bool = True) -> Structure:
+    """SUPERball resting on a closed triangle of cables, as it rests between rolls: in its
+    static pose under gravity on frictionless feet (:func:`tensim.models._standing.standing`:
+    it stands still as built), its lowest strut surface ``clearance`` metres up before it
+    settles. ``standing=False``: the symmetric self-stressed form, unsettled (rest lengths from
+    the pretension), lifted the same way."""
     positions = six_bar_nodes(STRUT_LENGTH)
-    lift = clearance + ROD_RADIUS - min(p[2] for p in positions.values())
-    nodes = tuple(Node(n, tuple(p + np.array([0.0, 0.0, lift]))) for n, p in positions.items())
+    length = STRUT_LENGTH * np.sqrt(6) / 4
+    pairs = [(a, b) for a, b in itertools.combinations(positions, 2)
+             if abs(np.linalg.norm(positions[a] - positions[b]) - length) < 1e-9]
+    face = next(f for f in itertools.combinations(positions, 3)
+                if all(p in pairs for p in itertools.combinations(f, 2)))
+    positions = face_down(positions, face, clearance + ROD_RADIUS)
+    nodes = tuple(Node(n, tuple(p)) for n, p in positions.items())
     rods = tuple(
         Rod(f"rod_{axis}{pair}", (f"{axis}{pair}0", f"{axis}{pair}1"), ROD_RADIUS,
             density=ROD_DENSITY, friction=FRICTION, tags=(f"rod_{axis}{pair}",))
         for axis in "xyz" for pair in (0, 1)
     )
-    cable_length = STRUT_LENGTH * np.sqrt(6) / 4
     cables = tuple(
         Cable(f"cable_{a}_{b}", (a, b), STIFFNESS, damping=DAMPING, pretension=PRETENSION,
               motor=MOTOR)
-        for a, b in itertools.combinations(positions, 2)
-        if abs(np.linalg.norm(positions[a] - positions[b]) - cable_length) < 1e-9
+        for a, b in pairs
     )
-    return Structure("superball", nodes, rods, cables)
+    robot = Structure("superball", nodes, rods, cables)
+    return settled(robot) if standing else robot

@@ -16,10 +16,12 @@ Time step: the bars are heavy enough for the explicit cable law to hold 10 kN/m 
 tensim's default 1 ms step (:data:`DEFAULT_TIMESTEP`): ``tensim check three_bar`` is clean
 there, warns at 5 ms and asks for 2 ms or less; the stiffness need not be lowered.
 
-Standing: the pose is the static pose under gravity on the three feet (the design tools'
-:func:`~tensim.design.inverse.settle`), so the robot does not sag when released; MuJoCo's soft
-friction still lets the feet creep under the prism's outward push (about 1 cm in 5 s, a slow
-turn about the vertical), which ``noslip_iterations`` halves.
+Standing: the pose is the static pose under gravity on the three feet as on frictionless
+ground (the design tools' :func:`~tensim.design.inverse.settle` with ``sliding``), so the robot
+neither sags when released nor leans on friction: held where they first touched, the feet
+had to push outward, and MuJoCo's soft friction let them creep (14 mm in 5 s, a slow turn
+about the vertical); on frictionless feet nothing moves more than a millimetre in 5 s
+(``tests/test_standing.py``).
 """
 
 from __future__ import annotations
@@ -27,8 +29,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from tensim.models._standing import face_down, standing
 from tensim.structure import PASSIVE, Cable, Motor, Node, Rod, Structure
 
 BAR_LENGTH = 1.376  # m
@@ -58,16 +60,7 @@ def _prism_nodes() -> dict[str, np.ndarray]:
 def _lying(nodes: dict[str, np.ndarray], clearance: float) -> dict[str, np.ndarray]:
     """The prism turned onto its side face b0-b1-t2 (outward normal straight down), its
     centre of mass over the origin."""
-    a, b, c = (nodes[n] for n in ("b0", "b1", "t2"))
-    normal = np.cross(b - a, c - a)
-    centre = np.mean(list(nodes.values()), axis=0)
-    if normal @ (a - centre) < 0:
-        normal = -normal
-    turn, _ = Rotation.align_vectors([[0.0, 0.0, -1.0]], [normal / np.linalg.norm(normal)])
-    turned = {n: turn.apply(p - centre) for n, p in nodes.items()}
-    lowest = min(p[2] for p in turned.values())
-    return {n: p + np.array([0.0, 0.0, clearance + BAR_RADIUS - lowest])
-            for n, p in turned.items()}
+    return face_down(nodes, ("b0", "b1", "t2"), clearance + BAR_RADIUS)
 
 
 def three_bar(clearance: float = 0.0) -> Structure:
@@ -92,14 +85,3 @@ def three_bar(clearance: float = 0.0) -> Structure:
               motor=motor, tags=(tag,))
         for name, a, b, ratio, tag, motor in members)
     return standing(Structure("three_bar", nodes, rods, cables))
-
-
-def standing(structure: Structure) -> Structure:
-    """``structure`` in its static pose under gravity on its lowest nodes (held where they
-    touch), its cables given the rest lengths of their pretensions: so it stands still as
-    built instead of sagging onto its feet first."""
-    from tensim.design.inverse import feet, settle, with_rest_lengths
-
-    rest = np.array([structure.rest_length(c) for c in structure.cables])
-    explicit = with_rest_lengths(structure, rest)
-    return settle(explicit, feet(explicit)).pose

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 
 from tensim.model import CompiledModel
-from tensim.sim import load_cell_tension
+from tensim.sim import MODE_PD, load_cell_reading
 
 
 class Renders:
@@ -32,8 +32,10 @@ class Renders:
         tension with the stiffness of ``model`` (the robot's own, randomised, model)."""
         idx = self.compiled.index
         rest = idx.cable_act(data.act)
-        tension = load_cell_tension(data.ten_length[idx.tendon], rest,
-                                    self.compiled.law(model).stiffness)
+        law = self.compiled.law(model)
+        tension = load_cell_reading(data.ten_length[idx.tendon], rest, law.stiffness,
+                                    law.mode == MODE_PD, data.ctrl[:law.stiffness.size],
+                                    law.pd_stiffness, law.max_tension)
         return self.renderer.render(data, tension, rest, f"t = {data.time:.2f} s")
 
     def close(self) -> None:

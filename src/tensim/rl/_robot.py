@@ -14,7 +14,7 @@ from tensim.design.check import Finding, check_structure
 from tensim.model import CompiledModel, compile_structure
 from tensim.models import PRESETS, load_model, preset
 from tensim.rl.config import EnvConfig
-from tensim.sim import MODE_IMPEDANCE, MODE_REST, CableDrive, Controller, Simulation
+from tensim.sim import MODE_IMPEDANCE, MODE_PD, MODE_REST, CableDrive, Controller, Simulation
 from tensim.structure import Structure
 
 _log = logging.getLogger(__name__)
@@ -44,8 +44,8 @@ class _Configure:
     cables when ``motors`` is None) for the actions; the others hold their rest length."""
 
     def __init__(self, controller: Controller | None, mode: int,
-                 motors: np.ndarray | None = None):
-        self.controller, self.mode, self.motors = controller, mode, motors
+                 motors: np.ndarray | None = None, pd: np.ndarray | None = None):
+        self.controller, self.mode, self.motors, self.pd = controller, mode, motors, pd
 
     def configure(self, setup: Any) -> None:
         if self.controller is not None:
@@ -55,6 +55,8 @@ class _Configure:
         else:
             setup.drive.mode[:] = MODE_REST
             setup.drive.mode[self.motors] = self.mode
+        if self.pd is not None:  # PD motors keep their servo: the command is its target
+            setup.drive.mode[self.pd] = MODE_PD
 
 
 class Robot:
@@ -78,18 +80,26 @@ class Robot:
         self.compiled: CompiledModel = compile_structure(structure, config.world)
         controller = default_controller(config.model, structure)
         self.action = config.action
-        if self.action == "auto":
-            self.action = "vstar" if controller is not None else "rest_length"
+        pd = np.array([c.motor.pd for c in structure.cables], dtype=bool)
+        if self.action == "auto":  # a PD motor's command is its target, not V*
+            self.action = "vstar" if controller is not None and not pd.any() else "rest_length"
         if self.action == "vstar" and controller is None:
             raise InputError(f"model {config.model!r} has no impedance controller, so V* "
                              "actions would do nothing: use action='rest_length'")
         mode = MODE_IMPEDANCE if self.action == "vstar" else MODE_REST
         self.motors = motorised(config.model, structure)
-        with Simulation(self.compiled, controller=_Configure(controller, mode,
-                                                             self.motors)) as sim:
+        if self.action == "vstar" and pd.any():
+            name = structure.cables[int(np.argmax(pd))].name
+            raise InputError(f"model {config.model!r}: cable {name!r} has a PD motor "
+                             "(pd_stiffness), whose command is a target length; V* actions "
+                             "would replace its servo by the impedance law: use "
+                             "action='rest_length'")
+        with Simulation(self.compiled, controller=_Configure(controller, mode, self.motors,
+                                                             pd)) as sim:
             self.model = sim.model
             self.initial_state = sim.get_state()
-            rest0 = sim.drive.rest.copy()
+            # each motor's command at build: a rest length, or a PD motor's target
+            rest0 = np.where(pd, sim.drive.rest_command, sim.drive.rest)
         drive = CableDrive(self.compiled, self.model)  # parameters read from the MjModel
         self.n = self.compiled.n_cables
         self.n_bodies = len(self.compiled.index.bodies)
@@ -204,7 +214,8 @@ def _check(structure: Structure, config: EnvConfig) -> list[Finding]:
     Raises:
         InputError: the physics step is above the structure's stable bound.
     """
-    findings = check_structure(structure, config.world.timestep, source=config.model)
+    findings = check_structure(structure, config.world.timestep, source=config.model,
+                               cable_law=config.world.cable_law)
     for finding in findings:
         if finding.severity == "error" and finding.item == "timestep":
             raise InputError(f"model {config.model!r} at world.timestep = "

@@ -11,9 +11,16 @@ import numpy as np
 from mujoco import batch as mjbatch
 
 from tensim.rl._robot import Robot
-from tensim.sim import PhysicsScale, StabilityLimits, Trial, load_cell_tension
+from tensim.sim import MODE_PD, PhysicsScale, StabilityLimits, Trial, load_cell_reading
 from tensim.sim._batch import setup_trial
-from tensim.sim._loop import RING_EVERY, ForceHistory, prestress_band, split_steps
+from tensim.sim._loop import (
+    RING_EVERY,
+    Energy,
+    EnergyHistory,
+    ForceHistory,
+    prestress_band,
+    split_steps,
+)
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
@@ -59,6 +66,8 @@ class Worlds:
         self.limits = StabilityLimits()
         # the cable forces of the last steps, for the ringing check
         self.forces = ForceHistory(n, prestress_band(robot.compiled.structure))
+        self.energy = Energy(robot.compiled)  # and the energy at each check, for its growth
+        self.energies = EnergyHistory(n, self.energy.scale)
         self._calls = 0
         self._robot_body = np.zeros(robot.model.nbody, dtype=bool)
         self._robot_body[idx.body] = True
@@ -131,6 +140,7 @@ class Worlds:
         self.past[ids] = 0.0
         self.steps[ids] = 0
         self.forces.count[ids] = 0
+        self.energies.reset(ids)
 
     def _scaled_model(self, rng: np.random.Generator) -> mujoco.MjModel:
         r = self.robot.config.randomization
@@ -220,8 +230,12 @@ class Worlds:
         force = -f["actuator_force"][r, :n].min(axis=1)
         bad = self.batch.warning[r, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
         ringing = self.forces.ringing(ids).any(axis=1)
+        energy = np.zeros(ids.size, dtype=bool)
+        if self._calls % RING_EVERY == 0:  # the energy on the ringing check's schedule
+            energy = self.energies.push(ids, self.energy.total(
+                f["qvel"][r], f["xpos"][r], f["ten_length"][r], f["act"][r]))
         unstable = failed | ~(speed < self.limits.max_speed) | \
-            ~(force < self.limits.max_tension) | bad | ringing
+            ~(force < self.limits.max_tension) | bad | ringing | energy
         after = f["subtree_com"][r, 0, :2]
         progress, reached = self._progress(ids, before, after, bodies_before)
         control = -c.control_cost * np.mean(applied ** 2, axis=1) * c.control_dt
@@ -276,10 +290,16 @@ class Worlds:
             terms["cable_length"] = f["ten_length"][r][:, robot.compiled.index.tendon]
         if "rest_length" in layout or "tension" in layout:
             terms["rest_length"] = robot.compiled.index.cable_act(f["act"][r])
-        if "tension" in layout:  # the load cells, with each robot's own stiffness
-            stiffness = np.stack([robot.compiled.law(self.models[i]).stiffness for i in ids])
-            terms["tension"] = load_cell_tension(terms["cable_length"], terms["rest_length"],
-                                                 stiffness)
+        if "tension" in layout:  # the load cells, with each robot's own law parameters
+            laws = [robot.compiled.law(self.models[i]) for i in ids]
+
+            def each(name: str) -> np.ndarray:
+                return np.stack([getattr(law, name) for law in laws])
+            n = robot.compiled.n_cables
+            terms["tension"] = load_cell_reading(
+                terms["cable_length"], terms["rest_length"], each("stiffness"),
+                each("mode") == MODE_PD, f["ctrl"][r][:, :n], each("pd_stiffness"),
+                each("max_tension"))
         ends = None
         if "rod_axis" in layout or "end_contact" in layout:
             ends = self._end_positions(ids)

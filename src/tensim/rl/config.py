@@ -89,8 +89,9 @@ class EnvConfig:
     Attributes:
         model: a preset name or a structure ``.yaml`` file.
         action: ``"vstar"`` (target velocity V* per cable under the robot's impedance law),
-            ``"rest_length"`` (commanded rest length per cable) or ``"auto"`` (vstar where the
-            robot has an impedance controller, else rest_length).
+            ``"rest_length"`` (commanded rest length per cable; a PD motor's target length)
+            or ``"auto"`` (vstar where the robot has an impedance controller and no PD motor,
+            else rest_length).
         normalize_actions: actions in [-1, 1] (V* = a max_speed; rest = l0 (1 + a rest_span))
             rather than in SI units.
         clip_actions: out-of-range actions are clipped to the box (counted in

@@ -10,16 +10,14 @@ import numpy as np
 
 from tensim.rl.policy import Policy
 from tensim.rl.train import TrainSettings, load_settings
+from tensim.structure import body_length as structure_body_length
 
 
 def body_length(model: str) -> float:
-    """The robot's body length [m]: its longest rod (its longest cable if it has no rod)."""
+    """The body length [m] of the robot ``model`` names (:func:`tensim.structure.body_length`)."""
     from tensim.models import load_model
 
-    structure = load_model(model)
-    nodes = {n.name: np.asarray(n.position) for n in structure.nodes}
-    members = structure.rods or structure.cables
-    return max(float(np.linalg.norm(nodes[m.nodes[0]] - nodes[m.nodes[1]])) for m in members)
+    return structure_body_length(load_model(model))
 
 
 def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed: int,

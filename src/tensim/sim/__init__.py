@@ -1,13 +1,14 @@
 """Simulation: the fixed-step loop, cables and motors, external forces and recording."""
 
 from tensim.sim._batch import PhysicsScale, Trial, TrialResult, run_batch
-from tensim.sim._drive import MODE_IMPEDANCE, MODE_REST, CableDrive, InputPlan
+from tensim.sim._drive import MODE_IMPEDANCE, MODE_PD, MODE_REST, CableDrive, InputPlan
 from tensim.sim._law import cable_law, compiled_available, installed_backend
 from tensim.sim._law import install as install_law
 from tensim.sim._laws import (
     cable_tension,
     impedance_rest_target,
     impedance_setpoint,
+    load_cell_reading,
     load_cell_tension,
     motor_step,
 )
@@ -27,6 +28,7 @@ from tensim.sim._timeseries import UNITS, TimeSeries
 __all__ = [
     "COM",
     "MODE_IMPEDANCE",
+    "MODE_PD",
     "MODE_REST",
     "UNITS",
     "CableDrive",
@@ -49,6 +51,7 @@ __all__ = [
     "impedance_setpoint",
     "install_law",
     "installed_backend",
+    "load_cell_reading",
     "load_cell_tension",
     "motor_step",
     "ramp_hold_release",

@@ -33,9 +33,12 @@ from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import InputPlan
 from tensim.sim._loop import (
     RING_STEPS,
+    Energy,
+    EnergyHistory,
     ForceHistory,
     StabilityLimits,
     contact_problem,
+    energy_message,
     next_step,
     prestress_band,
     record_loop,
@@ -235,6 +238,8 @@ class _BatchRun:
         self._scratch = mujoco.MjData(m) if self._contact is not None else None
         # the cable forces of the last steps, for the ringing check
         self.forces = ForceHistory(n, prestress_band(compiled.structure))
+        self.energy = Energy(compiled)
+        self.energies = EnergyHistory(n, self.energy.scale)
         self._bound = {name: self.batch.bind(name) for name in _RECORD}  # refreshed per call
         self._out: dict[tuple[int, int], dict[str, np.ndarray]] = {}
 
@@ -329,7 +334,10 @@ class _BatchRun:
         n = self.compiled.n_cables
         bad_acc = self.batch.warning[ids, mujoco.mjtWarning.mjWARN_BADQACC, 1]
         fine = stable(fields["qvel"], fields["actuator_force"][:, :n], bad_acc, self.limits)
+        fresh = self.forces.fresh  # the energy on the ringing check's schedule
         self._check_ringing(ids[fine])
+        if fresh:
+            self._check_energy(ids, fields, fine)
         for row in np.flatnonzero(~fine):
             i = int(ids[row])
             d = mujoco.MjData(self.compiled.model)
@@ -355,6 +363,22 @@ class _BatchRun:
             time = float(self.samples.time[i, self.count[i] - 1]) if self.samples else 0.0
             self.error[i] = f"trial {self.first + i}: " + ring_message(
                 self.compiled.index.cables, ring[row], self.forces.force[i], time, self.dt)
+
+    def _check_energy(self, ids: np.ndarray, fields: dict[str, np.ndarray],
+                      fine: np.ndarray) -> None:
+        """Fails the trials whose mechanical energy runs away (see
+        :func:`tensim.sim._loop.energy_growing`), as :meth:`Simulation.check` does."""
+        parts = [fields[name] for name in ("qvel", "xpos", "ten_length", "act")]
+        growing = self.energies.push(ids, self.energy.total(*parts)) & fine
+        for row in np.flatnonzero(growing):
+            i = int(ids[row])
+            if self.error[i] is not None:
+                continue
+            time = float(self.samples.time[i, self.count[i] - 1]) if self.samples else 0.0
+            excess = self.energies.energy[i] - self.energies.lowest[i]
+            what = self.energy.largest(*(part[row:row + 1] for part in parts))
+            self.error[i] = f"trial {self.first + i}: " + energy_message(what, excess, time,
+                                                                          self.dt)
 
     def _check_contact(self, ids: np.ndarray) -> None:
         """Fails the trials whose contact cables went through an obstacle, as

@@ -112,6 +112,16 @@ static double dc_step(const mjModel* m, const mjData* d, int i, const mjtNum* p,
   return next;
 }
 
+/* A PD motor's tension-only pull (_laws.pd_tension): kp (x - L) + kd v in [0, max_tension],
+ * L the target (the command); the static part leaves out the damping. */
+static double pd_static(const mjtNum* p, const mjtNum* g, double x, double target) {
+  return fmin(fmax(G(PD_STIFFNESS) * (x - target), 0.0), P(MAX_TENSION));
+}
+
+static double pd_applied(const mjtNum* p, const mjtNum* g, double x, double v, double target) {
+  return fmin(fmax(G(PD_STIFFNESS) * (x - target) + G(PD_DAMPING) * v, 0.0), P(MAX_TENSION));
+}
+
 /* The rest length after this step's motor update, as Euler integration will store it. */
 static double next_rest(const mjModel* m, const mjData* d, int i) {
   int adr = m->actuator_actadr[i];
@@ -139,6 +149,8 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
     double set = fmax(0.0, P(OFFSET_TENSION) + P(GAIN_K) * (x - P(TARGET_LENGTH)) +
                                 P(GAIN_B) * (v - input));
     target = rest - (set - measured) / k;
+  } else if (P(MODE) == TENSIM_MODE_PD) {
+    target = rest; /* a PD motor's command is its target length: the rest length stays */
   } else {
     target = input;
   }
@@ -166,6 +178,7 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
   /* peak: the running maximum of the load-cell tension k max(0, x - l) */
   double stretch = x - (rest + act_dot[adr + TENSIM_A_REST] * dt);
   double spring = stretch > 0.0 ? k * stretch : 0.0;
+  if (P(MODE) == TENSIM_MODE_PD) spring += pd_static(p, g, x, input); /* the load cell reads both */
   double peak = d->act[adr + TENSIM_A_PEAK];
   act_dot[adr + TENSIM_A_PEAK] = (fmax(peak, spring) - peak) / dt;
   if (implicit) { /* pull: -1 while taut after the motor step, the gain term's input */
@@ -179,12 +192,16 @@ mjtNum tensim_act_bias(const mjModel* m, const mjData* d, int i) {
   double marker = cable_marker(m, i);
   if (marker == 0.0) return previous_bias ? previous_bias(m, d, i) : 0.0;
   if (marker == TENSIM_REFERENCE_MARKER) return reference_bias ? reference_bias(m, d, i) : NAN;
+  const mjtNum* p = m->actuator_dynprm + i * mjNDYN;
   const mjtNum* g = m->actuator_gainprm + i * mjNGAIN;
   int tendon = m->actuator_trnid[2 * i];
+  double x = d->ten_length[tendon], v = d->ten_velocity[tendon];
   /* cable (eq. 1-2): tension-only Hooke spring with linear damping, pulling the anchors in */
-  double stretch = d->ten_length[tendon] - next_rest(m, d, i);
-  double force = 0.0;
-  if (stretch > 0.0) force = -fmax(G(STIFFNESS) * stretch + G(DAMPING) * d->ten_velocity[tendon], 0.0);
+  double stretch = x - next_rest(m, d, i);
+  double applied = stretch > 0.0 ? fmax(G(STIFFNESS) * stretch + G(DAMPING) * v, 0.0) : 0.0;
+  /* a PD motor pulls beside the spring */
+  if (P(MODE) == TENSIM_MODE_PD) applied += pd_applied(p, g, x, v, d->ctrl[m->actuator_ctrladr[i]]);
+  double force = -applied;
   if (!implicit_law(m, i)) return force;
   /* implicit law: less MuJoCo's gain term (its arithmetic, on the pull as actearly reads it) */
   int last = m->actuator_actadr[i] + m->actuator_actnum[i] - 1;

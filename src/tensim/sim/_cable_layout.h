@@ -6,12 +6,13 @@
 #define TENSIM_REFERENCE_MARKER 7318.0
 #define TENSIM_MODE_REST 0.0
 #define TENSIM_MODE_IMPEDANCE 1.0
+#define TENSIM_MODE_PD 2.0
 #define TENSIM_ACTDIM 2
 #define TENSIM_DC_ACTDIM 3
 #define TENSIM_IMPLICIT_EXTRA 1
 
 #define TENSIM_P_MARKER 0 /* CABLE_MARKER or REFERENCE_MARKER: a tensim cable, and its law's body */
-#define TENSIM_P_MODE 1 /* MODE_REST or MODE_IMPEDANCE */
+#define TENSIM_P_MODE 1 /* MODE_REST, MODE_IMPEDANCE or MODE_PD */
 #define TENSIM_P_MAX_SPEED 2 /* motor speed limit [m/s] */
 #define TENSIM_P_MAX_TENSION 3 /* the motor reels in no further at this static tension [N] */
 #define TENSIM_P_MIN_REST 4 /* floor on the rest length [m] */
@@ -24,6 +25,8 @@
 #define TENSIM_G_GAIN 0 /* stays 0: the constant of the gain (the explicit law's whole gain) */
 #define TENSIM_G_STIFFNESS 1 /* cable k [N/m]: the implicit law's gain per metre of length */
 #define TENSIM_G_DAMPING 2 /* cable b [N s/m]: the implicit law's gain per m/s of lengthening */
+#define TENSIM_G_PD_STIFFNESS 3 /* PD motor kp [N/m]: its tension per metre of length past the target */
+#define TENSIM_G_PD_DAMPING 4 /* PD motor kd [N s/m]: its tension per m/s of lengthening */
 
 #define TENSIM_B_LAG_TIME 0 /* kinematic motor's first-order lag [s] (0: none) */
 #define TENSIM_B_SATURATE 1 /* 1.0: max_tension back-drives the kinematic motor (a force cap), 0.0: stops it */
@@ -41,6 +44,6 @@
 #define TENSIM_A_SPEED 2 /* DC motors only: the spool's line speed dl/dt [m/s] */
 #define TENSIM_A_PULL 3 /* implicit law only, always the last: -1.0 while the cable is taut after this step's motor update, else 0.0 (the gain's input) */
 
-#define TENSIM_LAYOUT_ID 2735707902u
+#define TENSIM_LAYOUT_ID 3118587612u
 
 #endif

@@ -16,11 +16,11 @@ import mujoco
 import numpy as np
 
 from tensim.model import CompiledModel
-from tensim.model._law_layout import MODE_IMPEDANCE, MODE_REST, LawParameters
+from tensim.model._law_layout import MODE_IMPEDANCE, MODE_PD, MODE_REST, LawParameters
 from tensim.sim import _laws
 from tensim.sim._loads import NodeLoad
 
-__all__ = ["MODE_IMPEDANCE", "MODE_REST", "CableDrive", "InputPlan"]
+__all__ = ["MODE_IMPEDANCE", "MODE_PD", "MODE_REST", "CableDrive", "InputPlan"]
 
 _ROW_SLACK = 1e-9  # a step whose time is within this many rows of a row start is in that row
 
@@ -32,7 +32,8 @@ class CableDrive(LawParameters):
     :class:`~tensim.model.LawParameters` (stiffness, damping, mode, motor limits, impedance
     gains), so a controller writing ``drive.gain_k[i]`` edits the model.
     Commands, entering through ``ctrl``:
-        rest_command: commanded rest length of MODE_REST cables [m].
+        rest_command: commanded rest length of MODE_REST cables, target length of MODE_PD
+            ones [m].
         target_velocity: (rows, n_cables) V* table [m/s], row r for t in [r, r+1) * table_dt.
     Outputs (with ``data``): rest, peak, tension, applied, setpoint; see the properties.
     """
@@ -45,7 +46,7 @@ class CableDrive(LawParameters):
         super().__init__(model, n)
         self._compiled, self._model, self._data = compiled, model, data
         self.tendon = compiled.index.tendon
-        self.rest_command = compiled.rest_length.copy()
+        self.rest_command = compiled.command
         self.target_velocity = np.zeros((1, n))
         self.table_dt = 1.0
 
@@ -91,19 +92,23 @@ class CableDrive(LawParameters):
         as :attr:`rest`)."""
         return self._compiled.index.cable_act(self._need_data().act, 1)
 
+    def _tensions(self) -> tuple[np.ndarray, np.ndarray]:
+        d = self._need_data()
+        return _laws.motor_cable_tension(
+            d.ten_length[self.tendon], d.ten_velocity[self.tendon], self.rest, self.stiffness,
+            self.damping, self.mode == MODE_PD, d.ctrl[:self.stiffness.size],
+            self.pd_stiffness, self.pd_damping, self.max_tension)
+
     @property
     def tension(self) -> np.ndarray:
-        """(n,) load-cell reading k max(0, x - l) of the latest step [N]."""
-        d = self._need_data()
-        return _laws.cable_tension(d.ten_length[self.tendon], d.ten_velocity[self.tendon],
-                                        self.rest, self.stiffness, self.damping)[0]
+        """(n,) load-cell reading k max(0, x - l) of the latest step, with a PD motor's
+        static pull [N]."""
+        return self._tensions()[0]
 
     @property
     def applied(self) -> np.ndarray:
         """(n,) force applied in the latest step, with damping [N]."""
-        d = self._need_data()
-        return _laws.cable_tension(d.ten_length[self.tendon], d.ten_velocity[self.tendon],
-                                        self.rest, self.stiffness, self.damping)[1]
+        return self._tensions()[1]
 
     @property
     def setpoint(self) -> np.ndarray:

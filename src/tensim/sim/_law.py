@@ -41,8 +41,11 @@ from tensim.model._law_layout import (
     CABLE_MARKER,
     DC_ACTDIM,
     G_DAMPING,
+    G_PD_DAMPING,
+    G_PD_STIFFNESS,
     G_STIFFNESS,
     MODE_IMPEDANCE,
+    MODE_PD,
     MODE_REST,
     P_GAIN_B,
     P_GAIN_K,
@@ -155,9 +158,10 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     measured, _ = _laws.cable_tension(x, v, rest, k, damping)
     setpoint = _laws.impedance_setpoint(x, v, p[:, P_OFFSET], p[:, P_GAIN_K], p[:, P_GAIN_B],
                                         p[:, P_TARGET_LENGTH], command)
-    impedance = p[:, P_MODE] == MODE_IMPEDANCE
+    impedance, pd = p[:, P_MODE] == MODE_IMPEDANCE, p[:, P_MODE] == MODE_PD
+    # a PD motor's command is its target length: its rest length stays where it is
     target = np.where(impedance, _laws.impedance_rest_target(rest, setpoint, measured, k),
-                      command)
+                      np.where(pd, rest, command))
     new = _laws.motor_step(rest, target, x, k, p[:, P_MAX_SPEED], p[:, P_MAX_TENSION],
                            p[:, P_MIN_REST], p[:, P_MIN_LENGTH], dt,
                            _laws.lag_share(b[:, B_LAG_TIME], dt), b[:, B_SATURATE])
@@ -168,7 +172,10 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
                                            rest[dc], target[dc], x[dc], v[dc], dt)
     rest_rate = (new - rest) / dt
     next_rest = rest + rest_rate * dt
-    spring, applied = _laws.cable_tension(x, v, next_rest, k, damping)
+    # a PD motor pulls beside the spring; the load cell reads both
+    spring, applied = _laws.motor_cable_tension(x, v, next_rest, k, damping, pd, command,
+                                                g[:, G_PD_STIFFNESS], g[:, G_PD_DAMPING],
+                                                p[:, P_MAX_TENSION])
     peak_rate = (np.maximum(peak, spring) - peak) / dt
     force, pull_rate = -applied, np.zeros(len(ids))
     native = implicit(m)[ids]
@@ -230,9 +237,12 @@ def _python_bias(m: Any, d: Any, i: int) -> float:
     rest = d.act[adr] + d.act_dot[adr] * m.opt.timestep
     g = m.actuator_gainprm[i]
     k, damping = g[G_STIFFNESS:G_STIFFNESS + 1], g[G_DAMPING:G_DAMPING + 1]
-    _, applied = _laws.cable_tension(d.ten_length[tendon:tendon + 1],
-                                     d.ten_velocity[tendon:tendon + 1], np.array([rest]),
-                                     k, damping)
+    x, v = d.ten_length[tendon:tendon + 1], d.ten_velocity[tendon:tendon + 1]
+    _, applied = _laws.cable_tension(x, v, np.array([rest]), k, damping)
+    if m.actuator_dynprm[i, P_MODE] == MODE_PD:  # the PD motor's pull beside the spring
+        applied = applied + _laws.pd_tension(
+            x, v, d.ctrl[m.actuator_ctrladr[i]], g[G_PD_STIFFNESS], g[G_PD_DAMPING],
+            m.actuator_dynprm[i, P_MAX_TENSION])[1]
     if not implicit(m)[i]:
         return -float(applied[0])
     # the implicit law: less MuJoCo's gain term, on the pull as actearly reads it

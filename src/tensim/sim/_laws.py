@@ -45,6 +45,59 @@ def cable_tension(length: np.ndarray | float, velocity: np.ndarray | float,
     return spring, applied
 
 
+def pd_tension(length: np.ndarray | float, velocity: np.ndarray | float,
+               target: np.ndarray | float, pd_stiffness: np.ndarray | float,
+               pd_damping: np.ndarray | float, max_tension: np.ndarray | float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """A PD motor's tension-only pull on the cable's length (a lab's position servo on a
+    tendon whose force range lets it pull only): T = kp (x - L) + kd xdot, clamped to
+    [0, max_tension] (MuJoCo's force range): it never pushes, and where its target is above
+    the length it pulls only while the cable lengthens fast enough.
+
+    Args:
+        length: (n,) anchor-to-anchor length x [m].
+        velocity: (n,) its rate xdot [m/s].
+        target: (n,) the servo's target length L [m] (its command).
+        pd_stiffness: (n,) kp [N/m] (0 where the motor is no PD).
+        pd_damping: (n,) kd [N s/m].
+        max_tension: (n,) the force cap [N].
+
+    Returns:
+        (static, applied): the static pull min(max(0, kp (x - L)), max_tension), which the
+        load cell reads beside the spring, and the applied tension T [N].
+    """
+    stretch = pd_stiffness * (length - target)
+    static = np.minimum(np.maximum(stretch, 0.0), max_tension)
+    applied = np.minimum(np.maximum(stretch + pd_damping * velocity, 0.0), max_tension)
+    return static, applied
+
+
+def load_cell_reading(length: np.ndarray, rest_length: np.ndarray, stiffness: np.ndarray,
+                      pd: np.ndarray, command: np.ndarray, pd_stiffness: np.ndarray,
+                      max_tension: np.ndarray) -> np.ndarray:
+    """The load cell's reading [N]: k max(0, x - l) (:func:`load_cell_tension`), plus a PD
+    motor's static pull (:func:`pd_tension`) where ``pd``, its target the command ``command``.
+    The first of :func:`motor_cable_tension`'s results, without the rates."""
+    static = pd_tension(length, 0.0, command, pd_stiffness, 0.0, max_tension)[0]
+    return load_cell_tension(length, rest_length, stiffness) + np.where(pd, static, 0.0)
+
+
+def motor_cable_tension(length: np.ndarray, velocity: np.ndarray, rest_length: np.ndarray,
+                        stiffness: np.ndarray, damping: np.ndarray, pd: np.ndarray,
+                        command: np.ndarray, pd_stiffness: np.ndarray, pd_damping: np.ndarray,
+                        max_tension: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`cable_tension`, plus a PD motor's pull (:func:`pd_tension`) where ``pd``: its
+    target is the cable's command. The load cell reads both.
+
+    Returns:
+        (reading, applied) [N].
+    """
+    spring, applied = cable_tension(length, velocity, rest_length, stiffness, damping)
+    static, pulled = pd_tension(length, velocity, command, pd_stiffness, pd_damping,
+                                max_tension)
+    return spring + np.where(pd, static, 0.0), applied + np.where(pd, pulled, 0.0)
+
+
 def impedance_setpoint(length: np.ndarray, velocity: np.ndarray, offset_tension: np.ndarray,
                        stiffness_gain: np.ndarray, damping_gain: np.ndarray,
                        target_length: np.ndarray, target_velocity: np.ndarray) -> np.ndarray:

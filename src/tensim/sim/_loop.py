@@ -15,6 +15,16 @@ keeps the cable forces of the last :data:`RING_STEPS` steps before every :data:`
 check (:class:`ForceHistory`; its last steps one call each only there) and :func:`ringing`
 tells whether each cable rings: no resolved motion alternates at the step frequency.
 
+Energy growth: a run that goes unstable without ringing at the step frequency (a pair of the
+step's eigenvalues leaving the unit circle elsewhere than at -1, or swings the tension-only
+clamp keeps below the sign check's) shows as the mechanical energy of the bodies and the cable
+springs running away. :class:`EnergyHistory` keeps each world's energy (:class:`Energy`) at
+every check, and :func:`energy_growing` tells whether its excess over the lowest energy of the
+run is above :data:`ENERGY_LIMIT` times the robot's energy scale (its prestress energy and its
+weight times its size) and at least doubled over the last :data:`ENERGY_CHECKS` checks: the
+inputs a run is given (a push, motors, a fall, which turns height into speed at a constant
+total) do not add ten times what the robot holds, and a step's instability does.
+
 Time: a sample taken when the data is about to take physics step j (``data.time`` = j dt)
 describes t = (j - 1) dt: the kinematics at t and the rest lengths the motors set at t.
 """
@@ -28,6 +38,7 @@ from typing import Protocol, overload
 import mujoco
 import numpy as np
 
+from tensim.model import CompiledModel
 from tensim.sim._contact_check import ContactCheck
 from tensim.structure import Structure
 
@@ -37,6 +48,9 @@ RING_EVERY = 4  # stability checks per ringing check (ringing lasts: every 200 m
 RING_SWING = 0.5  # a step's force change, of the largest of the three forces, that rings
 RING_BAND = 0.5  # a step's force change, of the cable's prestress band, that rings
 RING_FLOOR = 0.01  # N: smaller force changes are round-off, not ringing
+ENERGY_LIMIT = 10.0  # energy excess, in the robot's energy scale (Energy.scale), that runs away
+ENERGY_GROWTH = 2.0  # ... while growing at least this factor
+ENERGY_CHECKS = 2  # ... over this many checks
 TUNNEL_ADVICE = ("Try a smaller timestep (--dt) or a smaller bead spacing (the cable's "
                  "contact: spacing).")
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -273,3 +287,136 @@ def contact_problem(check: ContactCheck, model: mujoco.MjModel, scratch: mujoco.
 def tunnel_message(time: float, problem: str) -> str:
     """The error of a contact cable that tunnelled at ``time`` [s]."""
     return f"contact cable tunnelled at t = {time:.3f} s: {problem}. {TUNNEL_ADVICE}"
+
+
+class Energy:
+    """The mechanical energy of a compiled robot's worlds: kinetic energy of its bodies, their
+    weight's potential energy and the cables' spring energy k max(0, x - l)^2 / 2, from the
+    fields a back-end samples (the base model's masses and stiffnesses).
+
+    Args:
+        compiled: the compiled robot.
+    """
+
+    def __init__(self, compiled: CompiledModel):
+        m, index = compiled.model, compiled.index
+        free = np.flatnonzero(m.jnt_type == mujoco.mjtJoint.mjJNT_FREE)
+        self.body = m.jnt_bodyid[free]
+        self.dof = m.jnt_dofadr[free]
+        self.mass = m.body_mass[self.body]
+        # each free body's inertia in its own frame (MuJoCo's principal axes turned back)
+        flat = np.zeros((len(free), 9))
+        for k, b in enumerate(self.body):
+            mujoco.mju_quat2Mat(flat[k], m.body_iquat[b])
+        rot = flat.reshape(-1, 3, 3)
+        self.inertia = np.einsum("kij,kj,klj->kil", rot, m.body_inertia[self.body], rot)
+        slide = np.flatnonzero(m.jnt_type == mujoco.mjtJoint.mjJNT_SLIDE)  # contact beads
+        self.slide_dof, self.slide_mass = m.jnt_dofadr[slide], m.body_mass[m.jnt_bodyid[slide]]
+        # total's fast path: each dof's share of the kinetic energy as one quadratic form
+        n = len(free)
+        self._lin = np.concatenate([(self.dof[:, None] + np.arange(3)).ravel(), self.slide_dof])
+        self._lin_mass = 0.5 * np.concatenate([np.repeat(self.mass, 3), self.slide_mass])
+        self._ang = (self.dof[:, None] + np.arange(3, 6)).ravel()
+        self._ang_inertia = np.zeros((3 * n, 3 * n))
+        for k in range(n):
+            self._ang_inertia[3 * k:3 * k + 3, 3 * k:3 * k + 3] = 0.5 * self.inertia[k]
+        self.gravity = np.asarray(m.opt.gravity, dtype=float).copy()
+        self.tendon = index.tendon
+        self.rest = np.asarray(index.rest_act)  # each cable's rest length in act
+        self.stiffness = m.actuator_gainprm[index.actuator, 1].copy()
+        self.bodies = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(b)) or str(b)
+                       for b in self.body]
+        self.cables = index.cables
+        structure = compiled.structure
+        weight = float(self.mass.sum() * np.linalg.norm(self.gravity))
+        points = np.array([n.position for n in structure.nodes]) if structure.nodes else \
+            np.zeros((1, 3))
+        build = np.array([c.stiffness * max(0.0, structure.cable_length(c)
+                                            - structure.rest_length(c)) ** 2 / 2
+                          for c in structure.cables])
+        # the energy a run of this robot moves about in: its prestress and its weight over
+        # its size (J)
+        self.scale = float(build.sum() + weight * max(float(np.ptp(points, axis=0).max()),
+                                                      1e-3)) or 1.0
+
+    def parts(self, qvel: np.ndarray, xpos: np.ndarray, ten_length: np.ndarray,
+              act: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each world's (n, n_free) body kinetic energies, (n,) potential energy of the
+        weights [J] and (n, n_cables) cable spring energies [J], from (n, ...) fields."""
+        v = qvel[:, self.dof[:, None] + np.arange(3)]
+        w = qvel[:, self.dof[:, None] + np.arange(3, 6)]  # in each body's frame
+        kinetic = 0.5 * self.mass * (v**2).sum(-1) \
+            + 0.5 * np.einsum("nki,kij,nkj->nk", w, self.inertia, w)
+        if self.slide_dof.size:
+            kinetic = np.concatenate(
+                [kinetic, 0.5 * self.slide_mass * qvel[:, self.slide_dof] ** 2], axis=1)
+        height = -(xpos[:, self.body] @ self.gravity)  # the bodies' origins are their centres
+        stretch = np.maximum(ten_length[:, self.tendon] - act[:, self.rest], 0.0)
+        return kinetic, height @ self.mass, 0.5 * self.stiffness * stretch**2
+
+    def total(self, qvel: np.ndarray, xpos: np.ndarray, ten_length: np.ndarray,
+              act: np.ndarray) -> np.ndarray:
+        """(n,) each world's mechanical energy [J]: the sum of :meth:`parts`, in few
+        operations (a single run checks it every few records)."""
+        w = qvel[:, self._ang]
+        stretch = np.maximum(ten_length[:, self.tendon] - act[:, self.rest], 0.0)
+        return (qvel[:, self._lin] ** 2 @ self._lin_mass + ((w @ self._ang_inertia) * w).sum(1)
+                - xpos[:, self.body] @ self.gravity @ self.mass
+                + stretch**2 @ (0.5 * self.stiffness))
+
+    def largest(self, qvel: np.ndarray, xpos: np.ndarray, ten_length: np.ndarray,
+                act: np.ndarray) -> str:
+        """The body or cable of one world (fields of shape (1, ...)) that holds the most
+        kinetic or spring energy, named."""
+        kinetic, _, spring = self.parts(qvel, xpos, ten_length, act)
+        names = [f"body {b!r}" for b in self.bodies] \
+            + [f"bead {k}" for k in range(self.slide_dof.size)] \
+            + [f"cable {c!r}" for c in self.cables]
+        return names[int(np.argmax(np.concatenate([kinetic[0], spring[0]])))]
+
+
+class EnergyHistory:
+    """Each world's mechanical energy at its last :data:`ENERGY_CHECKS` + 1 checks and the
+    lowest of its run, for :func:`energy_growing`.
+
+    Args:
+        n: worlds.
+        scale: the robot's energy scale (:attr:`Energy.scale`) [J].
+    """
+
+    def __init__(self, n: int, scale: float):
+        self.energy = np.full((n, ENERGY_CHECKS + 1), np.nan)
+        self.lowest = np.full(n, np.inf)
+        self.limit = ENERGY_LIMIT * scale
+
+    def push(self, ids: np.ndarray | slice, energy: np.ndarray) -> np.ndarray:
+        """Adds worlds ``ids``' energies (k,) [J] at a check; returns (k,) whether each grows
+        (:func:`energy_growing`)."""
+        self.energy[ids, :-1] = self.energy[ids, 1:]
+        self.energy[ids, -1] = energy
+        self.lowest[ids] = np.fmin(self.lowest[ids], energy)
+        return energy_growing(self.energy[ids] - self.lowest[ids][:, None], self.limit)
+
+    def reset(self, ids: np.ndarray | slice) -> None:
+        """Forgets worlds ``ids``' energies (a state set from elsewhere)."""
+        self.energy[ids] = np.nan
+        self.lowest[ids] = np.inf
+
+
+def energy_growing(excess: np.ndarray, limit: float) -> np.ndarray:
+    """(n,) whether each world's energy runs away: its excess over its run's lowest energy,
+    (n, ENERGY_CHECKS + 1) at its last checks, oldest first [J], ends above ``limit`` [J] and
+    grew at least :data:`ENERGY_GROWTH`-fold over those checks (NaN, not yet checked that
+    often: False)."""
+    return (excess[:, -1] > limit) & (excess[:, -1] >= ENERGY_GROWTH * excess[:, 0])
+
+
+def energy_message(what: str, excess: np.ndarray, time: float, dt: float) -> str:
+    """The error of a world whose energy grows at ``time`` [s] with physics step ``dt`` [s]:
+    ``what`` holds most of it (:meth:`Energy.largest`); ``excess`` (ENERGY_CHECKS + 1,) [J]."""
+    return (f"simulation unstable at t = {time:.3f} s: the mechanical energy of the bodies "
+            f"and cables runs away, from {excess[0]:.3g} to {excess[-1]:.3g} J above its lowest "
+            f"over the last {ENERGY_CHECKS} checks, most of it in {what}, so the "
+            f"{dt * 1e3:g} ms step is too long. Use --dt {suggest_step(dt):g} or less "
+            "(`tensim check` prints the bound), --cable-law implicit, or softer cables / "
+            "heavier parts.")

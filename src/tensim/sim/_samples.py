@@ -178,8 +178,10 @@ def sample_channels(samples: SampleBuffers, index: ModelIndex, dynprm: np.ndarra
     """
     p, g = dynprm, gainprm
     x, v = samples.length, samples.velocity
-    tension, applied = _laws.cable_tension(x, v, samples.rest, g[:, layout.G_STIFFNESS],
-                                           g[:, layout.G_DAMPING])
+    tension, applied = _laws.motor_cable_tension(
+        x, v, samples.rest, g[:, layout.G_STIFFNESS], g[:, layout.G_DAMPING],
+        p[:, layout.P_MODE] == layout.MODE_PD, samples.command, g[:, layout.G_PD_STIFFNESS],
+        g[:, layout.G_PD_DAMPING], p[:, layout.P_MAX_TENSION])
     setpoint = _laws.impedance_setpoint(x, v, p[:, layout.P_OFFSET], p[:, layout.P_GAIN_K],
                                         p[:, layout.P_GAIN_B], p[:, layout.P_TARGET_LENGTH],
                                         samples.command)

@@ -19,9 +19,12 @@ from tensim.sim._drive import CableDrive, InputPlan, changes
 from tensim.sim._law import install, release, use_reference_law
 from tensim.sim._loads import NodeLoad
 from tensim.sim._loop import (
+    Energy,
+    EnergyHistory,
     ForceHistory,
     StabilityLimits,
     contact_problem,
+    energy_message,
     next_step,
     prestress_band,
     record_loop,
@@ -117,6 +120,8 @@ class Simulation:
             if any(c.contact for c in compiled.structure.cables) else None
         # the cable forces of the last steps, for the ringing check
         self._forces = ForceHistory(1, prestress_band(compiled.structure))
+        self._energy = Energy(compiled)  # and the energy at each check, for its growth
+        self._energies = EnergyHistory(1, self._energy.scale)
         if controller is not None:
             controller.configure(self)
         self._advance(1)  # the motor update at t = 0
@@ -161,6 +166,7 @@ class Simulation:
         mujoco.mj_setState(self.model, self.data, state, spec)
         mujoco.mj_forward(self.model, self.data)  # derived fields; the state is unchanged
         self._forces.count[:] = 0  # the kept forces were another state's
+        self._energies.reset(slice(None))
 
     def inputs(self) -> InputPlan:
         """The ``ctrl`` rows of this simulation's commands and loads (read when called)."""
@@ -226,6 +232,8 @@ class Simulation:
             if ring is not None and ring.any():
                 raise SimulationError(ring_message(self.index.cables, ring,
                                                    self._forces.force[0], self.time, self.dt))
+            if ring is not None:  # the energy on the same schedule: every RING_EVERY checks
+                self._check_energy()
             problem = contact_problem(self._contact, self.model, self.data) \
                 if self._contact else None
             if problem is None:
@@ -234,6 +242,17 @@ class Simulation:
         raise SimulationError(diagnose(self.model, self.data, self.index, self.limits,
                                        self.time, bool(bad_acc),
                                        getattr(self, "_peak_seen", None)))
+
+
+    def _check_energy(self) -> None:
+        """Raises :class:`SimulationError` where the mechanical energy grows geometrically
+        (:func:`~tensim.sim._loop.energy_growing`), naming what holds most of it."""
+        d = self.data
+        fields = (d.qvel[None], d.xpos[None], d.ten_length[None], d.act[None])
+        if self._energies.push(slice(None), self._energy.total(*fields))[0]:
+            excess = self._energies.energy[0] - self._energies.lowest[0]
+            raise SimulationError(energy_message(self._energy.largest(*fields), excess,
+                                                 self.time, self.dt))
 
 
 def diagnose(m: mujoco.MjModel, d: mujoco.MjData, index: ModelIndex, limits: StabilityLimits,

@@ -32,10 +32,13 @@ from tensim.model import BUILD_KEY, CompiledModel
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import InputPlan
 from tensim.sim._loop import (
+    Energy,
+    EnergyHistory,
     ForceHistory,
     StabilityLimits,
     bad_acceleration,
     contact_problem,
+    energy_message,
     prestress_band,
     record_loop,
     ring_message,
@@ -271,6 +274,8 @@ class _WarpRun:
         self.samples = SampleBuffers.empty(self.compiled, n_samples + 1, (len(self.trials),))
         self.n_samples = n_samples
         self.forces = ForceHistory(len(self.trials), prestress_band(self.compiled.structure))
+        self.energy = Energy(self.compiled)
+        self.energies = EnergyHistory(len(self.trials), self.energy.scale)
         self.inputs = HeldInputs(len(self.trials), self.compiled.model.nu, self.record_steps,
                                  n_samples * self.record_steps + int(fresh))
         if fresh:
@@ -320,15 +325,30 @@ class _WarpRun:
             self.error[i] = f"trial {i}: " + diagnose(self.compiled.model, d,
                                                       self.compiled.index, self.limits, time,
                                                       bool(bad_acc[i]), reset=False)
+        fresh = self.forces.fresh  # the energy on the ringing check's schedule
         ring = self.forces.ringing(slice(None))
         for i in np.flatnonzero(fine & ring.any(axis=1)):
             if self.error[i] is None:
                 time = float(self.samples.time[i, self.count[i] - 1])
                 self.error[i] = f"trial {i}: " + ring_message(
                     self.compiled.index.cables, ring[i], self.forces.force[i], time, self.dt)
+        if fresh:
+            self._check_energy(qvel, fine)
         self._check_room(fine)  # after: a diverging world also overflows; instability first
         if self._contact is not None:
             self._check_contact(np.flatnonzero(fine))
+
+    def _check_energy(self, qvel: np.ndarray, fine: np.ndarray) -> None:
+        """Fails the worlds whose mechanical energy runs away (see
+        :func:`tensim.sim._loop.energy_growing`), as the CPU engines do."""
+        parts = [qvel, *(getattr(self.d, name).numpy() for name in ("xpos", "ten_length", "act"))]
+        growing = self.energies.push(slice(None), self.energy.total(*parts)) & fine
+        for i in np.flatnonzero(growing):
+            if self.error[i] is None:
+                time = float(self.samples.time[i, self.count[i] - 1])
+                what = self.energy.largest(*(part[i:i + 1] for part in parts))
+                self.error[i] = f"trial {i}: " + energy_message(
+                    what, self.energies.energy[i] - self.energies.lowest[i], time, self.dt)
 
     def _check_room(self, fine: np.ndarray) -> None:
         """Fails the worlds MuJoCo Warp ran out of room for (contacts or constraint rows

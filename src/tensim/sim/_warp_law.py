@@ -30,6 +30,7 @@ from tensim.model import _law_layout as layout
 # the layout's slots as Warp constants (the one specification: tensim.model._law_layout)
 _MARKER = wp.constant(float(layout.CABLE_MARKER))
 _IMPEDANCE = wp.constant(float(layout.MODE_IMPEDANCE))
+_PD = wp.constant(float(layout.MODE_PD))
 _ACTDIM, _DC_ACTDIM = wp.constant(layout.ACTDIM), wp.constant(layout.DC_ACTDIM)
 _EXTRA = wp.constant(layout.IMPLICIT_EXTRA)
 _AFFINE = wp.constant(int(mujoco.mjtGain.mjGAIN_AFFINE))
@@ -39,6 +40,7 @@ _P_MIN_REST, _P_MIN_LENGTH = wp.constant(layout.P_MIN_REST), wp.constant(layout.
 _P_OFFSET, _P_GAIN_K = wp.constant(layout.P_OFFSET), wp.constant(layout.P_GAIN_K)
 _P_GAIN_B, _P_TARGET = wp.constant(layout.P_GAIN_B), wp.constant(layout.P_TARGET_LENGTH)
 _G_K, _G_DAMPING = wp.constant(layout.G_STIFFNESS), wp.constant(layout.G_DAMPING)
+_G_PD_K, _G_PD_B = wp.constant(layout.G_PD_STIFFNESS), wp.constant(layout.G_PD_DAMPING)
 _B_STALL, _B_V0 = wp.constant(layout.B_STALL_FORCE), wp.constant(layout.B_NO_LOAD_SPEED)
 _B_MASS, _B_VISCOUS = wp.constant(layout.B_MASS), wp.constant(layout.B_VISCOUS)
 _B_COULOMB, _B_TP = wp.constant(layout.B_COULOMB), wp.constant(layout.B_POSITION_TIME)
@@ -133,6 +135,9 @@ def cable_law(
         setpoint = wp.max(0.0, p[_P_OFFSET] + p[_P_GAIN_K] * (x - p[_P_TARGET])
                           + p[_P_GAIN_B] * (v - command))
         target = rest - (setpoint - measured) / k
+    pd = p[_P_MODE] == _PD
+    if pd:  # a PD motor's command is its target length: the rest length stays
+        target = rest
     new = rest
     if actnum == _DC_ACTDIM:
         speed = act[world, adr + _A_SPEED]
@@ -163,6 +168,10 @@ def cable_law(
     if stretch > 0.0:
         spring = k * stretch
         applied = wp.max(spring + g[_G_DAMPING] * v, 0.0)
+    if pd:  # a PD motor pulls beside the spring, in [0, max_tension]; the load cell reads both
+        pull_pd = g[_G_PD_K] * (x - command)
+        spring += wp.min(wp.max(pull_pd, 0.0), p[_P_MAX_TENSION])
+        applied += wp.min(wp.max(pull_pd + g[_G_PD_B] * v, 0.0), p[_P_MAX_TENSION])
     peak = act[world, adr + _A_PEAK]
     act_dot[world, adr + _A_PEAK] = (wp.max(peak, spring) - peak) / dt
     if implicit:  # the pull, the last activation: -1 while taut (the gain term's input)

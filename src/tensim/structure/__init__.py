@@ -16,7 +16,7 @@ from tensim.structure._records import (
     Rod,
     RodSection,
 )
-from tensim.structure._structure import RigidGroup, Structure
+from tensim.structure._structure import RigidGroup, Structure, body_length
 from tensim.structure._yaml import (
     load_structure,
     motor_sources,
@@ -39,6 +39,7 @@ __all__ = [
     "RodSection",
     "Structure",
     "StructureError",
+    "body_length",
     "load_structure",
     "mass_properties",
     "motor_sources",

@@ -376,6 +376,17 @@ class Motor:
             static tension k(x - l) would exceed it, the cable back-drives the motor, which
             pays out (at any speed) so that it holds max_tension. False (the default): the
             motor only stops reeling in there.
+        pd_stiffness: kp of a PD motor [N/m] (0, the default: none). A PD motor is a lab's
+            position servo on the cable's length, in parallel with the cable's spring: it
+            pulls T = kp (x - L) + kd dx/dt, clamped to [0, max_tension] (it never pushes),
+            toward its target length L, the cable's command (starting at ``pd_target``). The
+            rest length then stays as built; max_speed, min_rest_length and min_length do not
+            apply. A controller that puts the cable under the impedance law (impedance, CPG
+            and sine gaits) replaces the servo by it.
+        pd_damping: kd of a PD motor [N s/m] (needs pd_stiffness > 0).
+        pd_target: a PD motor's target length at build [m]; None (the default): the cable's
+            build length, where the servo pulls nothing, so the build pose's statics are the
+            spring's (the design tools see the spring only).
     """
 
     max_speed: float = 0.07
@@ -386,6 +397,9 @@ class Motor:
     passive: bool = False
     lag_time: float = 0.0
     saturate: bool = False
+    pd_stiffness: float = 0.0
+    pd_damping: float = 0.0
+    pd_target: float | None = None
 
     def __post_init__(self) -> None:
         _check(isinstance(self.passive, bool), "motor",
@@ -395,8 +409,11 @@ class Motor:
         _check(self.dc is None or isinstance(self.dc, DCMotor), "motor",
                f"dc must be a mapping of DC-motor parameters, got {describe(self.dc)}")
         for field, unit in (("max_speed", "m/s"), ("max_tension", "N"),
-                            ("min_rest_length", "m"), ("min_length", "m"), ("lag_time", "s")):
+                            ("min_rest_length", "m"), ("min_length", "m"), ("lag_time", "s"),
+                            ("pd_stiffness", "N/m"), ("pd_damping", "N s/m")):
             _real(self, "motor", field, unit)
+        _real(self, "motor", "pd_target", "m", optional=True)
+        self._check_pd()
         _check(self.lag_time >= 0, "motor", f"lag_time must be >= 0 s, got {self.lag_time}")
         _check(isinstance(self.saturate, bool), "motor",
                f"saturate must be true or false, got {describe(self.saturate)}")
@@ -406,6 +423,31 @@ class Motor:
         for field in ("min_rest_length", "min_length"):
             value = getattr(self, field)
             _check(value >= 0, "motor", f"{field} must be >= 0 m, got {value}")
+
+
+    def _check_pd(self) -> None:
+        for field in ("pd_stiffness", "pd_damping"):
+            value = getattr(self, field)
+            _check(value >= 0, "motor", f"{field} must be >= 0, got {value}")
+        for field, value, unit in (("pd_damping", self.pd_damping, "N s/m"),
+                                   ("pd_target", self.pd_target, "m")):
+            _check(not value or self.pd_stiffness > 0, "motor",
+                   f"{field} {value} {unit} needs pd_stiffness > 0 N/m (a PD motor)")
+        _check(self.pd_target is None or self.pd_target > 0, "motor",
+               f"pd_target must be > 0 m, got {self.pd_target}")
+        if self.pd_stiffness > 0:
+            other = [name for name, on in (("passive", self.passive),
+                                           ("dc", self.dc is not None),
+                                           ("lag_time", self.lag_time > 0),
+                                           ("saturate", self.saturate)) if on]
+            _check(not other, "motor", f"a PD motor (pd_stiffness > 0) pulls on the length "
+                   f"directly, so it takes no {other[0] if other else ''} (that acts on a "
+                   "rest-length motor); remove one of them")
+
+    @property
+    def pd(self) -> bool:
+        """Whether this is a PD motor (pd_stiffness > 0)."""
+        return self.pd_stiffness > 0
 
 
 # a cable without a motor: its rest length stays as built (no floor lifts a short one)

@@ -351,3 +351,19 @@ def _unique(names: Iterable[str], what: str) -> None:
         if name in seen:
             raise StructureError(f"duplicate {what} name {name!r}", item=f"{what} {name!r}")
         seen.add(name)
+
+
+def body_length(structure: Structure) -> float:
+    """The robot's body length [m], the field's unit of a rolling or crawling robot's speed
+    (body lengths per second): its longest rod, end node to end node in the build pose; a
+    robot without rods, its longest cable, end node to end node.
+
+    Raises:
+        StructureError: a structure with neither rods nor cables.
+    """
+    members = structure.rods or structure.cables
+    if not members:
+        raise StructureError("has neither rods nor cables, so no body length",
+                             item=f"structure {structure.name!r}")
+    return max(structure.distance(*m.nodes) for m in members)
+

@@ -144,7 +144,8 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
                 value = {k: v for k, v in value.items()
                          if v is not None and not (k == "passive" and v is False)
                          and not (k == "lag_time" and v == 0.0)
-                         and not (k == "saturate" and v is False)}
+                         and not (k == "saturate" and v is False)
+                         and not (k in ("pd_stiffness", "pd_damping") and v == 0.0)}
             out[key] = [list(v) if isinstance(v, tuple) else v for v in value] \
                 if isinstance(value, tuple) else value
         return out
