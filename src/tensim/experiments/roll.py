@@ -7,7 +7,8 @@ the goal, from where the robot stands, when a goal is given) and commands them; 
 there at their max_speed, the robot tips, and the next face starts over. The summary reports
 the field's figures: speed in body lengths per second (body length = the longest rod), the
 distance made good along the heading, the heading error of the path, the faces visited and the
-number of rolls. :func:`play` rolls with a controller file instead (a learned ``roll`` gait,
+number of rolls. With ``turn_deg`` the gait turns the robot in place instead (:func:`roll`).
+:func:`play` rolls with a controller file instead (a learned ``roll`` gait,
 :mod:`tensim.control.roll_parameters`), played open loop, and reports the same speed figures.
 """
 
