@@ -138,3 +138,13 @@ def test_turning_in_place_yaws_without_going_far():
     moved = math.hypot(ts["pos_x/com"][-1] - ts["pos_x/com"][0],
                        ts["pos_y/com"][-1] - ts["pos_y/com"][0])
     assert summary["displacement_m"] == pytest.approx(moved, abs=1e-6)
+
+
+def test_cli_turn_refuses_a_heading_and_other_experiments(tmp_path):
+    from tensim.cli import main
+
+    out = str(tmp_path / "r")
+    assert main(["experiment", "roll", "six_bar", "--turn", "30", "--heading", "0",
+                 "--out", out]) == 2
+    assert main(["experiment", "roll", "six_bar", "--turn", "nan", "--out", out]) == 2
+    assert main(["experiment", "drag", "--turn", "30", "--out", out]) == 2
