@@ -274,10 +274,16 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         raise ValueError(f"--heading {args.heading!r}: expected a finite angle in degrees")
     structure = load_model(args.model)
     goal = parse_point(args.goal, "--goal") if args.goal is not None else None
+    if args.turn is not None and (args.controller is not None or goal is not None
+                                  or args.heading is not None):
+        raise ValueError("--turn: turning in place takes no --heading, --goal or --controller")
+    if args.turn is not None and not math.isfinite(args.turn):
+        raise ValueError(f"--turn {args.turn!r}: expected a finite angle in degrees")
     if args.controller is None:
         result, summary = roll(structure, args.duration or ROLL_DURATION,
                                heading_deg=args.heading or 0.0, goal=goal,
-                               world=world_from_args(args), progress=Progress("roll", args.quiet))
+                               world=world_from_args(args), turn_deg=args.turn,
+                               progress=Progress("roll", args.quiet))
     else:  # a controller file's gait, played open loop (a learned roll gait)
         result, summary = play(structure, load_controller(args.controller, structure),
                                args.duration or ROLL_DURATION, heading_deg=args.heading or 0.0,
@@ -286,11 +292,19 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     summary = {"experiment": "roll", "model": args.model, "controller": args.controller,
                **summary}
     write_roll(out, result, summary, structure)
-    print(f"rolled {summary['distance_m']:.3f} m along the heading in {summary['duration_s']:g} s:"
-          f" {summary['body_lengths_per_s']:.3f} body lengths/s (body length "
-          f"{summary['body_length_m']:.3f} m), heading error {summary['heading_error_deg']:.1f}"
-          " deg" + ("" if summary["rolls"] is None else
-                    f", {summary['rolls']} rolls over {summary['faces_visited']} faces"))
+    if args.turn is None:
+        print(f"rolled {summary['distance_m']:.3f} m along the heading in "
+              f"{summary['duration_s']:g} s: {summary['body_lengths_per_s']:.3f} body lengths/s"
+              " (body length "
+              f"{summary['body_length_m']:.3f} m), heading error "
+              f"{summary['heading_error_deg']:.1f} deg" + (
+                  "" if summary["rolls"] is None else
+                  f", {summary['rolls']} rolls over {summary['faces_visited']} faces"))
+    else:
+        print(f"turned {summary['yaw_deg']:.1f} deg of {args.turn:g} in "
+              f"{summary['duration_s']:.2f} s, centre of mass moved "
+              f"{summary['displacement_m']:.3f} m ({summary['displacement_body_lengths']:.2f} "
+              f"body lengths), {summary['rolls']} rolls")
     if goal is not None:
         before, after = summary["goal_distance_m"]
         print(f"goal ({goal[0]:g}, {goal[1]:g}) m: distance {before:.3f} -> {after:.3f} m")
@@ -336,6 +350,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--goal", default=None, metavar="X,Y",
                    help="roll: a goal point [m] to roll toward instead of a heading "
                         "(write --goal=-2,1 for a negative X)")
+    p.add_argument("--turn", type=float, default=None, metavar="DEG",
+                   help="roll: turn in place by this yaw, counter-clockwise [deg] (the run ends "
+                        "once turned; --duration is the longest it may take)")
     add_world_options(p)
     add_controller_option(p)
     p.add_argument("--robot", default=None, metavar="FILE.yaml",
@@ -369,7 +386,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    for option in ("model", "heading", "goal"):
+    for option in ("model", "heading", "goal", "turn"):
         if getattr(args, option) is not None and args.name != "roll":
             what = "a robot argument" if option == "model" else f"--{option}"
             raise ValueError(f"{what} is for the roll experiment, not {args.name!r}")

@@ -73,6 +73,18 @@ class RollSettings:
             raise ValueError("roll setting period_s must be > 0 s")
 
 
+# A 3-bar's end cables carry its static centre of mass only a few centimetres past every other
+# edge (the prism flattens first): it tips dynamically instead, with a larger travel and no rest
+# between tips, so that the momentum of one tip carries into the next.
+PRISM_SETTINGS = RollSettings(shorten=0.7, lengthen=0.5, settle_s=0.0, push_s=1.0)
+
+
+def default_settings(structure: Structure) -> RollSettings:
+    """The gait's settings for ``structure``: :data:`PRISM_SETTINGS` for a robot of three rods
+    (a 3-bar prism), the defaults of :class:`RollSettings` otherwise."""
+    return PRISM_SETTINGS if len(structure.rods) == 3 else RollSettings()
+
+
 def heading_vector(heading_deg: float) -> np.ndarray:
     """(2,) unit vector of a heading, counter-clockwise from +x [deg]."""
     angle = math.radians(heading_deg)
@@ -99,6 +111,45 @@ def support_edges(polygon: np.ndarray) -> np.ndarray:
     if len(polygon) < 3:  # standing on an edge or a point: no polygon to leave
         return np.zeros((0, 3))
     return ConvexHull(polygon).equations
+
+
+def tip_rotation(points: np.ndarray, feet: np.ndarray, edge: np.ndarray) -> tuple[np.ndarray,
+                                                                                  np.ndarray]:
+    """The rigid-hull tip over a support edge: the rotation that rolls ``points`` over the edge
+    until the next hull node reaches the ground.
+
+    Args:
+        points: (n, 3) the robot's nodes now [m].
+        feet: (m, 3) the support face's nodes (on the ground) [m].
+        edge: (3,) the support edge as a x + b y + c = 0, (a, b) its unit outward normal.
+
+    Returns:
+        (3, 3) rotation and (3,) a point on its axis: a node p lands at R (p - a) + a.
+    """
+    normal = np.array([edge[0], edge[1], 0.0])
+    on_edge = feet[np.argsort(np.abs(feet[:, :2] @ edge[:2] + edge[2]))[:2]]
+    anchor = on_edge.mean(axis=0)
+    axis = np.cross([0.0, 0.0, 1.0], normal)  # rotating +z toward the outward normal
+    rel = points - anchor
+    along_n, up = rel @ normal, rel[:, 2]
+    angle = np.arctan2(up, along_n)
+    lifted = np.hypot(along_n, up) > 1e-6
+    landing = angle[lifted & (angle > 1e-3)]
+    theta = float(landing.min()) if len(landing) else 0.0
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    rotation = np.eye(3) + math.sin(theta) * k + (1 - math.cos(theta)) * k @ k
+    return rotation, anchor
+
+
+def yaw_between(start: np.ndarray, end: np.ndarray) -> float:
+    """The yaw [rad] of the best-fitting rotation (Kabsch) taking the point set ``start`` (n, 3)
+    to ``end``: the angle of the rotation about z nearest to it (exact when the robot stands
+    on the same face again, where the rotation is a pure yaw)."""
+    a, b = start - start.mean(axis=0), end - end.mean(axis=0)
+    u, _, vt = np.linalg.svd(b.T @ a)
+    d = np.sign(np.linalg.det(u @ vt))
+    r = u @ np.diag([1.0, 1.0, d]) @ vt
+    return math.atan2(r[1, 0] - r[0, 1], r[0, 0] + r[1, 1])
 
 
 def _com_jacobian(lin: object) -> np.ndarray:

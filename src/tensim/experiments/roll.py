@@ -7,7 +7,8 @@ the goal, from where the robot stands, when a goal is given) and commands them; 
 there at their max_speed, the robot tips, and the next face starts over. The summary reports
 the field's figures: speed in body lengths per second (body length = the longest rod), the
 distance made good along the heading, the heading error of the path, the faces visited and the
-number of rolls. :func:`play` rolls with a controller file instead (a learned ``roll`` gait,
+number of rolls. With ``turn_deg`` the gait turns the robot in place instead (:func:`roll`).
+:func:`play` rolls with a controller file instead (a learned ``roll`` gait,
 :mod:`tensim.control.roll_parameters`), played open loop, and reports the same speed figures.
 """
 
@@ -23,7 +24,16 @@ from typing import Any
 import numpy as np
 
 from tensim.control import ControllerConfig
-from tensim.control.rolling import RollSettings, heading_vector, plan_tip, support_face
+from tensim.control.rolling import (
+    RollSettings,
+    default_settings,
+    heading_vector,
+    plan_tip,
+    support_edges,
+    support_face,
+    tip_rotation,
+    yaw_between,
+)
 from tensim.design import DesignError
 from tensim.model import WorldOptions, compile_structure
 from tensim.runs import world_record, write_run
@@ -32,6 +42,10 @@ from tensim.structure import Structure, body_length
 
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
 LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
+TURN_TOLERANCE = 10.0  # deg: turning in place stops once the yaw is this near the target
+TURN_DEPTH = 4  # tips ahead turning in place looks (rigid hull)
+TURN_RADIUS = 0.1  # body lengths from the start that turning in place moves freely within
+TURN_WEIGHT = 4.0  # rad of yaw error that one body length beyond TURN_RADIUS costs as much as
 
 
 def node_positions(sim: Simulation) -> dict[str, np.ndarray]:
@@ -59,6 +73,47 @@ class _Gait:
     pushing: bool = False
     faces: list[tuple[str, ...]] = dataclasses.field(default_factory=list)
     plans: int = 0
+    turn: float | None = None  # rad: the yaw to turn by in place (None: roll on the heading)
+    start: np.ndarray | None = None  # (n, 3) the nodes at the start (turning's reference)
+    turned: bool = False
+
+    def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
+        """Turning in place: the outward normal of the first edge of the sequence of rigid-hull
+        tips that best brings the yaw toward the target while the centre stays near the start
+        (None: the yaw is within :data:`TURN_TOLERANCE`, or no sequence does better than
+        standing)."""
+        assert self.turn is not None and self.start is not None
+        turn, start = self.turn, self.start
+        names = list(positions)
+        points = np.array([positions[n] for n in names])
+        feet = np.array([positions[n] for n in support_face(positions)])
+        origin = start.mean(axis=0)[:2]
+
+        def cost(p: np.ndarray) -> float:
+            error = abs(math.remainder(turn - yaw_between(start, p), 2 * math.pi))
+            away = float(np.linalg.norm(p.mean(axis=0)[:2] - origin)) / self.length
+            return error + TURN_WEIGHT * max(0.0, away - TURN_RADIUS)
+
+        if abs(math.remainder(turn - yaw_between(start, points), 2 * math.pi)) \
+                <= math.radians(TURN_TOLERANCE):
+            self.turned = True
+            return None
+        best, heading = cost(points), None
+        frontier: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = [(points, feet, None)]
+        for _ in range(TURN_DEPTH):  # breadth first over sequences of rigid-hull tips
+            grown = []
+            for p, f, first in frontier:
+                for edge in support_edges(f[:, :2]):
+                    rotation, anchor = tip_rotation(p, f, edge)
+                    q = (p - anchor) @ rotation.T + anchor
+                    q[:, 2] -= q[:, 2].min() - points[:, 2].min()
+                    face = support_face(dict(zip(names, q, strict=True)))
+                    lead = edge[:2].copy() if first is None else first
+                    grown.append((q, q[[names.index(n) for n in face]], lead))
+                    if (c := cost(q)) < best - 1e-3:
+                        best, heading = c, lead
+            frontier = grown
+        return heading
 
     def heading(self, com: np.ndarray) -> np.ndarray:
         """Toward the goal; without one toward a point on the heading's line through the
@@ -96,9 +151,12 @@ class _Gait:
             dataclasses.replace(n, position=tuple(positions[n.name]))
             for n in self.structure.nodes))
         com = sim.data.subtree_com[0]
+        heading = self.heading(com) if self.turn is None else self._turn_heading(positions)
+        if heading is None or self.turned:
+            sim.drive.rest_command[self.motorised] = self.built[self.motorised]
+            return
         try:
-            plan = plan_tip(pose, sim.drive.rest.copy(), self.built, self.heading(com),
-                            self.settings)
+            plan = plan_tip(pose, sim.drive.rest.copy(), self.built, heading, self.settings)
         except DesignError:
             return
         self.plans += 1
@@ -109,9 +167,19 @@ class _Gait:
 def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
          goal: tuple[float, float] | None = None, world: WorldOptions | None = None,
          settings: RollSettings | None = None, record_dt: float = 0.01,
+         turn_deg: float | None = None,
          progress: Callable[[float, float], None] | None = None
          ) -> tuple[SimulationResult, dict[str, Any]]:
-    """Rolls ``structure`` for ``duration`` seconds toward a heading or a goal point.
+    """Rolls ``structure`` for ``duration`` seconds toward a heading or a goal point, or turns
+    it in place by ``turn_deg``.
+
+    Turning in place tips, at each plan, over the first support edge of the sequence of up to
+    :data:`TURN_DEPTH` tips (the hull rolled as a rigid body over each edge) that best brings
+    the robot's yaw toward ``turn_deg`` while its centre stays near the start (beyond
+    :data:`TURN_RADIUS` body lengths from the start, a body length weighs as much as
+    :data:`TURN_WEIGHT` rad of yaw error); it stops once the yaw is within
+    :data:`TURN_TOLERANCE` of the target, and the run ends
+    there (``duration`` is then the longest it may take).
 
     Args:
         structure: a closed robot (its nodes' convex hull is what it rolls on).
@@ -119,14 +187,19 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
         heading_deg: heading, counter-clockwise from +x [deg] (used without a goal).
         goal: (x, y) of a goal point [m]; the gait heads toward it from where the robot is.
         world: physics step, terrain and other world options.
-        settings: the gait's parameters.
+        settings: the gait's parameters (None: :func:`~tensim.control.rolling.default_settings`).
         record_dt: recording period [s]; a whole number of physics steps.
+        turn_deg: turn in place by this yaw, counter-clockwise [deg] (the heading and goal
+            are then unused); the summary adds ``turn_deg``, ``yaw_deg`` and
+            ``displacement_m`` (:func:`turn_summary`).
         progress: called as progress(done_s, total_s).
 
     Returns:
         The result and its summary (:func:`roll_summary` plus the run's headline figures).
     """
-    settings = settings or RollSettings()
+    if turn_deg is not None and not math.isfinite(turn_deg):
+        raise ValueError(f"turn_deg must be a finite angle in degrees, got {turn_deg!r}")
+    settings = settings or default_settings(structure)
     world = world or WorldOptions()
     compiled = compile_structure(structure, world)
     sim = Simulation(compiled, record_dt=record_dt)
@@ -134,11 +207,14 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
     gait = _Gait(compiled.structure, built, motorised, settings, heading_deg, goal,
                  sim.data.subtree_com[0][:2].copy(), body_length(structure))
+    if turn_deg is not None:
+        gait.turn = math.radians(turn_deg)
+        gait.start = np.array(list(node_positions(sim).values()))
     chunks: list[TimeSeries] = []
     period = max(record_dt, round(settings.period_s / record_dt) * record_dt)
     done, start = 0.0, time.perf_counter()
     with sim:
-        while done < duration - 1e-9:
+        while done < duration - 1e-9 and not gait.turned:
             gait.control(sim)
             span = min(period, duration - done)
             series = sim.run(span)
@@ -148,7 +224,7 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                 progress(done, duration)
         trajectory = _join(chunks)
         result = SimulationResult(trajectory, sim.drive.peak.copy(), time.perf_counter() - start,
-                                  duration, sim.dt,
+                                  round(done, 9) if gait.turned else duration, sim.dt,
                                   sim.index.cables)
     direction = heading_vector(heading_deg) if goal is None else None
     summary = {**result.summary(), **world_record(compiled.world),
@@ -157,7 +233,54 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                "goal_xy_m": list(goal) if goal is not None else None,
                "faces_visited": len(set(gait.faces)), "rolls": max(0, len(gait.faces) - 1),
                "plans": gait.plans}
+    if turn_deg is not None:
+        bodies = dict(zip((int(b) for b in sim.index.body), sim.index.bodies, strict=True))
+        nodes = {n: (bodies[b], sim.index.node_local[n])
+                 for n, b in sim.index.node_body.items() if b in bodies}
+        summary.update(turn_summary(trajectory, turn_deg, body_length(structure), nodes))
     return result, summary
+
+
+def turn_summary(trajectory: TimeSeries, turn_deg: float, length: float,
+                 nodes: dict[str, tuple[str, np.ndarray]]) -> dict[str, Any]:
+    """A turn in place's figures, from the recorded bodies' paths.
+
+    Args:
+        trajectory: the recorded run (its bodies' ``pos_*`` and ``quat_*`` channels).
+        turn_deg: the target yaw [deg].
+        length: the body length [m].
+        nodes: node name -> (its body's name, its position in the body's frame [m]).
+
+    Returns:
+        ``turn_deg`` (the target), ``yaw_deg`` (the yaw of the best-fitting rotation,
+        :func:`yaw_between`, taking the nodes at the start to the nodes at the end; nodes, not
+        body frames, since a rod's spin about its own axis moves no node),
+        ``displacement_m`` (the centre of mass's horizontal displacement) and
+        ``displacement_body_lengths``.
+    """
+
+    def points(i: int) -> np.ndarray:
+        out = []
+        for body, local in nodes.values():
+            w, x, y, z = (trajectory[f"quat_{a}/{body}"][i] for a in "wxyz")
+            out.append(np.array([trajectory[f"pos_{a}/{body}"][i] for a in "xyz"])
+                       + _rotation(np.array([w, x, y, z])) @ local)
+        return np.array(out)
+
+    yaw = yaw_between(points(0), points(-1))
+    moved = float(np.hypot(trajectory[f"pos_x/{COM}"][-1] - trajectory[f"pos_x/{COM}"][0],
+                           trajectory[f"pos_y/{COM}"][-1] - trajectory[f"pos_y/{COM}"][0]))
+    return {"turn_deg": turn_deg, "yaw_deg": round(math.degrees(yaw), 3),
+            "displacement_m": round(moved, 6),
+            "displacement_body_lengths": round(moved / length, 6)}
+
+
+def _rotation(quat: np.ndarray) -> np.ndarray:
+    """(3, 3) the rotation of a unit quaternion (w, x, y, z)."""
+    w, x, y, z = quat / np.linalg.norm(quat)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def play(structure: Structure, config: ControllerConfig, duration: float, *,
