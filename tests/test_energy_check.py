@@ -80,3 +80,29 @@ def test_a_runaway_the_ringing_check_is_blind_to_is_stopped_single_and_batch() -
         quiet = tensim.compile_structure(structure, tensim.WorldOptions(timestep=4e-3))
         assert tensim.simulate(quiet, 1.0, record_dt=8e-3).trajectory.time[-1] \
             == pytest.approx(1.0)
+
+
+def test_a_pulled_mass_is_not_a_runaway_and_the_allowance_is_the_loads_work() -> None:
+    # a 10 g bob on a 100 N/m cable pulled down by a load ramped to 50 N: the cable stores
+    # about 12.5 J, 70 times the robot's own energy scale (0.175 J), yet the step (omega dt =
+    # 0.1) is stable; the allowance is the load's peak force over the robot's size (50 N x
+    # 0.5 m) or the kinetic energy of its impulse ((50 N x 0.2 s)^2 / (2 x 0.01 kg)),
+    # whichever is larger, and the run is checked against 10 times scale + allowance
+    from tensim.sim import NodeLoad
+    from tensim.structure import Cable, Node, PointMass, Structure
+
+    s = Structure(
+        "hanging",
+        (Node("top", (0.0, 0.0, 1.0), fixed=True), Node("bob", (0.0, 0.0, 0.5))),
+        cables=(Cable("spring", ("top", "bob"), 100.0, rest_length=0.45),),
+        point_masses=(PointMass("bob", 0.01),),
+    )
+    compiled = tensim.compile_structure(s, tensim.WorldOptions(timestep=1e-3, ground=False))
+    load = NodeLoad("bob", np.array([0.0, 0.2]), np.array([[0, 0, 0], [0, 0, -50.0]]))
+    energy = Energy(compiled)
+    assert energy.size == pytest.approx(0.5)
+    assert energy.load_allowance([load]) == pytest.approx(max(50 * 0.5, (50 * 0.2) ** 2 / 0.02))
+    assert energy.load_allowance([]) == 0.0
+    result = tensim.simulate(compiled, 1.0, loads=[load], record_dt=1e-2)
+    assert result.trajectory.time[-1] == pytest.approx(1.0)
+    assert result.trajectory["tension/spring"].max() > 45.0  # the pull reached the cable

@@ -239,7 +239,8 @@ class _BatchRun:
         # the cable forces of the last steps, for the ringing check
         self.forces = ForceHistory(n, prestress_band(compiled.structure))
         self.energy = Energy(compiled)
-        self.energies = EnergyHistory(n, self.energy.scale)
+        allowance = max((self.energy.load_allowance(t.loads) for t in trials), default=0.0)
+        self.energies = EnergyHistory(n, self.energy.scale + allowance)
         self._bound = {name: self.batch.bind(name) for name in _RECORD}  # refreshed per call
         self._out: dict[tuple[int, int], dict[str, np.ndarray]] = {}
 

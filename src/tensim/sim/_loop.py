@@ -21,9 +21,10 @@ clamp keeps below the sign check's) shows as the mechanical energy of the bodies
 springs running away. :class:`EnergyHistory` keeps each world's energy (:class:`Energy`) at
 every check, and :func:`energy_growing` tells whether its excess over the lowest energy of the
 run is above :data:`ENERGY_LIMIT` times the robot's energy scale (its prestress energy and its
-weight times its size) and at least doubled over the last :data:`ENERGY_CHECKS` checks: the
-inputs a run is given (a push, motors, a fall, which turns height into speed at a constant
-total) do not add ten times what the robot holds, and a step's instability does.
+weight times its size, plus what its external node loads can add:
+:meth:`Energy.load_allowance`) and at least doubled over the last :data:`ENERGY_CHECKS`
+checks: the inputs a run is given (a push, motors, a fall, which turns height into speed at a
+constant total) do not add ten times that, and a step's instability does.
 
 Time: a sample taken when the data is about to take physics step j (``data.time`` = j dt)
 describes t = (j - 1) dt: the kinematics at t and the rest lengths the motors set at t.
@@ -32,7 +33,7 @@ describes t = (j - 1) dt: the kinematics at t and the rest lengths the motors se
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Protocol, overload
 
 import mujoco
@@ -40,6 +41,7 @@ import numpy as np
 
 from tensim.model import CompiledModel
 from tensim.sim._contact_check import ContactCheck
+from tensim.sim._loads import NodeLoad
 from tensim.structure import Structure
 
 CHECK_EVERY = 5  # records between stability checks
@@ -336,8 +338,22 @@ class Energy:
                           for c in structure.cables])
         # the energy a run of this robot moves about in: its prestress and its weight over
         # its size (J)
-        self.scale = float(build.sum() + weight * max(float(np.ptp(points, axis=0).max()),
-                                                      1e-3)) or 1.0
+        self.size = max(float(np.ptp(points, axis=0).max()), 1e-3)  # [m]
+        self.total_mass = float(self.mass.sum() + self.slide_mass.sum())  # [kg]
+        self.scale = float(build.sum() + weight * self.size) or 1.0
+
+    def load_allowance(self, loads: Iterable[NodeLoad]) -> float:
+        """The energy external node loads may add to a run [J]: for each load, its peak force
+        over the robot's size, or the kinetic energy its peak force held over its knots gives
+        the whole robot, whichever is larger. A run's own inputs are not a step's instability,
+        so :class:`EnergyHistory`'s limit grows by this much."""
+        total = 0.0
+        for load in loads:
+            force = float(np.linalg.norm(load.forces, axis=1).max())
+            span = float(load.times[-1] - load.times[0]) if load.times.size > 1 else 0.0
+            impulse = force * span
+            total += max(force * self.size, impulse**2 / (2 * max(self.total_mass, 1e-9)))
+        return total
 
     def parts(self, qvel: np.ndarray, xpos: np.ndarray, ten_length: np.ndarray,
               act: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -121,7 +121,8 @@ class Simulation:
         # the cable forces of the last steps, for the ringing check
         self._forces = ForceHistory(1, prestress_band(compiled.structure))
         self._energy = Energy(compiled)  # and the energy at each check, for its growth
-        self._energies = EnergyHistory(1, self._energy.scale)
+        self._energies = EnergyHistory(1, self._energy.scale
+                                       + self._energy.load_allowance(self._loads))
         if controller is not None:
             controller.configure(self)
         self._advance(1)  # the motor update at t = 0

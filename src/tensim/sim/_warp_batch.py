@@ -275,7 +275,9 @@ class _WarpRun:
         self.n_samples = n_samples
         self.forces = ForceHistory(len(self.trials), prestress_band(self.compiled.structure))
         self.energy = Energy(self.compiled)
-        self.energies = EnergyHistory(len(self.trials), self.energy.scale)
+        allowance = max((self.energy.load_allowance(t.loads) for t in self.trials),
+                        default=0.0)
+        self.energies = EnergyHistory(len(self.trials), self.energy.scale + allowance)
         self.inputs = HeldInputs(len(self.trials), self.compiled.model.nu, self.record_steps,
                                  n_samples * self.record_steps + int(fresh))
         if fresh:
