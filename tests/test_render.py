@@ -87,6 +87,23 @@ def test_a_broken_egl_falls_back_to_osmesa_for_real() -> None:
     assert done.stdout.strip() == "osmesa"
 
 
+def test_rendering_then_loading_triton_does_not_crash() -> None:
+    """Mesa's driver and Triton (PyTorch's CUDA builds) each carry an LLVM: driver first, then
+    Triton crashed the process, so rendering then training a policy in one process died.
+    The renderer loads Triton first where it is installed (only there can this be tried)."""
+    import importlib.util
+
+    if importlib.util.find_spec("triton") is None:
+        pytest.skip("Triton is not installed (PyTorch's CPU build): nothing to load first")
+    _backend()
+    code = ("from tensim.viz._gl import gl_context; context, _ = gl_context(16, 16); "
+            "import torch; torch.optim.Adam([torch.zeros(1, requires_grad=True)]); print('ok')")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().endswith("ok")
+
+
 # -- frames and videos -----------------------------------------------------------------------
 
 

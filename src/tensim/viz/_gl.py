@@ -13,6 +13,7 @@ from __future__ import annotations
 import concurrent.futures
 import functools
 import importlib
+import importlib.util
 import multiprocessing
 import os
 import subprocess
@@ -115,6 +116,7 @@ def gl_context(width: int, height: int) -> tuple[Any, str]:
     if backend in OFFSCREEN and platform and platform != backend:
         raise OffscreenUnavailable(f"PYOPENGL_PLATFORM={platform!r} is set, so this process "
                                    f"cannot use the {backend} backend; unset it")
+    _load_triton_first()
     try:
         module = importlib.import_module(f"mujoco.{backend}")
         context = module.GLContext(width, height)
@@ -123,6 +125,22 @@ def gl_context(width: int, height: int) -> tuple[Any, str]:
         raise OffscreenUnavailable(f"offscreen OpenGL through {backend} failed: {err}; "
                                    f"{_INSTALL_HINT}") from err
     return context, backend
+
+
+def _load_triton_first() -> None:
+    """Imports Triton, where it is installed and not yet loaded, before an OpenGL driver.
+
+    Mesa's software drivers and Triton (which PyTorch's CUDA builds bring, and which PyTorch
+    imports when it makes its first optimizer) each carry their own LLVM; loaded in the order
+    driver first, Triton second, the process crashes (a segmentation fault in Triton's import),
+    so rendering and then training an RL policy in one process would die. Triton first is safe.
+    Without Triton (PyTorch's CPU builds, or no PyTorch) this costs one lookup."""
+    if "triton" in sys.modules or importlib.util.find_spec("triton") is None:
+        return
+    try:
+        importlib.import_module("triton")
+    except Exception:  # a broken Triton is PyTorch's business, not the renderer's
+        pass
 
 
 class GLServer:
