@@ -156,10 +156,11 @@ def test_progress_bar_shows_rate_and_time_left() -> None:
     assert _duration(7500) == "2 h 05 min" and _duration(12.34) == "12.3 s"
 
 
-def test_no_figures_writes_the_folder_without_any_png(tmp_path: Path) -> None:
+def test_no_figures_writes_the_folder_without_any_png(tmp_path: Path, capsys) -> None:
     out = tmp_path / "run"
     assert main(["--quiet", "simulate", "prism3", "--duration", "0.05", "--no-figures",
                  "--out", str(out)]) == 0
+    assert f"wrote {out}/ (summary.json, trajectory.parquet, no figures)" in capsys.readouterr().out
     assert not list(out.glob("*.png"))  # neither the run's figures nor the report's frame
     assert (out / "report.html").is_file() and (out / "trajectory.parquet").is_file()
     assert json.loads((out / "summary.json").read_text())["figures"] == []

@@ -134,11 +134,13 @@ def gains_summary(structure: Structure, config: Any) -> dict[str, Any]:
             for c in structure.cables}
 
 
-def print_summary(summary: dict[str, Any], out: Path, moved: bool = False) -> None:
-    """Prints where a run went, its speed, (with ``moved``) how far its centre of mass moved,
-    and its tensions."""
+def print_summary(summary: dict[str, Any], out: Path, moved: bool = False,
+                  figures: bool = True) -> None:
+    """Prints where a run went (with its ``figures`` or without), its speed, (with ``moved``)
+    how far its centre of mass moved, and its tensions."""
     tensions = summary.get("max_tension_N", {})
-    print(f"wrote {out}/ (summary.json, trajectory.parquet, figures)")
+    drawn = "figures" if figures else "no figures"
+    print(f"wrote {out}/ (summary.json, trajectory.parquet, {drawn})")
     print(f"simulated {summary['duration_s']} s in {summary['wall_s']} s "
           f"({summary['real_time_factor']}x real time)")
     if moved and "com_displacement_m" in summary:

@@ -414,7 +414,7 @@ def run(args: argparse.Namespace) -> int:
     with replace_folder(out) as stage:
         summary = EXPERIMENTS[args.name][1](args, stage)
     if "duration_s" in summary and args.name != "timestep":
-        print_summary(summary, out)
+        print_summary(summary, out, figures=not args.no_figures)
     else:
         print(f"wrote {out}/")
     return 0

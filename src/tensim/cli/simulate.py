@@ -117,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
             write_run(stage, result, {**summary, "figures": [p.file for p in plans
                                                              if drawer.enabled]},
                       structure=structure, controller=config, drawer=drawer)
-    print_summary(summary, out, moved=True)
+    print_summary(summary, out, moved=True, figures=not args.no_figures)
     return 0
 
 
