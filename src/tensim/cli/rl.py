@@ -4,6 +4,7 @@ robot (needs the rl extra: ``pip install 'tensim[rl]'``)."""
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from tensim.cli._common import count, finite, positive
@@ -36,6 +37,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "minimum rest length (default 0.6)")
     t.add_argument("--frame", choices=("heading", "robot"), default="heading",
                    help="observations in the heading's frame (default) or the robot's")
+    t.add_argument("--randomize", choices=("start", "standard"), default="start",
+                   help="randomise each episode's start only (a random heading, 2 mm of pose "
+                   "noise; default) or also its physics, motor speeds and sensors (+-10-30 %%, "
+                   "tensim.rl.Randomization.standard)")
     t.add_argument("--bar-contact-cost", type=positive, default=None,
                    help="penalty per rod-rod contact per second (default none)")
     t.add_argument("--checkpoint", type=count, default=10_000, metavar="STEPS",
@@ -55,6 +60,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="physics step [s] (default: the one it was trained at)")
     e.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
                    default=None, help="cable law (default: the one it was trained with)")
+    for name in ("friction", "stiffness", "damping", "mass", "motor_speed"):
+        e.add_argument(f"--{name.replace('_', '-')}", type=positive, default=None,
+                       metavar="FACTOR", help=f"multiplies the robot's {name.replace('_', ' ')} "
+                       "(physics it was not trained on; default 1)")
     e.add_argument("--out", default=None, help="run folder (default DIR/evaluation)")
     e.set_defaults(run=evaluate)
 
@@ -90,7 +99,7 @@ def train(args: argparse.Namespace) -> int:
                              seed=args.seed, control_dt=args.control_dt,
                              episode_s=args.episode, timestep=args.dt,
                              cable_law=args.cable_law, rest_span=args.rest_span,
-                             frame=args.frame,
+                             frame=args.frame, randomization=args.randomize,
                              bar_contact_cost=args.bar_contact_cost or 0.0)
     bar = Progress(f"rl train {args.algo}", args.quiet, unit="env steps",
                    rate_label="env steps/s")
@@ -113,18 +122,32 @@ def evaluate(args: argparse.Namespace) -> int:
     source = Path(args.run_dir)
     out = Path(args.out) if args.out else (source.parent if source.is_file() else source) \
         / "evaluation"
+    physics = {k: getattr(args, k) for k in ("friction", "stiffness", "damping", "mass",
+                                              "motor_speed") if getattr(args, k) is not None}
     s = run_evaluation(source, out, args.duration, args.seed, video=args.video,
-                       timestep=args.dt, cable_law=args.cable_law)
+                       timestep=args.dt, cable_law=args.cable_law, physics=physics)
+    if s["task"] == "turn":
+        print(f"policy of {args.run_dir}: turned {math.degrees(s['yaw_turned_rad']):+.1f} deg "
+              f"in {s['duration_s']:g} s = {s['yaw_rate_deg_per_s']:+.2f} deg/s "
+              f"(counter-clockwise), centre of mass moved {s['displacement_body_lengths']:.3f} "
+              f"body lengths (body length {s['body_length_m']:.3f} m); wrote {out}")
+        _trained(s)
+        return 0
     error = "no net displacement" if s["heading_error_deg"] is None else \
         f"heading error {s['heading_error_deg']:+.1f} deg"
     print(f"policy of {args.run_dir}: {s['displacement_along_heading_m']:+.3f} m along the "
           f"heading in "
           f"{s['duration_s']:g} s = {s['body_lengths_per_s']:+.4f} body lengths/s "
           f"(body length {s['body_length_m']:.3f} m), {error}; wrote {out}")
-    if s["training"]:
-        print(f"trained {s['training']['env_steps']} env steps in "
-              f"{s['training']['cpu_s']:.0f} CPU s")
+    _trained(s)
     return 0
+
+
+def _trained(summary: dict) -> None:
+    """Prints the training's budget where the policy records it."""
+    if summary["training"]:
+        print(f"trained {summary['training']['env_steps']} env steps in "
+              f"{summary['training']['cpu_s']:.0f} CPU s")
 
 
 def export(args: argparse.Namespace) -> int:

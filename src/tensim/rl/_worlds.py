@@ -212,7 +212,7 @@ class Worlds:
             commands = now
         self.f["ctrl"][r, :n] = commands
         before = self.f["subtree_com"][r, 0, :2].copy()
-        bodies_before = self.f["xipos"][r][:, self._body, :2] if c.task == "turn" else None
+        bodies_before = self.turn_points(ids) if c.task == "turn" else None
         failed = np.zeros(ids.size, dtype=bool)
         self._calls += 1  # every RING_EVERY-th period, its last steps' forces tell ringing
         calls = split_steps(c.control_steps) if self._calls % RING_EVERY == 0 \
@@ -258,9 +258,7 @@ class Worlds:
             return np.einsum("ij,ij->i", after - before, self.target[r]), np.zeros(
                 ids.size, dtype=bool)
         if c.task == "turn" and bodies_before is not None:  # (read before a turn's step)
-            bodies = self.f["xipos"][r][:, self._body, :2]
-            turned = _yaw_change(bodies_before - before[:, None], bodies - after[:, None],
-                                 self._mass)
+            turned = _yaw_change(bodies_before, self.turn_points(ids))
             drift = np.linalg.norm(after - before, axis=1)
             return (-turned if c.clockwise else turned) - drift, np.zeros(ids.size, bool)
         if c.task == "goal":
@@ -388,6 +386,13 @@ class Worlds:
         return self.f["xpos"][r][:, body] + np.einsum("kexy,ey->kex", xmat,
                                                               self._end_local)
 
+    def turn_points(self, ids: np.ndarray) -> np.ndarray:
+        """(k, p, 3) the points whose best rigid fit measures a turn (:func:`_yaw_change`):
+        the rod ends, or the rigid bodies' centres of mass where the robot has no rods [m]."""
+        if self._end_body.size:
+            return self._end_positions(ids)
+        return self.f["xipos"][self._rows(ids)][:, self._body].copy()
+
     def bar_contacts(self, ids: np.ndarray) -> np.ndarray:
         """(k,) contacts between two of the robot's rigid bodies, per robot."""
         at, bodies, _ = self._contacts(ids)
@@ -443,13 +448,19 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def _yaw_change(before: np.ndarray, after: np.ndarray, mass: np.ndarray) -> np.ndarray:
-    """(k,) rotation about the vertical [rad] of (k, b, 2) body positions relative to the
-    centre of mass, each body weighted by m r^2 (a rigid turn gives its angle)."""
-    turn = np.arctan2(before[..., 0] * after[..., 1] - before[..., 1] * after[..., 0],
-                      np.einsum("kbj,kbj->kb", before, after))
-    weight = mass * np.einsum("kbj,kbj->kb", after, after)
-    return np.einsum("kb,kb->k", weight, turn) / np.maximum(weight.sum(axis=1), 1e-12)
+def _yaw_change(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """(k,) rotation about the vertical [rad, counter-clockwise] of the best rigid fit
+    (Kabsch's, least squares) that takes the (k, p, 3) points ``before`` to ``after``, each
+    set about its centroid: a rigid turn gives its angle, and points that circle their
+    centroid while the body they lie on does not turn (a wobble, a precessing top) give
+    little, where the points' own angles about the centroid would add up their circling."""
+    p = before - before.mean(axis=1, keepdims=True)
+    q = after - after.mean(axis=1, keepdims=True)
+    u, _, vt = np.linalg.svd(np.einsum("kpi,kpj->kij", p, q))
+    d = np.sign(np.linalg.det(np.einsum("kij,kjl->kil", u, vt)))  # a rotation, not a mirror
+    vt[:, 2] *= d[:, None]
+    rot = np.einsum("kji,klj->kil", vt, u)  # V diag(1, 1, d) U^T: after ~ rot @ before
+    return np.arctan2(rot[:, 1, 0] - rot[:, 0, 1], rot[:, 0, 0] + rot[:, 1, 1])
 
 
 def _to_frame(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:

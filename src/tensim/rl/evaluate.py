@@ -11,11 +11,14 @@ import numpy as np
 
 from tensim._input import InputError
 from tensim.models import PRESETS
+from tensim.rl._worlds import _yaw_change
+from tensim.rl.config import Randomization
 from tensim.rl.policy import Policy, load
 from tensim.rl.train import TrainSettings, load_settings
 from tensim.structure import body_length as structure_body_length
 
 MOVED_M = 0.01  # the net displacement [m] below which a heading error means nothing
+PHYSICS = ("friction", "stiffness", "damping", "mass", "motor_speed")  # evaluate's multipliers
 
 
 def body_length(model: str) -> float:
@@ -25,23 +28,48 @@ def body_length(model: str) -> float:
     return structure_body_length(load_model(model))
 
 
+def evaluation_randomization(physics: dict[str, float] | None = None) -> Randomization:
+    """The evaluation's start: :meth:`Randomization.start` (a random heading, 2 mm of pose
+    noise, no sensor noise), with the physics multipliers ``physics`` (``PHYSICS`` names
+    them) fixed, whatever randomisation the policy was trained with.
+
+    Raises:
+        InputError: an unknown name or a multiplier that is not > 0.
+    """
+    physics = physics or {}
+    unknown = sorted(set(physics) - set(PHYSICS))
+    if unknown:
+        raise InputError(f"physics multipliers: unknown {', '.join(unknown)} (expected "
+                         f"{', '.join(PHYSICS)})")
+    start = Randomization.start()
+    return dataclasses.replace(start, **{k: (float(v), float(v)) for k, v in physics.items()})
+
+
 def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed: int,
-               frames: list[np.ndarray] | None = None) -> dict[str, Any]:
+               frames: list[np.ndarray] | None = None,
+               physics: dict[str, float] | None = None) -> dict[str, Any]:
     """Drives the robot with ``policy`` for ``duration_s`` seconds from the start ``seed``
-    draws; with ``frames``, appends about 15 images per second to it (offscreen OpenGL).
+    draws (:func:`evaluation_randomization` with the multipliers ``physics``); with
+    ``frames``, appends about 15 images per second to it (offscreen OpenGL).
 
     Returns:
         ``time`` (T,) [s], ``com`` (T, 3) [m] (from MjData), ``heading`` (2,) the rewarded
-        direction in the world (unit), ``observations`` (T-1, n_obs), ``actions``
-        (T-1, n_motors) and ``unstable``.
+        direction in the world (unit), ``yaw`` (T,) the turn about the vertical since the start
+        [rad] (counter-clockwise; the turn task's measure, the best rigid fit of the rod
+        ends' move from MjData, summed period by period),
+        ``observations`` (T-1, n_obs), ``actions`` (T-1, n_motors) and ``unstable``.
     """
     from tensim.rl.env import TensegrityEnv
 
-    env = TensegrityEnv(settings.env_config(episode_s=duration_s),
-                        render_mode=None if frames is None else "rgb_array")
+    config = settings.env_config(episode_s=duration_s,
+                                 randomization=evaluation_randomization(physics))
+    env = TensegrityEnv(config, render_mode=None if frames is None else "rgb_array")
     obs, _ = env.reset(seed=seed)
     every = max(1, round(1.0 / (15 * env.robot.config.control_dt)))
-    com = [env.worlds.f["subtree_com"][0, 0].copy()]
+    worlds = env.worlds
+    com = [worlds.f["subtree_com"][0, 0].copy()]
+    everywhere = np.arange(1)
+    points = [worlds.turn_points(everywhere)[0]]
     observations, actions, unstable = [], [], False
     for k in range(env.robot.config.max_steps):
         if frames is not None and k % every == 0:
@@ -52,14 +80,18 @@ def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed:
         observations.append(obs)
         actions.append(action)
         obs, _, terminated, _, info = env.step(action.astype(np.float32))
-        com.append(env.worlds.f["subtree_com"][0, 0].copy())
+        com.append(worlds.f["subtree_com"][0, 0].copy())
+        points.append(worlds.turn_points(everywhere)[0])
         if terminated:
             unstable = bool(info["unstable"])
             break
     env.close()
     dt = env.robot.config.control_dt
+    cloud = np.array(points)
+    turns = _yaw_change(cloud[:-1], cloud[1:])
     return {"fps": round(1.0 / (every * dt)), "time": np.arange(len(com)) * dt,
-            "com": np.array(com), "heading": env.worlds.target[0].copy(),
+            "com": np.array(com), "yaw": np.concatenate([[0.0], np.cumsum(turns)]),
+            "heading": worlds.target[0].copy(),
             "observations": np.array(observations), "actions": np.array(actions),
             "unstable": unstable}
 
@@ -94,13 +126,20 @@ def load_policy(source: Path) -> tuple[TrainSettings, Policy]:
 
 def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
              video: bool = False, timestep: float | None = None,
-             cable_law: str | None = None) -> dict[str, Any]:
+             cable_law: str | None = None,
+             physics: dict[str, float] | None = None) -> dict[str, Any]:
     """Evaluates the policy of ``folder`` (a training run, or an exported ``policy.json``) and
     writes a run folder ``out`` (``trajectory.parquet``, ``summary.json`` with
     ``body_lengths_per_s`` and ``heading_error_deg``, the angle from the heading to the net
     displacement, counter-clockwise, None below :data:`MOVED_M`; ``path.png``,
     ``report.html``; with ``video``, ``video.mp4``). ``timestep`` [s] and ``cable_law``
-    replace the physics the policy was trained with (None: as trained).
+    replace the physics the policy was trained with (None: as trained); ``physics`` holds
+    fixed multipliers of the robot's friction, stiffness, damping, mass or motor speed
+    (:func:`evaluation_randomization`; the start is drawn as in training without physics or
+    sensor randomisation). The summary also holds ``yaw_turned_rad`` (counter-clockwise, the
+    turn of :func:`run_policy`), ``yaw_rate_deg_per_s`` and ``displacement_body_lengths``
+    (the centre of mass's net horizontal displacement over the body length), which say how
+    well a ``turn`` policy turns in place.
 
     Raises:
         tensim.viz._gl.OffscreenUnavailable: ``video`` where no offscreen OpenGL works.
@@ -117,7 +156,7 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
     settings = dataclasses.replace(settings, timestep=timestep or settings.timestep,
                                    cable_law=cable_law or settings.cable_law)
     frames: list[np.ndarray] | None = [] if video else None
-    run = run_policy(settings, policy, duration_s, seed, frames)
+    run = run_policy(settings, policy, duration_s, seed, frames, physics)
     t, com, heading = run["time"], run["com"], run["heading"]
     moved = com[-1, :2] - com[0, :2]
     along = float(moved @ heading)
@@ -132,6 +171,11 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
                "heading_world": [round(float(h), 6) for h in heading],
                "heading_error_deg": round(float(error), 3) if np.hypot(*moved) >= MOVED_M
                else None,
+               "yaw_turned_rad": round(float(run["yaw"][-1]), 6),
+               "yaw_rate_deg_per_s": round(float(np.degrees(run["yaw"][-1]) / t[-1]), 6)
+               if t[-1] > 0 else 0.0,
+               "displacement_body_lengths": round(float(np.hypot(*moved)) / length, 6),
+               "physics": dict(physics or {}),
                "training": policy.meta.get("training"),
                "unstable": run["unstable"], "timestep_s": settings.timestep,
                "cable_law": settings.cable_law, "trained_physics": trained}

@@ -25,10 +25,11 @@ from tensim._input import InputError
 from tensim.model import WorldOptions
 from tensim.model._law_layout import CABLE_LAWS
 from tensim.models import PRESETS
-from tensim.rl.config import FRAMES, ROLLING_OBSERVATION, EnvConfig
+from tensim.rl.config import FRAMES, ROLLING_OBSERVATION, EnvConfig, Randomization
 
 ALGOS = ("ppo", "sac")
 TASKS = {"roll": "direction", "turn": "turn", "goal": "goal"}
+RANDOMIZATIONS = {"start": Randomization.start, "standard": Randomization.standard}
 CLIP_OBS = 10.0  # the observation normaliser's clip (SB3's VecNormalize default)
 EPSILON = 1e-8  # its variance floor
 ROLLOUT_STEPS = 4096  # env steps per PPO update, all robots together
@@ -59,6 +60,9 @@ class TrainSettings:
             length.
         frame: the observations' frame (``"heading"`` or ``"robot"``, see
             :class:`~tensim.rl.EnvConfig`).
+        randomization: the training episodes' randomisation: ``"start"`` (a random heading
+            and 2 mm of pose noise, :meth:`Randomization.start`) or ``"standard"`` (also
+            physics, motor speeds and sensor noise, :meth:`Randomization.standard`).
     """
 
     model: str
@@ -76,6 +80,7 @@ class TrainSettings:
     cable_law: str = "implicitfast"
     rest_span: float = 0.6
     frame: str = "heading"
+    randomization: str = "start"
 
     def __post_init__(self) -> None:
         if self.algo not in ALGOS:
@@ -95,13 +100,18 @@ class TrainSettings:
                              f"{self.cable_law!r}")
         if self.frame not in FRAMES:
             raise InputError(f"--frame must be one of {', '.join(FRAMES)}, got {self.frame!r}")
+        if self.randomization not in RANDOMIZATIONS:
+            raise InputError(f"--randomize must be one of {', '.join(RANDOMIZATIONS)}, got "
+                             f"{self.randomization!r}")
         if not (math.isfinite(self.timestep) and self.timestep > 0):
             raise InputError(f"--dt must be a physics step > 0 [s], got {self.timestep}")
         if not math.isfinite(self.heading_deg):
             raise InputError(f"--heading must be a finite angle [deg], got {self.heading_deg}")
 
-    def env_config(self, episode_s: float | None = None) -> EnvConfig:
-        """The environment it trains in (``episode_s`` overrides the episode length)."""
+    def env_config(self, episode_s: float | None = None,
+                   randomization: Randomization | None = None) -> EnvConfig:
+        """The environment it trains in (``episode_s`` overrides the episode length,
+        ``randomization`` the training's randomisation)."""
         h = math.radians(self.heading_deg)
         heading = (round(math.cos(h), 12), round(math.sin(h), 12))
         return EnvConfig(model=self.model, task=TASKS[self.task], direction=heading,
@@ -110,6 +120,7 @@ class TrainSettings:
                          episode_s=self.episode_s if episode_s is None else episode_s,
                          observation=ROLLING_OBSERVATION, frame=self.frame,
                          rest_span=self.rest_span, bar_contact_cost=self.bar_contact_cost,
+                         randomization=randomization or RANDOMIZATIONS[self.randomization](),
                          world=WorldOptions(timestep=self.timestep, cable_law=self.cable_law))
 
 
@@ -118,8 +129,11 @@ ROBOT_FILE = "robot.yaml"  # a structure file's copy in the run folder
 
 def fingerprint(settings: TrainSettings) -> str:
     """A hash of the settings, with a robot file's contents in place of its path (a preset:
-    its name); ``steps`` is left out, so a resumed run may train longer."""
+    its name); ``steps`` is left out, so a resumed run may train longer, and so is the
+    default randomisation, so runs from before it was a setting keep their fingerprint."""
     record = dataclasses.asdict(settings) | {"steps": 0}
+    if record["randomization"] == "start":
+        del record["randomization"]
     if settings.model not in PRESETS:
         record["model"] = hashlib.sha256(Path(settings.model).read_bytes()).hexdigest()
     return hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:16]
