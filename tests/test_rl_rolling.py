@@ -320,6 +320,50 @@ def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, cap
     assert (other["timestep_s"], other["cable_law"]) == (0.001, "explicit")
     assert other["trained_physics"] == {"timestep": 0.002, "cable_law": "implicitfast"}
     assert other["displacement_along_heading_m"] != again["displacement_along_heading_m"]
+    # and with physics multipliers it was not trained on (friction, mass ...)
+    assert main(["--quiet", "rl", "evaluate", str(tmp_path / "robot" / "policy.json"),
+                 "--duration", "0.4", "--friction", "0.5", "--mass", "1.3",
+                 "--out", str(tmp_path / "heavier")]) == 0
+    heavier = json.loads((tmp_path / "heavier" / "summary.json").read_text())
+    assert heavier["physics"] == {"friction": 0.5, "mass": 1.3}
+    assert heavier["displacement_along_heading_m"] != again["displacement_along_heading_m"]
+
+
+def test_evaluation_physics_are_fixed_multipliers_on_the_training_start():
+    from tensim import InputError
+    from tensim.rl import Randomization
+    from tensim.rl.evaluate import evaluation_randomization
+
+    start = Randomization.start()
+    assert evaluation_randomization() == start
+    fixed = evaluation_randomization({"friction": 0.5, "motor_speed": 0.6})
+    assert (fixed.friction, fixed.motor_speed, fixed.mass) == ((0.5, 0.5), (0.6, 0.6),
+                                                                (1.0, 1.0))
+    assert (fixed.yaw, fixed.pose_noise_m, fixed.velocity_noise) == (True, 0.002, 0.0)
+    with pytest.raises(InputError, match="unknown gravity"):
+        evaluation_randomization({"gravity": 2.0})
+
+
+def test_training_randomisation_is_a_setting_that_keeps_old_fingerprints():
+    import dataclasses
+    import hashlib
+    import json
+
+    from tensim import InputError
+    from tensim.rl import Randomization
+    from tensim.rl.train import TrainSettings, fingerprint
+
+    plain = TrainSettings(model="three_bar")
+    assert plain.env_config().randomization == Randomization.start()
+    standard = dataclasses.replace(plain, randomization="standard")
+    assert standard.env_config().randomization == Randomization.standard()
+    # a run trained before the setting existed hashed its settings without it
+    record = dataclasses.asdict(plain) | {"steps": 0}
+    del record["randomization"]
+    old = hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:16]
+    assert fingerprint(plain) == old != fingerprint(standard)
+    with pytest.raises(InputError, match="--randomize must be one of start, standard"):
+        TrainSettings(model="three_bar", randomization="wild")
 
 
 @pytest.fixture(scope="module")
