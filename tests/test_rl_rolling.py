@@ -261,7 +261,7 @@ def test_a_wobble_that_circles_the_points_without_turning_the_body_is_little_tur
     theta = 0.3
     rx = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(theta), -np.sin(theta)],
                    [0.0, np.sin(theta), np.cos(theta)]])
-    body = np.random.default_rng(1).normal(size=(6, 3)) + [0.0, 0.0, 0.0]
+    body = np.random.default_rng(1).normal(size=(6, 3))
     body[0] = [0.0, 0.0, 1.0]  # a point on the axis: its top
     phases = np.linspace(0.0, 2 * np.pi, 401)
     points = np.stack([body @ (rz(f) @ rx @ rz(-f)).T for f in phases])

@@ -135,6 +135,7 @@ def evaluate(args: argparse.Namespace) -> int:
         return 0
     error = "no net displacement" if s["heading_error_deg"] is None else \
         f"heading error {s['heading_error_deg']:+.1f} deg"
+    error += "".join(f", {k.replace('_', ' ')} x{v:g}" for k, v in physics.items())
     print(f"policy of {args.run_dir}: {s['displacement_along_heading_m']:+.3f} m along the "
           f"heading in "
           f"{s['duration_s']:g} s = {s['body_lengths_per_s']:+.4f} body lengths/s "

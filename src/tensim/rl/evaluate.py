@@ -41,8 +41,16 @@ def evaluation_randomization(physics: dict[str, float] | None = None) -> Randomi
     if unknown:
         raise InputError(f"physics multipliers: unknown {', '.join(unknown)} (expected "
                          f"{', '.join(PHYSICS)})")
+
+    def fixed(name: str) -> tuple[float, float]:
+        value = float(physics.get(name, 1.0))
+        return value, value
+
     start = Randomization.start()
-    return dataclasses.replace(start, **{k: (float(v), float(v)) for k, v in physics.items()})
+    return Randomization(friction=fixed("friction"), stiffness=fixed("stiffness"),
+                         damping=fixed("damping"), mass=fixed("mass"),
+                         motor_speed=fixed("motor_speed"), yaw=start.yaw,
+                         pose_noise_m=start.pose_noise_m)
 
 
 def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed: int,
