@@ -33,3 +33,30 @@ def test_the_shipped_policies_roll_the_3_bar_a_quarter_body_length_per_second():
         along = (run["com"][-1, :2] - run["com"][0, :2]) @ run["heading"]
         speeds.append(along / run["time"][-1] / body_length("three_bar"))
     assert sum(s >= 0.25 for s in speeds) >= 2, np.round(speeds, 3)
+
+
+EXAMPLES = Path(__file__).parent.parent / "examples" / "rl"
+
+
+def test_the_shipped_turn_policy_turns_the_3_bar_in_place():
+    # docs/rl.md: about 44 deg/s counter-clockwise over 30 s from the start of seed 0, the
+    # centre of mass moving about a fifth of a body length
+    settings, policy = load_policy(EXAMPLES / "three_bar_turn" / "seed0" / "policy.json")
+    assert settings.task == "turn" and policy.meta["training"]["env_steps"] <= 10**6
+    run = run_policy(settings, policy, 30.0, seed=0)
+    assert not run["unstable"]
+    assert np.degrees(run["yaw"][-1]) / run["time"][-1] > 30.0
+    moved = np.hypot(*(run["com"][-1, :2] - run["com"][0, :2])) / body_length("three_bar")
+    assert moved < 0.5
+
+
+def test_the_shipped_randomised_policy_rolls_on_nominal_and_heavier_physics():
+    # docs/rl.md: trained on Randomization.standard(); 0.26 body lengths/s on the nominal
+    # physics and 0.35 with 1.3 times the mass (outside its training range)
+    settings, policy = load_policy(EXAMPLES / "three_bar_dr" / "seed0" / "policy.json")
+    assert settings.randomization == "standard"
+    for physics, least in (({}, 0.25), ({"mass": 1.3}, 0.3)):
+        run = run_policy(settings, policy, 30.0, seed=0, physics=physics)
+        along = (run["com"][-1, :2] - run["com"][0, :2]) @ run["heading"]
+        assert not run["unstable"]
+        assert along / run["time"][-1] / body_length("three_bar") >= least, physics
