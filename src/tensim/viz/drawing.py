@@ -18,6 +18,7 @@ ends with its socket: when the command finishes, fails or is killed.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import logging
 import multiprocessing
 import os
@@ -32,6 +33,7 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
+from tensim.viz._child import helper_env
 from tensim.viz._span import Span as Span  # re-exported: the plans name their spans
 
 log = logging.getLogger(__name__)
@@ -122,7 +124,7 @@ class FigureDrawer:
             process = subprocess.Popen(
                 [sys.executable, "-m", "tensim.viz.drawing", str(theirs.fileno())],
                 pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL, env={**os.environ, "PYTHONPATH": path})
+                stdout=subprocess.DEVNULL, env=helper_env(PYTHONPATH=path))
             ours.send(list(self.plans.values()))
         except OSError as err:
             log.info("figures drawn in this process: no drawing process (%s)", err)
@@ -238,11 +240,12 @@ def _lay_out(plan: FigurePlan) -> Any:
     if plan.kind not in plots.PANELS or "cables" not in plan.options:
         return None
     function = getattr(plots, KINDS[plan.kind])
-    defaults = function.__kwdefaults__ or {}
+    defaults = inspect.unwrap(function).__kwdefaults__ or {}
     options = {**defaults, **plan.options}
     grid = plots.panel_grid(plan.kind, options["cables"], options["columns"], options["title"],
                             options.get("tags"))
-    grid.figure.canvas.draw()  # makes the ticks and the text now, while the run simulates
+    with plots.gc_paused():
+        grid.figure.canvas.draw()  # makes the ticks and the text now, while the run simulates
     return grid
 
 
