@@ -3,6 +3,7 @@ a lost process replaced, and a main process that never loads matplotlib for them
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import subprocess
 import sys
@@ -81,6 +82,30 @@ def test_a_drawing_process_draws_the_same_figures_as_this_one(tmp_path):
         # laid out (and drawn once) before the data came, the grid ends as one drawn at once
         assert np.array_equal(a, b), name
         assert len(np.unique(a.reshape(-1, 4), axis=0)) > 20  # a real picture, not a blank
+
+
+def test_figures_that_share_one_grid_draw_what_each_draws_on_its_own(tmp_path):
+    """A drawer fills one panel grid with each figure in turn (tensions with shaded spans
+    and set y limits, then autoscaled lengths, then V* with its zero line): each is the
+    figure its plot function draws on a grid of its own, pixel for pixel."""
+    from tensim.viz import plots
+
+    shared, alone = tmp_path / "shared", tmp_path / "alone"
+    shared.mkdir()
+    alone.mkdir()
+    plans = [dataclasses.replace(plan, options={**plan.options, "columns": 3})
+             if plan.file == "tensions.png" else plan for plan in _plans()]
+    drawer = FigureDrawer(plans)
+    _draw_all(drawer, shared)
+    table = VelocityTable(CABLES, 0.01,
+                          np.tile(np.sin(np.arange(100) * 0.1)[:, None], (1, len(CABLES))))
+    options = {plan.file: dict(plan.options) for plan in plans}
+    plots.plot_cable_tensions(_series(), alone / "tensions.png", **options["tensions.png"])
+    plots.plot_lengths(_series(), alone / "lengths.png", **options["lengths.png"])
+    plots.plot_velocity_input(table, alone / "velocity_input.png", until=0.5,
+                              **options["velocity_input.png"])
+    for name in ("tensions.png", "lengths.png", "velocity_input.png"):
+        assert np.array_equal(_pixels(shared / name), _pixels(alone / name)), name
 
 
 def test_a_figure_that_fails_in_the_drawing_process_fails_the_command(tmp_path):

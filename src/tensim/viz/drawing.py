@@ -3,9 +3,10 @@
 Drawing a run folder's figures (matplotlib's import, then a dozen-panel grid per figure) took
 about as long as simulating the 60 s disturbance test. A command that knows its figures before
 it simulates names them in :class:`FigurePlan` records and opens a :class:`FigureDrawer`: with
-a second core free, a child process then loads matplotlib and lays out (and draws once) each
-figure's empty grid while the simulation runs, and after it only fills them with the data,
-while this process writes the folder's other files. Without a second core, or for a short run
+a second core free, a child process then loads matplotlib and lays out (and draws once) the
+empty grid of panels that the run's panel figures share while the simulation runs, and after
+it each figure fills that grid in turn (:func:`tensim.viz.plots.refit`), while this process
+writes the folder's other files. Without a second core, or for a short run
 whose simulation cannot hide the child's start, or with every core busy, the same functions
 draw in this process; the figures are the same either way.
 
@@ -110,6 +111,7 @@ class FigureDrawer:
             raise ValueError("two figure plans share a file name")
         self._pending: dict[str, tuple[Any, Path, dict[str, Any]]] = {}
         self.handed: set[str] = set()  # the files handed to draw() so far
+        self._grid: Any = None  # the last panel grid drawn here, filled again by the next
         self._conn: Connection | None = None
         self._process: subprocess.Popen[bytes] | None = None
         if background:
@@ -162,7 +164,7 @@ class FigureDrawer:
                 return path
             except (OSError, ValueError) as err:
                 self._lost(err)
-        _draw(plan, data, path, late, grid=None)
+        self._grid = _draw(plan, data, path, late, self._grid) or self._grid
         return path
 
     def wait(self) -> None:
@@ -182,7 +184,8 @@ class FigureDrawer:
             if error is not None:
                 failures.append(f"{file}: {error}")
         for file, (data, path, late) in list(self._pending.items()):
-            _draw(self.plans[file], data, path, late, grid=None)  # the child was lost
+            # the child was lost
+            self._grid = _draw(self.plans[file], data, path, late, self._grid) or self._grid
             del self._pending[file]
         if failures:
             raise FigureError("a figure could not be drawn:\n" + "\n".join(failures))
@@ -223,18 +226,24 @@ class FigureDrawer:
         self.close()
 
 
-def _draw(plan: FigurePlan, data: Any, path: Path, late: Mapping[str, Any], grid: Any) -> None:
+def _draw(plan: FigurePlan, data: Any, path: Path, late: Mapping[str, Any], grid: Any) -> Any:
+    """Draws ``plan``'s figure of ``data`` into ``path``; a panel figure into ``grid``, a panel
+    grid drawn before (its figures share their panels: the plot function refits it, see
+    :func:`tensim.viz.plots.refit`; None: a new one). Returns the panel grid it drew into (None:
+    not a panel figure, or one the plot function laid out itself)."""
     from tensim.viz import plots
 
     function = getattr(plots, KINDS[plan.kind])
     options = {**plan.options, **late}
-    if grid is not None:
-        options["grid"] = grid
+    if plan.kind in plots.PANELS:
+        options["grid"] = grid if grid is not None else _lay_out(plan, draw=False)
     function(data, path, **options)
+    return options.get("grid")
 
 
-def _lay_out(plan: FigurePlan) -> Any:
-    """The plan's empty panel grid, drawn once (None: a kind or plan without one)."""
+def _lay_out(plan: FigurePlan, draw: bool = True) -> Any:
+    """The plan's empty panel grid, drawn once where ``draw`` (None: a kind or plan without
+    one)."""
     from tensim.viz import plots
 
     if plan.kind not in plots.PANELS or "cables" not in plan.options:
@@ -244,8 +253,9 @@ def _lay_out(plan: FigurePlan) -> Any:
     options = {**defaults, **plan.options}
     grid = plots.panel_grid(plan.kind, options["cables"], options["columns"], options["title"],
                             options.get("tags"))
-    with plots.gc_paused():
-        grid.figure.canvas.draw()  # makes the ticks and the text now, while the run simulates
+    if draw:
+        with plots.gc_paused():
+            grid.figure.canvas.draw()  # makes the ticks and the text now, while the run simulates
     return grid
 
 
@@ -270,12 +280,13 @@ def _serve(conn: Connection) -> None:
     plans = jobs.get()
     if plans is None:
         return
-    grids = {plan.file: _lay_out(plan) for plan in plans}
+    # one grid: the run's panel figures share their panels, and each fills it in turn
+    grid = next((g for g in map(_lay_out, plans) if g is not None), None)
     by_file = {plan.file: plan for plan in plans}
     while (job := jobs.get()) is not None:
         file, data, path, late = job
         try:
-            _draw(by_file[file], data, path, late, grid=grids.pop(file, None))
+            grid = _draw(by_file[file], data, path, late, grid) or grid
             error = None
         except Exception:  # reported to the parent, which raises it
             error = traceback.format_exc()
