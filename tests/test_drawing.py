@@ -7,6 +7,7 @@ import dataclasses
 import logging
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -155,3 +156,41 @@ def test_plans_load_no_matplotlib_and_refuse_unknown_kinds():
     assert out.strip() == "False"
     with pytest.raises(ValueError, match="unknown figure kind 'bars'"):
         FigurePlan("x.png", "bars")
+
+
+def test_the_drawing_process_loads_no_mujoco_and_gets_only_the_channels_it_draws(tmp_path):
+    """The child loads the drawing modules without the tensim package (MuJoCo, the time
+    series' Parquet library), draws what it is sent there, and is sent only the channels
+    (or the V* table's data) each figure draws."""
+    import pickle
+
+    from tensim.viz import _drawchild
+    from tensim.viz.drawing import portable
+
+    table = VelocityTable(CABLES, 0.01, np.ones((10, len(CABLES))))
+    sent = {kind: portable(kind, data) for kind, data in
+            (("tensions", _series()), ("lengths", _series()), ("path", _series()),
+             ("velocity_input", table))}
+    assert sorted(sent["path"].channels) == ["pos_x/com", "pos_x/segment_0", "pos_y/com",
+                                             "pos_y/segment_0"]
+    assert set(sent["tensions"].channels) == {f"{q}/{c}" for q in ("tension", "setpoint")
+                                              for c in CABLES}
+    assert np.array_equal(sent["velocity_input"].times, table.times)
+    (tmp_path / "jobs.pickle").write_bytes(pickle.dumps(sent))
+    probe = textwrap.dedent(f"""
+        import pickle, sys
+        from pathlib import Path
+        sys.path.insert(0, {str(Path(_drawchild.__file__).parent)!r})
+        import _drawchild
+        _drawchild.register_bare(Path(_drawchild.__file__).resolve().parents[1])
+        from tensim.viz import drawing, plots
+        jobs = pickle.loads(Path({str(tmp_path / "jobs.pickle")!r}).read_bytes())
+        plots.plot_velocity_input(jobs["velocity_input"], Path({str(tmp_path / "v.png")!r}))
+        plots.plot_lengths(jobs["lengths"], Path({str(tmp_path / "l.png")!r}))
+        print(sorted(m for m in ("mujoco", "pyarrow", "tensim.control", "tensim.model")
+                     if m in sys.modules))
+        """)
+    out = subprocess.run([sys.executable, "-P", "-c", probe], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
+    assert (tmp_path / "v.png").is_file() and (tmp_path / "l.png").is_file()

@@ -10,10 +10,12 @@ writes the folder's other files. Without a second core, or for a short run
 whose simulation cannot hide the child's start, or with every core busy, the same functions
 draw in this process; the figures are the same either way.
 
-The child is a fresh interpreter (``python -m tensim.viz.drawing``: no copy of this process's
-MuJoCo, threads or OpenGL state, and none of its ``__main__``); it reads the plans and the
-data through a socket pair and writes the PNG files itself (atomically, as every figure). It
-ends with its socket: when the command finishes, fails or is killed.
+The child is a fresh interpreter (``python -P tensim/viz/_drawchild.py``: no copy of this
+process's MuJoCo, threads or OpenGL state, and none of its ``__main__``) that loads numpy,
+matplotlib and the drawing modules only, not the tensim package and its MuJoCo; it reads the
+plans and the data (the channels each figure draws) through a socket pair and writes the PNG
+files itself (atomically, as every figure). It ends with its socket: when the command
+finishes, fails or is killed.
 """
 
 from __future__ import annotations
@@ -33,6 +35,8 @@ from collections.abc import Mapping, Sequence
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from tensim.viz._child import helper_env
 from tensim.viz._span import Span as Span  # re-exported: the plans name their spans
@@ -119,14 +123,14 @@ class FigureDrawer:
 
     def _start(self) -> None:
         ours, theirs = multiprocessing.Pipe()
-        # the child imports this very tensim, wherever this process found it
-        here = str(Path(__file__).resolve().parents[2])
-        path = os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p)
+        # the child runs this very tensim's modules (the script finds them beside it); -P:
+        # the script's folder (tensim/viz) is not put on the path
+        script = Path(__file__).with_name("_drawchild.py")
         try:
             process = subprocess.Popen(
-                [sys.executable, "-m", "tensim.viz.drawing", str(theirs.fileno())],
+                [sys.executable, "-P", str(script), str(theirs.fileno())],
                 pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL, env=helper_env(PYTHONPATH=path))
+                stdout=subprocess.DEVNULL, env=helper_env())
             ours.send(list(self.plans.values()))
         except OSError as err:
             log.info("figures drawn in this process: no drawing process (%s)", err)
@@ -159,7 +163,7 @@ class FigureDrawer:
             return path
         if self._conn is not None:
             try:
-                self._conn.send((file, data, path, late))
+                self._conn.send((file, portable(plan.kind, data), path, late))
                 self._pending[file] = (data, path, late)
                 return path
             except (OSError, ValueError) as err:
@@ -226,6 +230,25 @@ class FigureDrawer:
         self.close()
 
 
+# The channels (by quantity) each kind of figure draws from a time series.
+QUANTITIES = {"tensions": ("tension", "setpoint"), "lengths": ("length", "rest_length"),
+              "path": ("pos_x", "pos_y")}
+
+
+def portable(kind: str, data: Any) -> Any:
+    """What a figure of ``kind`` is sent of ``data``: of a time series, the channels it draws
+    (a tenth of a run's); of a V* table, its :class:`~tensim.viz._held.HeldInputs` (which the
+    drawing process loads without the controllers)."""
+    from tensim.viz._held import HeldInputs
+
+    if kind in QUANTITIES and hasattr(data, "channels"):
+        return type(data)(data.time, {name: values for name, values in data.channels.items()
+                                      if name.partition("/")[0] in QUANTITIES[kind]})
+    if kind == "velocity_input" and hasattr(data, "period"):
+        return HeldInputs(tuple(data.cables), float(data.period), np.asarray(data.values))
+    return data
+
+
 def _draw(plan: FigurePlan, data: Any, path: Path, late: Mapping[str, Any], grid: Any) -> Any:
     """Draws ``plan``'s figure of ``data`` into ``path``; a panel figure into ``grid``, a panel
     grid drawn before (its figures share their panels: the plot function refits it, see
@@ -259,7 +282,7 @@ def _lay_out(plan: FigurePlan, draw: bool = True) -> Any:
     return grid
 
 
-def _serve(conn: Connection) -> None:
+def serve(conn: Connection) -> None:
     """The drawing process: lays out the planned grids, then draws what it is sent.
 
     A thread takes the jobs off the socket as they come, so the parent never waits for a
@@ -295,7 +318,3 @@ def _serve(conn: Connection) -> None:
         except OSError:
             return
 
-
-if __name__ == "__main__":  # the drawing process: python -m tensim.viz.drawing FD
-    _serve(Connection(int(sys.argv[1])))
-    os._exit(0)  # its files are written and closed: skip the interpreter's slow shutdown

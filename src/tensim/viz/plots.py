@@ -9,7 +9,7 @@ import gc
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import ParamSpec, TypeVar
+from typing import TYPE_CHECKING, ParamSpec, TypeVar
 
 import matplotlib
 import numpy as np
@@ -20,9 +20,12 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from tensim._files import atomic_path
-from tensim.control.velocity_table import VelocityTable
-from tensim.sim import TimeSeries
 from tensim.viz._span import Span
+
+if TYPE_CHECKING:  # not imported: the drawing process loads no simulation or controller
+    from tensim.control.velocity_table import VelocityTable
+    from tensim.sim import TimeSeries
+    from tensim.viz._held import HeldInputs
 
 DPI = 120  # the saved figures' resolution [pixels per inch]
 # A panel's plot area is at most 3.5 in wide: a line is drawn from the smallest and largest
@@ -414,7 +417,7 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None
 
 
 @_gc_paused
-def plot_velocity_input(table: VelocityTable, path: Path, *,
+def plot_velocity_input(table: VelocityTable | HeldInputs, path: Path, *,
                         cables: Sequence[str] | None = None, columns: int = 3,
                         until: float | None = None, title: str = VELOCITY_TITLE,
                         grid: PanelGrid | None = None,
