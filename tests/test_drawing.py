@@ -80,7 +80,7 @@ def test_a_drawing_process_draws_the_same_figures_as_this_one(tmp_path):
     for name in ("tensions.png", "lengths.png", "velocity_input.png", "path.png"):
         a, b = _pixels(here / name), _pixels(there / name)
         assert a.shape == b.shape and a.shape[0] > 200
-        # laid out (and drawn once) before the data came, the grid ends as one drawn at once
+        # laid out before the data came, the grid ends as one laid out at once
         assert np.array_equal(a, b), name
         assert len(np.unique(a.reshape(-1, 4), axis=0)) > 20  # a real picture, not a blank
 

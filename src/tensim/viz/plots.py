@@ -156,8 +156,8 @@ class PanelGrid:
     """The empty grid of a panel figure: one labelled panel per cable (or group of cables,
     :func:`cable_panels`), no data yet.
 
-    It can be laid out (and drawn once, which makes its ticks and text) before a run ends; a
-    plot function of the same ``kind``, panels, columns and title then only fills it. Once
+    It can be laid out before a run ends; a plot function of the same ``kind``, panels,
+    columns and title then only fills it. Once
     drawn, a plot function of any panel kind on the same panels and columns fills it again
     (:func:`refit`).
     """
