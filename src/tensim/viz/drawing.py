@@ -237,8 +237,8 @@ QUANTITIES = {"tensions": ("tension", "setpoint"), "lengths": ("length", "rest_l
 
 def portable(kind: str, data: Any) -> Any:
     """What a figure of ``kind`` is sent of ``data``: of a time series, the channels it draws
-    (a quarter or less of a run's); of a V* table, its :class:`~tensim.viz._held.HeldInputs` (which the
-    drawing process loads without the controllers)."""
+    (a quarter or less of a run's); of a V* table, its :class:`~tensim.viz._held.HeldInputs`
+    (which the drawing process loads without the controllers)."""
     from tensim.viz._held import HeldInputs
 
     if kind in QUANTITIES and hasattr(data, "channels"):
