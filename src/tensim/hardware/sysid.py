@@ -104,9 +104,9 @@ class SysidResult:
     Attributes:
         space: the fitted parameters (names, bounds, starting values).
         fitted: (n,) fitted values.
-        stderr: (n,) standard errors: the larger of the independent-sample error times
-            sqrt(samples / effective samples) of the residuals' correlation time and each
-            parameter's long-run score error
+        stderr: (n,) standard errors: the larger of the independent-sample and per-reading
+            errors times sqrt(samples / effective samples) of the residuals' correlation time,
+            and each parameter's long-run score error
             (:func:`~tensim.hardware.uncertainty.fit_stderr`; inf: not determined).
         naive_stderr: (n,) the textbook s^2 (J^T J)^-1 errors, which assume independent
             residuals (kept for comparison; too small on autocorrelated residuals).
