@@ -162,7 +162,7 @@ def test_the_rank_tolerance_tells_a_near_form_from_a_rounded_one() -> None:
     near = _twisted(prism(3), 0.003)
     eq = equilibrium(near)
     assert (eq.s, eq.rank) == (0, 9)
-    with pytest.raises(DesignError, match=r"no state of self-stress \(s = 0"):
+    with pytest.raises(DesignError, match=r"no state of self-stress at its build pose \(s = 0"):
         self_stress(near, min_tension=5.0)
     rounded = dataclasses.replace(prism(3), nodes=tuple(
         dataclasses.replace(n, position=tuple(round(x, 6) for x in n.position))
