@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjbatch
 
+from tensim.rl._contacts import GroundContacts
 from tensim.rl._robot import Robot
 from tensim.sim import MODE_PD, PhysicsScale, StabilityLimits, Trial, load_cell_reading
 from tensim.sim._batch import setup_trial
@@ -77,6 +78,7 @@ class Worlds:
         self._geom_body = robot.model.geom_bodyid.copy()  # read once: each read copies
         self._end_body = robot.rods["body"].ravel()
         self._end_local = robot.rods["local"].reshape(-1, 3)
+        self._ground = GroundContacts(robot.model, idx.body, self._end_body)
         self._sigma = np.zeros(0)  # the observation noise's std, set by the first observation
 
     def _open_batch(self, models: list[mujoco.MjModel]) -> None:
@@ -86,7 +88,8 @@ class Worlds:
                                    persistent=True)
         if any(m is not self.models[0] for m in self.models):
             self.batch.set_models(self.models)
-        self.f = {k: self.batch.bind(k) for k in _FIELDS}
+        fields = _FIELDS + (("sensordata",) if self.models[0].nsensordata else ())
+        self.f = {k: self.batch.bind(k) for k in fields}
 
     # -- copies ----------------------------------------------------------------------------
 
@@ -362,7 +365,23 @@ class Worlds:
                  ) -> tuple[np.ndarray, np.ndarray]:
         """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground), and
         (k, 2 n_rods) 1 where the ground touches a rod nearer that end than the other;
-        ``ends``: the rod ends of :meth:`_end_positions`, if already known."""
+        ``ends``: the rod ends of :meth:`_end_positions`, if already known.
+
+        From the robots' contact sensors where the model has them (a robot with more contacts
+        on a body than they hold: from its contact list), else from the contact lists."""
+        if not self._ground.ready:
+            return self._contact_list(ids, ends)
+        if ends is None and self._end_body.size:
+            ends = self._end_positions(ids)
+        touch, out, over = self._ground.read(self.f["sensordata"][self._rows(ids)], ends)
+        if over.any():
+            touch[over], out[over] = self._contact_list(
+                ids[over], None if ends is None else ends[over])
+        return touch, out
+
+    def _contact_list(self, ids: np.ndarray, ends: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_contact` from MuJoCo's contact list of each robot."""
         at, pair, point = self._contacts(ids)
         ground = (pair == 0).any(axis=1)
         at, body, point = at[ground], pair[ground].max(axis=1), point[ground]
