@@ -66,14 +66,17 @@ class GroundContacts:
         data = sensordata[:, self.index]  # (k, n_bodies, SLOTS, 4)
         found = data[:, :, 0, 0]
         touch = (found > 0).astype(float)
-        k, n_ends = data.shape[0], self.other.shape[1]
-        out = np.zeros((k, n_ends))
-        if ends is None or not n_ends:
-            return touch, out, (found > SLOTS).any(axis=1)
-        used = data[..., 0] > 0  # (k, n_bodies, SLOTS) the slots holding a contact
-        robot, body, slot = np.nonzero(used)
-        point = data[robot, body, slot, 1:]  # (c, 3)
-        far = np.linalg.norm(ends[robot] - point[:, None], axis=2) + self.other[body]
-        hit = np.isfinite(far).any(axis=1)
-        out[robot[hit], np.argmin(far[hit], axis=1)] = 1.0
-        return touch, out, (found > SLOTS).any(axis=1)
+        over = (found > SLOTS).any(axis=1)
+        out = np.zeros((data.shape[0], self.other.shape[1]))
+        if ends is None or not out.shape[1]:
+            return touch, out, over
+        robot, body, slot = np.nonzero(data[..., 0])  # the slots holding a contact
+        if not robot.size:
+            return touch, out, over
+        gap = ends[robot] - data[robot, body, slot, 1:][:, None]
+        # np.linalg.norm(gap, axis=2), without its overhead; + inf: the body's ends only
+        far = np.sqrt(np.add.reduce(gap * gap, axis=2)) + self.other[body]
+        nearest = np.argmin(far, axis=1)
+        hit = far[np.arange(far.shape[0]), nearest] < np.inf
+        out[robot[hit], nearest[hit]] = 1.0
+        return touch, out, over

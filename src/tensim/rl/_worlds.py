@@ -216,16 +216,16 @@ class Worlds:
         self.f["ctrl"][r, :n] = commands
         before = self.f["subtree_com"][r, 0, :2].copy()
         bodies_before = self.f["xipos"][r][:, self._body, :2] if c.task == "turn" else None
-        failed = np.zeros(ids.size, dtype=bool)
+        failed: np.ndarray | bool = False
         self._calls += 1  # every RING_EVERY-th period, its last steps' forces tell ringing
-        calls = split_steps(c.control_steps) if self._calls % RING_EVERY == 0 \
-            else [(c.control_steps, False)]
+        checked = self._calls % RING_EVERY == 0
+        calls = split_steps(c.control_steps) if checked else [(c.control_steps, False)]
         try:
             for count, push in calls:
                 self.batch.step(None if isinstance(r, slice) else ids, nstep=count,
                                 stage=mujoco.mjtStage.mjSTAGE_VEL)
                 if push:
-                    self.forces.push(ids, self.f["actuator_force"][r, :n])
+                    self.forces.push(r, self.f["actuator_force"][r, :n])
         except mjbatch.SimulationError as err:
             failed = np.isin(ids, err.ids)
         self.steps[r] += 1
@@ -234,22 +234,25 @@ class Worlds:
         speed = np.abs(f["qvel"][r]).max(axis=1)
         force = -f["actuator_force"][r, :n].min(axis=1)
         bad = self.batch.warning[r, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
-        ringing = self.forces.ringing(ids).any(axis=1)
-        energy = np.zeros(ids.size, dtype=bool)
-        if self._calls % RING_EVERY == 0:  # the energy on the ringing check's schedule
-            energy = self.energies.push(ids, self.energy.total(
+        # (no forces pushed since the last test: nothing rings)
+        ringing = self.forces.ringing(r).any(axis=1) if self.forces.fresh else False
+        energy: np.ndarray | bool = False
+        if checked:  # the energy on the ringing check's schedule
+            energy = self.energies.push(r, self.energy.total(
                 f["qvel"][r], f["xpos"][r], f["ten_length"][r], f["act"][r]))
-        unstable = failed | ~(speed < self.limits.max_speed) | \
-            ~(force < self.limits.max_tension) | bad | ringing | energy
+        unstable = ~(speed < self.limits.max_speed) | ~(force < self.limits.max_tension) | \
+            bad | failed | ringing | energy
         after = f["subtree_com"][r, 0, :2]
         progress, reached = self._progress(ids, before, after, bodies_before)
-        control = -c.control_cost * np.mean(applied ** 2, axis=1) * c.control_dt
+        # np.mean(applied ** 2, axis=1), without its overhead (the same sum and division)
+        mean = np.add.reduce(applied * applied, axis=1) / applied.shape[1]
+        control = -c.control_cost * mean * c.control_dt
         contact = np.zeros(ids.size)
         if c.bar_contact_cost:
             contact = -c.bar_contact_cost * self.bar_contacts(ids) * c.control_dt
-        terms = {"progress": np.where(unstable, 0.0, progress),
-                 "control": np.where(unstable, 0.0, control),
-                 "contact": np.where(unstable, 0.0, contact)}
+        terms = {"progress": progress, "control": control, "contact": contact}
+        if unstable.any():  # an unstable robot's terms are 0
+            terms = {k: np.where(unstable, 0.0, v) for k, v in terms.items()}
         terms["unstable"] = unstable
         reward = terms["progress"] + terms["control"] + terms["contact"]
         return reward, unstable | reached, terms
@@ -282,13 +285,14 @@ class Worlds:
         com = f["subtree_com"][r, 0]
         xipos = f["xipos"][r][:, self._body]
         yaw = self._frame_yaw(ids, com, xipos)
+        turn = np.cos(yaw)[:, None], np.sin(yaw)[:, None]  # (for every vector turned)
         terms: dict[str, np.ndarray] = {"height": com[:, 2:3]}
         if "pose" in robot.layout:
-            rel = _to_frame(xipos - com[:, None], yaw)
+            rel = _rotate(xipos - com[:, None], turn)
             quat = _quat_to_frame(f["xquat"][r][:, self._body], yaw)
             terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(ids.size, -1)
         if "velocity" in robot.layout:
-            terms["velocity"] = self._velocity(ids, xipos, yaw)
+            terms["velocity"] = self._velocity(ids, xipos, turn)
         layout = robot.layout
         if "cable_length" in layout or "tension" in layout:
             terms["cable_length"] = f["ten_length"][r][:, robot.compiled.index.tendon]
@@ -308,13 +312,13 @@ class Worlds:
         if "rod_axis" in layout or "end_contact" in layout:
             ends = self._end_positions(ids)
         if "rod_axis" in layout and ends is not None:
-            terms["rod_axis"] = _to_frame(_rod_axes(ends), yaw)
+            terms["rod_axis"] = _rotate(_rod_axes(ends), turn)
         if "contact" in layout or "end_contact" in layout:
             terms["contact"], terms["end_contact"] = self._contact(ids, ends)
         if robot.config.task == "direction":
-            terms["task"] = _to_frame(self.target[r, None], yaw)[:, 0, :2]
+            terms["task"] = _rotate(self.target[r, None], turn)[:, 0, :2]
         elif robot.config.task == "goal":
-            terms["task"] = _to_frame((self.target[r] - com[:, :2])[:, None], yaw)[:, 0, :2]
+            terms["task"] = _rotate((self.target[r] - com[:, :2])[:, None], turn)[:, 0, :2]
         else:
             terms["task"] = np.zeros((ids.size, 2))
         terms["previous_action"] = self.previous[r]
@@ -338,14 +342,15 @@ class Worlds:
             ahead = self.heading[r]
         return np.arctan2(ahead[:, 1], ahead[:, 0])
 
-    def _velocity(self, ids: np.ndarray, xipos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    def _velocity(self, ids: np.ndarray, xipos: np.ndarray,
+                  turn: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
         r = self._rows(ids)
         cvel = self.f["cvel"][r][:, self._body]  # (rotation, translation) at the root's com
         root_com = self.f["subtree_com"][r][:, self._root]
         linear = cvel[..., 3:] + _cross(cvel[..., :3], xipos - root_com)
         com_velocity = np.einsum("b,kbj->kj", self._mass, linear)
         world = np.concatenate([com_velocity[:, None], linear, cvel[..., :3]], axis=1)
-        return _to_frame(world, yaw).reshape(ids.size, -1)  # centre of mass, linear, angular
+        return _rotate(world, turn).reshape(ids.size, -1)  # centre of mass, linear, angular
 
     def _contacts(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """MuJoCo's contact lists of robots ``ids``, stacked: the (c,) row in ``ids`` of each
@@ -450,12 +455,13 @@ def _rod_axes(ends: np.ndarray) -> np.ndarray:
     (k, 2 n_rods, 3) rod ends."""
     ends = ends.reshape(ends.shape[0], -1, 2, 3)
     axis = ends[:, :, 1] - ends[:, :, 0]
-    return axis / np.linalg.norm(axis, axis=2, keepdims=True)
+    # np.linalg.norm(axis, axis=2, keepdims=True), without its overhead (the same sum)
+    return axis / np.sqrt(np.add.reduce(axis * axis, axis=2, keepdims=True))
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a x b over the last axis (np.cross's result, without its per-call overhead)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out = np.empty(a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape))
     out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
     out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
     out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
@@ -471,9 +477,10 @@ def _yaw_change(before: np.ndarray, after: np.ndarray, mass: np.ndarray) -> np.n
     return np.einsum("kb,kb->k", weight, turn) / np.maximum(weight.sum(axis=1), 1e-12)
 
 
-def _to_frame(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-    """(k, m, 3) world vectors in the robot frames turned by (k,) ``yaw`` about z."""
-    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+def _rotate(v: np.ndarray, turn: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """(k, m, 3) world vectors in the robot frames turned by the yaws about z whose (k, 1)
+    cosines and sines are ``turn`` (computed once per observation)."""
+    c, s = turn
     out = v.copy()
     out[..., 0] = c * v[..., 0] + s * v[..., 1]
     out[..., 1] = -s * v[..., 0] + c * v[..., 1]
