@@ -13,10 +13,9 @@ import pytest
 
 pytest.importorskip("gymnasium", reason="the rl extra (gymnasium) is not installed")
 
-from tensim.rl import EnvConfig, Randomization, TensegrityVectorEnv  # noqa: E402
-from tensim.rl import _contacts, _robot  # noqa: E402
-from tensim.rl.train import TrainSettings  # noqa: E402
-from tensim.sim import compiled_available  # noqa: E402
+from tensim.rl import EnvConfig, Randomization, TensegrityVectorEnv, _contacts, _robot
+from tensim.rl.train import TrainSettings
+from tensim.sim import compiled_available
 
 pytestmark = pytest.mark.skipif(not compiled_available(),
                                 reason="the environments step on the compiled cable law")

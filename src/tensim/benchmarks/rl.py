@@ -42,7 +42,7 @@ def plain_env(mjcf: Path, frame_skip: int, motors: np.ndarray, qpos: np.ndarray)
     import gymnasium as gym
     from gymnasium.envs.mujoco import MujocoEnv
 
-    class Plain(MujocoEnv):  # type: ignore[misc]
+    class Plain(MujocoEnv):
         metadata = {"render_modes": ["rgb_array"], "render_fps": 50}  # noqa: RUF012
 
         def __init__(self) -> None:
@@ -53,7 +53,7 @@ def plain_env(mjcf: Path, frame_skip: int, motors: np.ndarray, qpos: np.ndarray)
             self.action_space = gym.spaces.Box(-1.0, 1.0, (motors.size,), np.float32)
             self.init_qpos = qpos.copy()
 
-        def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict]:
+        def step(self, action: np.ndarray) -> Any:
             ctrl = np.zeros(self.model.nu)
             ctrl[motors] = -TENSION_N * (1.0 + np.asarray(action))
             before = self.data.subtree_com[0, 0]

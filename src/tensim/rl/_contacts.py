@@ -66,7 +66,7 @@ class GroundContacts:
         data = sensordata[:, self.index]  # (k, n_bodies, SLOTS, 4)
         found = data[:, :, 0, 0]
         touch = (found > 0).astype(float)
-        over = (found > SLOTS).any(axis=1)
+        over = np.asarray((found > SLOTS).any(axis=1))
         out = np.zeros((data.shape[0], self.other.shape[1]))
         if ends is None or not out.shape[1]:
             return touch, out, over
