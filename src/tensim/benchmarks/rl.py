@@ -4,8 +4,9 @@ The robot and task are those ``tensim rl train MODEL --task roll`` trains on (20
 a 2 ms step under the implicitfast cable law, the rolling observation in the heading frame).
 Five ways of stepping ``n`` robots run in turn, on the same table of random actions:
 
-- the raw engine: MuJoCo's batch engine stepping tensim's model, its commands ready-made
-  (what the environments add nothing to);
+- the raw engine: MuJoCo's batch engine stepping tensim's model of the robot, its commands
+  ready-made (no observation: the model without the contact sensors the rolling
+  observation adds to it);
 - :class:`~tensim.rl.TensegrityVectorEnv` and :class:`~tensim.rl.sb3.SB3VecEnv` over ``n``
   robots;
 - :class:`~tensim.rl.TensegrityEnv` stepped ``n`` times;
@@ -20,6 +21,7 @@ says how much the machine's other work stretched the runs.
 
 from __future__ import annotations
 
+import dataclasses
 import tempfile
 import time
 from collections.abc import Callable
@@ -82,7 +84,9 @@ def _loops(model: str, n: int, periods: int, folder: Path) -> dict[str, Callable
     from tensim.rl.train import TrainSettings
 
     config = TrainSettings(model, task="roll", rest_span=0.6).env_config()
-    engine, vector = TensegrityVectorEnv(n, config), TensegrityVectorEnv(n, config)
+    # the engine steps the robot alone: without the contact sensors the observation adds
+    bare = dataclasses.replace(config, observation=("height",))
+    engine, vector = TensegrityVectorEnv(n, bare), TensegrityVectorEnv(n, config)
     sb3, single = SB3VecEnv(n, config), TensegrityEnv(config)
     robot = single.robot
     mjcf = save_mjcf(compile_structure(load_robot(model), config.world), folder / "robot.xml")
