@@ -54,8 +54,15 @@ class GroundContacts:
         adr = model.sensor_adr[ids] if self.ready else np.zeros(0, dtype=int)
         # (n_bodies, SLOTS, 4) indices into a robot's sensordata: found, x, y, z per slot
         self.index = adr[:, None, None] + np.arange(SLOTS * 4).reshape(SLOTS, 4)
-        # (n_bodies, n_ends) an end not on the body is never the nearest to its contacts
-        self.other = np.where(end_body[None] == np.asarray(bodies)[:, None], 0.0, np.inf)
+        # each body's rod ends, in order, padded to (n_bodies, most ends on a body); the
+        # padding is never the nearest end (its distance is inf)
+        own = [np.flatnonzero(end_body == b) for b in bodies]
+        most = max((o.size for o in own), default=0)
+        self.ends = np.zeros((len(own), most), dtype=int)
+        self.pad = np.full((len(own), most), np.inf)
+        for i, o in enumerate(own):
+            self.ends[i, :o.size], self.pad[i, :o.size] = o, 0.0
+        self.n_ends = end_body.size
 
     def read(self, sensordata: np.ndarray, ends: np.ndarray | None
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -67,16 +74,17 @@ class GroundContacts:
         found = data[:, :, 0, 0]
         touch = (found > 0).astype(float)
         over = np.asarray((found > SLOTS).any(axis=1))
-        out = np.zeros((data.shape[0], self.other.shape[1]))
-        if ends is None or not out.shape[1]:
+        out = np.zeros((data.shape[0], self.n_ends))
+        if ends is None or not self.ends.size:
             return touch, out, over
         robot, body, slot = np.nonzero(data[..., 0])  # the slots holding a contact
         if not robot.size:
             return touch, out, over
-        gap = ends[robot] - data[robot, body, slot, 1:][:, None]
-        # np.linalg.norm(gap, axis=2), without its overhead; + inf: the body's ends only
-        far = np.sqrt(np.add.reduce(gap * gap, axis=2)) + self.other[body]
-        nearest = np.argmin(far, axis=1)
+        # (c, most) each contact's distance to each end of its body: np.linalg.norm without
+        # its overhead (the same sum)
+        gap = ends[robot[:, None], self.ends[body]] - data[robot, body, slot, 1:][:, None]
+        far = np.sqrt(np.add.reduce(gap * gap, axis=2)) + self.pad[body]
+        nearest = np.argmin(far, axis=1)  # (the first of equals: the lowest end, as before)
         hit = far[np.arange(far.shape[0]), nearest] < np.inf
-        out[robot[hit], nearest[hit]] = 1.0
+        out[robot[hit], self.ends[body[hit], nearest[hit]]] = 1.0
         return touch, out, over

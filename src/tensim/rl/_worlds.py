@@ -291,9 +291,11 @@ class Worlds:
             rel = _rotate(xipos - com[:, None], turn)
             quat = _quat_to_frame(f["xquat"][r][:, self._body], yaw)
             terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(ids.size, -1)
-        if "velocity" in robot.layout:
-            terms["velocity"] = self._velocity(ids, xipos, turn)
         layout = robot.layout
+        # world vectors, turned into the frame together: (k, m, 3) each
+        world: dict[str, np.ndarray] = {}
+        if "velocity" in layout:
+            world["velocity"] = self._velocity(ids, xipos)
         if "cable_length" in layout or "tension" in layout:
             terms["cable_length"] = f["ten_length"][r][:, robot.compiled.index.tendon]
         if "rest_length" in layout or "tension" in layout:
@@ -312,7 +314,14 @@ class Worlds:
         if "rod_axis" in layout or "end_contact" in layout:
             ends = self._end_positions(ids)
         if "rod_axis" in layout and ends is not None:
-            terms["rod_axis"] = _rotate(_rod_axes(ends), turn)
+            world["rod_axis"] = _rod_axes(ends)
+        if world:
+            turned = _rotate(np.concatenate(list(world.values()), axis=1), turn)
+            start = 0
+            for name, vectors in world.items():
+                stop = start + vectors.shape[1]
+                terms[name] = turned[:, start:stop].reshape(ids.size, -1)
+                start = stop
         if "contact" in layout or "end_contact" in layout:
             terms["contact"], terms["end_contact"] = self._contact(ids, ends)
         if robot.config.task == "direction":
@@ -342,15 +351,15 @@ class Worlds:
             ahead = self.heading[r]
         return np.arctan2(ahead[:, 1], ahead[:, 0])
 
-    def _velocity(self, ids: np.ndarray, xipos: np.ndarray,
-                  turn: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    def _velocity(self, ids: np.ndarray, xipos: np.ndarray) -> np.ndarray:
+        """(k, 1 + 2 n_bodies, 3) the velocities observed, in the world frame: the centre of
+        mass's, then each body's linear and angular velocity."""
         r = self._rows(ids)
         cvel = self.f["cvel"][r][:, self._body]  # (rotation, translation) at the root's com
         root_com = self.f["subtree_com"][r][:, self._root]
         linear = cvel[..., 3:] + _cross(cvel[..., :3], xipos - root_com)
         com_velocity = np.einsum("b,kbj->kj", self._mass, linear)
-        world = np.concatenate([com_velocity[:, None], linear, cvel[..., :3]], axis=1)
-        return _rotate(world, turn).reshape(ids.size, -1)  # centre of mass, linear, angular
+        return np.concatenate([com_velocity[:, None], linear, cvel[..., :3]], axis=1)
 
     def _contacts(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """MuJoCo's contact lists of robots ``ids``, stacked: the (c,) row in ``ids`` of each
