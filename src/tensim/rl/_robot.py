@@ -134,6 +134,7 @@ class Robot:
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (size,), dtype=np.float64)
         # the action box and the commands' parts in float64, read once (each step uses them)
         self._box = (self.action_space.low.astype(float), self.action_space.high.astype(float))
+        self._outside = (self._box[0] - 1e-6, self._box[1] + 1e-6)  # beyond these: clipped
         self._rest_low, self._rest_high = self.low, self.high
         self._rest0_motors = rest0[self.motors]
 
@@ -156,7 +157,7 @@ class Robot:
             raise InputError(f"robot {int(np.argmax(bad))}: action holds NaN or infinite "
                              f"values: {action[int(np.argmax(bad))]}")
         low, high = self._box
-        out = ((action < low - 1e-6) | (action > high + 1e-6)).any(axis=1)
+        out = ((action < self._outside[0]) | (action > self._outside[1])).any(axis=1)
         if not self.config.clip_actions and out.any():
             i = int(np.argmax(out))
             raise InputError(f"robot {i}: action outside the box [{low.min()}, {high.max()}]"

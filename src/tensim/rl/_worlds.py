@@ -315,6 +315,10 @@ class Worlds:
             ends = self._end_positions(ids)
         if "rod_axis" in layout and ends is not None:
             world["rod_axis"] = _rod_axes(ends)
+        if robot.config.task in ("direction", "goal"):  # (x, y, 0): turned with the others
+            world["task"] = np.zeros((ids.size, 1, 3))
+            world["task"][:, 0, :2] = self.target[r] if robot.config.task == "direction" \
+                else self.target[r] - com[:, :2]
         if world:
             turned = _rotate(np.concatenate(list(world.values()), axis=1), turn)
             start = 0
@@ -322,14 +326,9 @@ class Worlds:
                 stop = start + vectors.shape[1]
                 terms[name] = turned[:, start:stop].reshape(ids.size, -1)
                 start = stop
+        terms["task"] = terms["task"][:, :2] if "task" in world else np.zeros((ids.size, 2))
         if "contact" in layout or "end_contact" in layout:
             terms["contact"], terms["end_contact"] = self._contact(ids, ends)
-        if robot.config.task == "direction":
-            terms["task"] = _rotate(self.target[r, None], turn)[:, 0, :2]
-        elif robot.config.task == "goal":
-            terms["task"] = _rotate((self.target[r] - com[:, :2])[:, None], turn)[:, 0, :2]
-        else:
-            terms["task"] = np.zeros((ids.size, 2))
         terms["previous_action"] = self.previous[r]
         terms["position"] = com[:, :2]
         obs = self._noisy(ids, np.concatenate([terms[t].reshape(ids.size, -1)
