@@ -162,15 +162,20 @@ def bench_rl(model: str = "three_bar", envs: tuple[int, ...] = (16, 64), periods
 
 
 def format_rl(report: dict[str, Any]) -> str:
-    """The table of :func:`bench_rl`'s report."""
+    """The table of :func:`bench_rl`'s report: each case's env steps per CPU second as a
+    fraction of the raw engine's and of the plain env's, then the rates themselves (which
+    vary with the machine; the fractions much less)."""
     lines = [f"{report['model']}, the roll task of `tensim rl train` (20 ms control = 10 "
              "physics steps of 2 ms, implicitfast cable law, heading frame), "
              f"{report['periods']} periods per run, cases interleaved, best of "
-             f"{report['repeats']}:"]
+             f"{report['repeats']}; env steps per CPU second, as a fraction of"]
     for n, cases in report["envs"].items():
-        lines.append(f"  {n} robots             env steps per CPU s (per wall s)   "
-                     "of the engine   of the plain env")
-        for name, row in cases.items():
-            lines.append(f"    {name:<22} {row['cpu_rate']:8.0f} ({row['wall_rate']:6.0f})"
-                         f"{row['per_engine']:18.2f}{row['per_plain']:19.2f}")
+        lines.append(f"  {n} robots             the raw engine's  the plain env's")
+        lines += [f"    {name:<22}{row['per_engine']:11.2f}{row['per_plain']:17.2f}"
+                  for name, row in cases.items()]
+    lines.append("env steps per CPU second (per wall second):")
+    for n, cases in report["envs"].items():
+        lines.append(f"  {n} robots: " + ", ".join(
+            f"{name} {row['cpu_rate']:.0f} ({row['wall_rate']:.0f})"
+            for name, row in cases.items()))
     return "\n".join(lines)

@@ -24,6 +24,7 @@ from tensim.sim._loop import (
 )
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+any_true = np.logical_or.reduce  # a bool array's .any(), without its Python wrapper
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
 _FIELDS = ("ten_length", "xpos", "xmat", "xipos", "xquat", "subtree_com", "cvel", "qvel",
            "actuator_force", "act", "ctrl", "ncon")
@@ -80,6 +81,7 @@ class Worlds:
         self._end_local = robot.rods["local"].reshape(-1, 3)
         self._ground = GroundContacts(robot.model, idx.body, self._end_body)
         self._sigma = np.zeros(0)  # the observation noise's std, set by the first observation
+        self._noise = False  # (whether any is above 0)
 
     def _open_batch(self, models: list[mujoco.MjModel]) -> None:
         """The batch engine over ``models`` (one per robot) and its field views."""
@@ -251,7 +253,7 @@ class Worlds:
         if c.bar_contact_cost:
             contact = -c.bar_contact_cost * self.bar_contacts(ids) * c.control_dt
         terms = {"progress": progress, "control": control, "contact": contact}
-        if unstable.any():  # an unstable robot's terms are 0
+        if any_true(unstable):  # an unstable robot's terms are 0
             terms = {k: np.where(unstable, 0.0, v) for k, v in terms.items()}
         terms["unstable"] = unstable
         reward = terms["progress"] + terms["control"] + terms["contact"]
@@ -387,7 +389,7 @@ class Worlds:
         if ends is None and self._end_body.size:
             ends = self._end_positions(ids)
         touch, out, over = self._ground.read(self.f["sensordata"][self._rows(ids)], ends)
-        if over.any():
+        if any_true(over):
             touch[over], out[over] = self._contact_list(
                 ids[over], None if ends is None else ends[over])
         return touch, out
@@ -429,7 +431,8 @@ class Worlds:
     def _noisy(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
         if self._sigma.size != obs.shape[1]:  # once: it depends on the configuration only
             self._sigma = self._noise_sigma(obs.shape[1])
-        if not self._sigma.any():
+            self._noise = bool(self._sigma.any())
+        if not self._noise:
             return obs
         return obs + np.stack([self.rngs[i].normal(0.0, 1.0, obs.shape[1])
                                for i in ids]) * self._sigma

@@ -12,7 +12,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from tensim._input import InputError
 from tensim.rl._render import Renders
 from tensim.rl._robot import Robot
-from tensim.rl._worlds import Worlds
+from tensim.rl._worlds import Worlds, any_true
 from tensim.rl.config import EnvConfig
 
 _MODES = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP,
@@ -112,7 +112,7 @@ class TensegrityVectorEnv(VectorEnv):
         """
         if not self._started:
             raise gym.error.ResetNeeded("call reset() before step()")
-        if self._ended.any():
+        if any_true(self._ended):
             raise gym.error.ResetNeeded(
                 f"robots {self._all[self._ended].tolist()} ended their episodes "
                 "(autoreset_mode='disabled'): reset them with "
@@ -120,7 +120,7 @@ class TensegrityVectorEnv(VectorEnv):
         commands, applied, clipped = self.robot.command(actions)
         n = self.num_envs
         info: dict[str, Any] = {}
-        if not self._autoreset.any():  # (the common case: every robot steps, no copies)
+        if not any_true(self._autoreset):  # (the common case: every robot steps, no copies)
             reward, terminated, terms = self.worlds.step(self._all, commands, applied)
             truncated = (self.worlds.steps >= self.robot.config.max_steps) & ~terminated
             self._obs[:] = self.worlds.observe(self._all)
@@ -141,7 +141,7 @@ class TensegrityVectorEnv(VectorEnv):
                 self._obs[live] = self.worlds.observe(live)
                 info = _step_info(n, live, terms, clipped)
         ended = terminated | truncated
-        if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
+        if self.autoreset_mode == AutoresetMode.SAME_STEP and any_true(ended):
             info["final_obs"] = np.full(n, None, dtype=object)
             info["final_info"] = {k: v.copy() for k, v in info.items() if k != "final_obs"}
             for i in self._all[ended]:
