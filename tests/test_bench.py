@@ -100,3 +100,15 @@ def test_the_rl_bench_times_every_case_against_the_engine_and_the_plain_env():
     assert rows["SB3VecEnv"]["per_engine"] == pytest.approx(
         rows["SB3VecEnv"]["cpu_rate"] / rows["raw engine"]["cpu_rate"])
     assert "2 robots" in format_rl(report)
+
+
+def test_bad_robot_counts_are_refused_by_option():
+    import pytest
+
+    from tensim import InputError
+    from tensim.cli.bench import _worlds
+
+    assert _worlds("16,64", "--envs", "16,64") == [16, 64]
+    for text in ("0,16", "x", ""):
+        with pytest.raises(InputError, match="--envs: expected batch sizes such as 16,64"):
+            _worlds(text, "--envs", "16,64")

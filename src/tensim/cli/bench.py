@@ -61,13 +61,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run)
 
 
-def _worlds(text: str, option: str = "--worlds") -> list[int]:
+def _worlds(text: str, option: str = "--worlds", example: str = "256,1024") -> list[int]:
     try:
         worlds = [int(w) for w in text.split(",")]
     except ValueError:
         worlds = []
     if not worlds or min(worlds) < 1:
-        raise InputError(f"{option}: expected batch sizes such as 256,1024, got {text!r}")
+        raise InputError(f"{option}: expected batch sizes such as {example}, got {text!r}")
     return worlds
 
 
@@ -97,7 +97,7 @@ def _run_rl(args: argparse.Namespace) -> int:
     from tensim._files import write_json
     from tensim.benchmarks._machine import machine_note
 
-    envs = _worlds(args.envs, "--envs")
+    envs = _worlds(args.envs, "--envs", "16,64")
     try:
         from tensim.benchmarks.rl import bench_rl, format_rl
     except ImportError as err:
