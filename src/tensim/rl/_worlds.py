@@ -233,8 +233,9 @@ class Worlds:
         self.steps[r] += 1
         self.previous[r] = applied
         f = self.f
-        speed = np.abs(f["qvel"][r]).max(axis=1)
-        force = -f["actuator_force"][r, :n].min(axis=1)
+        # (.max and .min without their Python wrappers: NaN propagates alike)
+        speed = np.maximum.reduce(np.abs(f["qvel"][r]), axis=1)
+        force = -np.minimum.reduce(f["actuator_force"][r, :n], axis=1)
         bad = self.batch.warning[r, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
         # (no forces pushed since the last test: nothing rings)
         ringing = self.forces.ringing(r).any(axis=1) if self.forces.fresh else False
