@@ -561,7 +561,7 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float,
     k and b in gainprm; act = [rest length, peak tension]; ctrl = the command. A DC motor adds
     its line speed to act (actdim 3) and its parameters, in cable coordinates, to biasprm.
     The explicit law's gain is fixed at zero. The implicit law's is MuJoCo's affine one
-    (k x + b xdot) times the pull, a last activation the law keeps at -1 while the cable is
+    (k x + b xdot) times the pull, a last activation the law keeps at -theta while the cable is
     taut (read after this step's update: ``actearly``), and its force is limited to <= 0
     (tension only), so that MuJoCo drops the term's derivatives while it clamps.
     """

@@ -5,7 +5,7 @@ A tensim cable is one MuJoCo actuator whose law parameters live in the ``MjModel
 ``act``. Under the explicit law (``LAW_EXPLICIT``) the gain is fixed at zero and the law writes
 the whole force as bias; under the implicit laws (``LAW_IMPLICIT``, ``LAW_IMPLICITFAST``) the
 gain is MuJoCo's affine one, ``k x + b xdot`` from ``gainprm``'s stiffness and damping, times
-the last activation (``pull``: -1 while the cable is taut, else 0), so MuJoCo's implicit
+the last activation (``pull``: -theta while the cable is taut, else 0), so MuJoCo's implicit
 integrators see the cable's stiffness and damping (``discrete``) or damping (``implicitfast``);
 the bias then makes the force exactly the law's (docs/architecture.md). This module names each
 slot once. The compiler writes the parameters through these names, the Python reference law and
@@ -66,7 +66,7 @@ ACT = (
     ("rest", "the motor's rest length l [m]"),
     ("peak", "running maximum of the load-cell tension [N]"),
     ("speed", "DC motors only: the spool's line speed dl/dt [m/s]"),
-    ("pull", "implicit law only, always the last: -1.0 while the cable is taut after this "
+    ("pull", "implicit law only, always the last: -theta while the cable is taut after this "
              "step's motor update, else 0.0 (the gain's input)"),
 )
 GAIN = 0.0  # actuator_gainprm[0]
@@ -83,6 +83,12 @@ MODE_PD = 2  # a tension-only PD on length beside the cable's spring (ctrl: its 
 ACTDIM = 2  # a kinematic motor's activations: rest length, peak tension
 DC_ACTDIM = 3  # a DC motor's: rest length, peak tension, line speed
 IMPLICIT_EXTRA = 1  # the implicit law adds the pull after them
+# the pull of a taut cable is -THETA: the share of the gain term's derivatives that MuJoCo's
+# implicit integrator takes (the rest of the force stays explicit, in the bias); 1/2 makes the
+# discrete step trapezoidal in the cable's stiffness and damping (second order), implicitfast,
+# which loses the cross-body terms, needs all of it (docs/architecture.md)
+THETA_DISCRETE = 0.5
+THETA_IMPLICITFAST = 1.0
 
 
 def _slot(table: tuple[tuple[str, str], ...], name: str) -> int:
@@ -135,6 +141,13 @@ def biasprm(dc: dict[str, float] | None = None) -> list[float]:
     for name, value in (dc or {}).items():
         row[_slot(BIASPRM, name)] = float(value)
     return row
+
+
+def theta(model: mujoco.MjModel) -> float:
+    """The share of the gain term's derivatives that the model's integrator takes: the pull of
+    a taut cable is -theta (THETA_IMPLICITFAST under ``implicitfast``, else THETA_DISCRETE)."""
+    fast = model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    return THETA_IMPLICITFAST if fast else THETA_DISCRETE
 
 
 def implicit(model: mujoco.MjModel) -> np.ndarray:
@@ -196,7 +209,9 @@ def _definitions() -> list[str]:
              f"#define TENSIM_MODE_IMPEDANCE {float(MODE_IMPEDANCE)!r}",
              f"#define TENSIM_MODE_PD {float(MODE_PD)!r}",
              f"#define TENSIM_ACTDIM {ACTDIM}", f"#define TENSIM_DC_ACTDIM {DC_ACTDIM}",
-             f"#define TENSIM_IMPLICIT_EXTRA {IMPLICIT_EXTRA}"]
+             f"#define TENSIM_IMPLICIT_EXTRA {IMPLICIT_EXTRA}",
+             f"#define TENSIM_THETA_DISCRETE {THETA_DISCRETE!r}",
+             f"#define TENSIM_THETA_IMPLICITFAST {THETA_IMPLICITFAST!r}"]
     for prefix, table in (("P", DYNPRM), ("G", GAINPRM), ("B", BIASPRM), ("A", ACT)):
         lines.append("")
         lines += [f"#define TENSIM_{prefix}_{name.upper()} {k} /* {doc} */"

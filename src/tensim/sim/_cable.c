@@ -6,7 +6,7 @@
  *   act          rest length l [m], peak load-cell tension [N], and for DC motors
  *                (actdim 3) the spool's line speed dl/dt [m/s]
  *   ctrl[cadr]   V* [m/s] (impedance mode) or the commanded rest length [m] (rest mode)
- *   pull         the implicit law's last activation: -1 while taut after the motor step
+ *   pull         the implicit law's last activation: -theta while taut after the motor step
  *   dynprm, gainprm, biasprm  the law's parameters; their slots are named in _cable_layout.h,
  *                generated from the one specification, tensim/model/_law_layout.py
  * The dynamics callback moves the rest length one motor step (its rate into act_dot) and keeps
@@ -15,7 +15,8 @@
  * The implicit law (an affine gain, k x + b xdot, times the pull) differs only in that: the
  * dynamics callback also sets the pull, and the bias callback returns -f minus MuJoCo's gain
  * term, so that MuJoCo's force, gain term + bias, is -f while its implicit integrator sees the
- * term's derivatives (-b while taut; none while slack or clamped).
+ * term's derivatives (-theta k and -theta b while taut; none while slack or clamped): theta
+ * of them implicit, the rest explicit (TENSIM_THETA_*).
  * The marker in dynprm selects the law's body per model: TENSIM_CABLE_MARKER runs the law
  * below, TENSIM_REFERENCE_MARKER hands the actuator to the Python reference law (registered
  * by tensim.sim._law), so one process can step models of either kind at once. Actuators
@@ -181,9 +182,11 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
   if (P(MODE) == TENSIM_MODE_PD) spring += pd_static(p, g, x, input); /* the load cell reads both */
   double peak = d->act[adr + TENSIM_A_PEAK];
   act_dot[adr + TENSIM_A_PEAK] = (fmax(peak, spring) - peak) / dt;
-  if (implicit) { /* pull: -1 while taut after the motor step, the gain term's input */
+  if (implicit) { /* pull: -theta while taut after the motor step, the gain term's input */
     int last = adr + m->actuator_actnum[i] - 1;
-    act_dot[last] = ((stretch > 0.0 ? -1.0 : 0.0) - d->act[last]) / dt;
+    double theta = m->opt.integrator == mjINT_IMPLICITFAST ? TENSIM_THETA_IMPLICITFAST
+                                                           : TENSIM_THETA_DISCRETE;
+    act_dot[last] = ((stretch > 0.0 ? -theta : 0.0) - d->act[last]) / dt;
   }
   return act_dot[adr + TENSIM_A_PEAK];
 }

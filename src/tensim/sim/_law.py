@@ -62,6 +62,7 @@ from tensim.model._law_layout import (
     is_cable,
     layout_id,
     motor_actdim,
+    theta,
 )
 from tensim.sim import _laws
 
@@ -182,7 +183,8 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     if native.any():
         # the pull, and MuJoCo's force: its gain term plus the law's bias, clamped
         last = adr[native] + m.actuator_actnum[ids][native] - 1
-        pull_rate[native] = (_laws.pull(x[native], next_rest[native]) - d.act[last]) / dt
+        pull_rate[native] = (_laws.pull(x[native], next_rest[native], theta(m))
+                             - d.act[last]) / dt
         pull = d.act[last] + pull_rate[native] * dt
         out = m.actuator_outadr[ids][native]
         term = _laws.gain_term(d.actuator_length[out], d.actuator_velocity[out], k[native],

@@ -40,6 +40,9 @@ _P_MIN_REST, _P_MIN_LENGTH = wp.constant(layout.P_MIN_REST), wp.constant(layout.
 _P_OFFSET, _P_GAIN_K = wp.constant(layout.P_OFFSET), wp.constant(layout.P_GAIN_K)
 _P_GAIN_B, _P_TARGET = wp.constant(layout.P_GAIN_B), wp.constant(layout.P_TARGET_LENGTH)
 _G_K, _G_DAMPING = wp.constant(layout.G_STIFFNESS), wp.constant(layout.G_DAMPING)
+_THETA_DISCRETE = wp.constant(layout.THETA_DISCRETE)
+_THETA_FAST = wp.constant(layout.THETA_IMPLICITFAST)
+_IMPLICITFAST = wp.constant(int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST))
 _G_PD_K, _G_PD_B = wp.constant(layout.G_PD_STIFFNESS), wp.constant(layout.G_PD_DAMPING)
 _B_STALL, _B_V0 = wp.constant(layout.B_STALL_FORCE), wp.constant(layout.B_NO_LOAD_SPEED)
 _B_MASS, _B_VISCOUS = wp.constant(layout.B_MASS), wp.constant(layout.B_VISCOUS)
@@ -91,6 +94,7 @@ def _dc_step(p: vec10, g: vec10, b: vec10, speed: float, rest: float, target: fl
 @wp.kernel(module="unique", enable_backward=False)
 def cable_law(
     opt_timestep: wp.array(dtype=float),
+    opt_integrator: int,
     actuator_dynprm: wp.array2d(dtype=vec10),
     actuator_gainprm: wp.array2d(dtype=vec10),
     actuator_biasprm: wp.array2d(dtype=vec10),
@@ -174,19 +178,21 @@ def cable_law(
         applied += wp.min(wp.max(pull_pd + g[_G_PD_B] * v, 0.0), p[_P_MAX_TENSION])
     peak = act[world, adr + _A_PEAK]
     act_dot[world, adr + _A_PEAK] = (wp.max(peak, spring) - peak) / dt
-    if implicit:  # the pull, the last activation: -1 while taut (the gain term's input)
+    if implicit:  # the pull, the last activation: -theta while taut (the gain term's input)
         last = adr + actnum + _EXTRA - 1
         pull = 0.0
         if stretch > 0.0:
-            pull = -1.0
+            pull = -_THETA_DISCRETE
+            if opt_integrator == _IMPLICITFAST:
+                pull = -_THETA_FAST
         act_dot[world, last] = (pull - act[world, last]) / dt
     actuator_force[world, i] = -applied
 
 
 def _launch(m: Any, d: Any) -> None:
     wp.launch(cable_law, dim=(d.nworld, m.nactuator),
-              inputs=[m.opt.timestep, m.actuator_dynprm, m.actuator_gainprm,
-                      m.actuator_biasprm, m.actuator_gaintype, m.actuator_actadr,
+              inputs=[m.opt.timestep, int(m.opt.integrator), m.actuator_dynprm,
+                      m.actuator_gainprm, m.actuator_biasprm, m.actuator_gaintype, m.actuator_actadr,
                       m.actuator_actnum, m.actuator_ctrladr, m.actuator_trnid, d.ten_length,
                       d.ten_velocity, d.act, d.ctrl],
               outputs=[d.act_dot, d.actuator_force])
