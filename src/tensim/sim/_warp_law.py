@@ -192,9 +192,9 @@ def cable_law(
 def _launch(m: Any, d: Any) -> None:
     wp.launch(cable_law, dim=(d.nworld, m.nactuator),
               inputs=[m.opt.timestep, int(m.opt.integrator), m.actuator_dynprm,
-                      m.actuator_gainprm, m.actuator_biasprm, m.actuator_gaintype, m.actuator_actadr,
-                      m.actuator_actnum, m.actuator_ctrladr, m.actuator_trnid, d.ten_length,
-                      d.ten_velocity, d.act, d.ctrl],
+                      m.actuator_gainprm, m.actuator_biasprm, m.actuator_gaintype,
+                      m.actuator_actadr, m.actuator_actnum, m.actuator_ctrladr, m.actuator_trnid,
+                      d.ten_length, d.ten_velocity, d.act, d.ctrl],
               outputs=[d.act_dot, d.actuator_force])
 
 
