@@ -92,9 +92,10 @@ class WorldOptions:
         rolling_friction: rolling friction coefficient [m] (condim 6).
         cable_law: ``"explicit"`` (the default: the law computes each cable's force and MuJoCo
             integrates it with its semi-implicit Euler step, as the paper's figures were made),
-            ``"implicit"`` (MuJoCo's ``discrete`` integrator takes each taut cable's stiffness
-            and damping implicitly through a native actuator term, and solves the contacts in
-            the same metric: stiff, strongly damped cables at 1-10 ms steps) or
+            ``"implicit"`` (MuJoCo's ``discrete`` integrator takes half of each taut cable's
+            stiffness and damping implicitly through a native actuator term, a trapezoidal
+            step, and solves the contacts in the same metric: stiff, strongly damped cables at
+            1-10 ms steps) or
             ``"implicitfast"`` (the same term under MuJoCo's cheaper ``implicitfast``, which
             takes only the damping, and only each body's own share of it: right for cables
             anchored to the world, poor for cables between free bodies); docs/speed.md.
