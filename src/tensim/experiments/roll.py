@@ -225,7 +225,8 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
         trajectory = _join(chunks)
         result = SimulationResult(trajectory, sim.drive.peak.copy(), time.perf_counter() - start,
                                   round(done, 9) if gait.turned else duration, sim.dt,
-                                  sim.index.cables)
+                                  sim.index.cables, sim.drive.peak_speed.copy(),
+                                  sim.drive.peak_power.copy())
     direction = heading_vector(heading_deg) if goal is None else None
     summary = {**result.summary(), **world_record(compiled.world),
                **roll_summary(trajectory, body_length(structure), direction, goal),

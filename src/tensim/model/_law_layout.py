@@ -65,6 +65,8 @@ BIASPRM = (
 ACT = (
     ("rest", "the motor's rest length l [m]"),
     ("peak", "running maximum of the load-cell tension [N]"),
+    ("peak_speed", "running maximum of the motor's line speed |dl/dt| [m/s]"),
+    ("peak_power", "running maximum of the load-cell tension times the line speed [W]"),
     ("speed", "DC motors only: the spool's line speed dl/dt [m/s]"),
     ("pull", "implicit law only, always the last: -theta while the cable is taut after this "
              "step's motor update, else 0.0 (the gain's input)"),
@@ -80,8 +82,8 @@ CABLE_LAWS = (LAW_EXPLICIT, LAW_IMPLICIT, LAW_IMPLICITFAST)
 MODE_REST = 0  # the motor follows a commanded rest length (ctrl: the rest length [m])
 MODE_IMPEDANCE = 1  # the motor realises the impedance law's setpoint (ctrl: V* [m/s])
 MODE_PD = 2  # a tension-only PD on length beside the cable's spring (ctrl: its target [m])
-ACTDIM = 2  # a kinematic motor's activations: rest length, peak tension
-DC_ACTDIM = 3  # a DC motor's: rest length, peak tension, line speed
+ACTDIM = 4  # a kinematic motor's activations: rest length, peak tension, speed and power
+DC_ACTDIM = 5  # a DC motor's: those and its line speed
 IMPLICIT_EXTRA = 1  # the implicit law adds the pull after them
 # the pull of a taut cable is -THETA: the share of the gain term's derivatives that MuJoCo's
 # implicit integrator takes (the rest of the force stays explicit, in the bias); 1/2 makes the
@@ -108,6 +110,7 @@ B_POSITION_TIME = _slot(BIASPRM, "position_time")
 B_BACK_DRIVABLE = _slot(BIASPRM, "back_drivable")
 B_LAG_TIME, B_SATURATE = _slot(BIASPRM, "lag_time"), _slot(BIASPRM, "saturate")
 A_REST, A_PEAK, A_SPEED = (_slot(ACT, n) for n in ("rest", "peak", "speed"))
+A_PEAK_SPEED, A_PEAK_POWER = _slot(ACT, "peak_speed"), _slot(ACT, "peak_power")
 # the pull is the last activation (MuJoCo's gain reads the last): slot actdim - 1, not A_PULL
 A_PULL = _slot(ACT, "pull")
 

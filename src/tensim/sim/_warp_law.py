@@ -6,8 +6,8 @@
 MuJoCo Warp calls a model's ``act_dyn`` callback once per step for all worlds, after its own
 actuator stage; :func:`install_warp_law` sets it to launch :func:`cable_law` over worlds x
 actuators. The kernel is the law of ``_cable.c`` and :mod:`tensim.sim._laws`, operation for
-operation, on the same layout (rest length and peak tension in ``act``, then a DC motor's line
-speed and the implicit law's pull; the command in ``ctrl``, the parameters in
+operation, on the same layout (rest length and the peak tension, line speed and power in
+``act``, then a DC motor's line speed and the implicit law's pull; the command in ``ctrl``, the parameters in
 ``actuator_dynprm``/``actuator_gainprm``/``actuator_biasprm``, per world where MuJoCo Warp holds
 them per world), so a batch moves between the CPU engine and the GPU unchanged. It writes the
 motor rates into ``act_dot`` and the cable force into ``actuator_force`` (this callback runs
@@ -52,12 +52,14 @@ _B_LAG = wp.constant(layout.B_LAG_TIME)
 _B_SATURATE = wp.constant(layout.B_SATURATE)
 _A_REST, _A_PEAK = wp.constant(layout.A_REST), wp.constant(layout.A_PEAK)
 _A_SPEED = wp.constant(layout.A_SPEED)
+_A_PEAK_SPEED = wp.constant(layout.A_PEAK_SPEED)
+_A_PEAK_POWER = wp.constant(layout.A_PEAK_POWER)
 
 
 @wp.func
 def _dc_step(p: vec10, g: vec10, b: vec10, speed: float, rest: float, target: float, x: float,
              v: float, dt: float) -> wp.vec2:
-    """DC motor (actdim 3): (new rest length, new line speed), as ``_cable.c``'s dc_step."""
+    """DC motor: (new rest length, new line speed), as ``_cable.c``'s dc_step."""
     stretch = x - rest
     measured = 0.0
     applied = 0.0
@@ -110,7 +112,7 @@ def cable_law(
     act_dot: wp.array2d(dtype=float),
     actuator_force: wp.array2d(dtype=float),
 ):
-    """One cable of one world: motor step, peak, and the tension-only force (eq. 1-3)."""
+    """One cable of one world: motor step, peaks, and the tension-only force (eq. 1-3)."""
     world, i = wp.tid()
     p = actuator_dynprm[world % actuator_dynprm.shape[0], i]
     implicit = actuator_gaintype[i] == _AFFINE
@@ -178,6 +180,13 @@ def cable_law(
         applied += wp.min(wp.max(pull_pd + g[_G_PD_B] * v, 0.0), p[_P_MAX_TENSION])
     peak = act[world, adr + _A_PEAK]
     act_dot[world, adr + _A_PEAK] = (wp.max(peak, spring) - peak) / dt
+    # the running maxima of the line speed |dl/dt| and of the power it takes, tension x speed
+    speed_now = wp.abs(rate)
+    power = spring * speed_now
+    peak_speed = act[world, adr + _A_PEAK_SPEED]
+    act_dot[world, adr + _A_PEAK_SPEED] = (wp.max(peak_speed, speed_now) - peak_speed) / dt
+    peak_power = act[world, adr + _A_PEAK_POWER]
+    act_dot[world, adr + _A_PEAK_POWER] = (wp.max(peak_power, power) - peak_power) / dt
     if implicit:  # the pull, the last activation: -theta while taut (the gain term's input)
         last = adr + actnum + _EXTRA - 1
         pull = 0.0
