@@ -44,7 +44,8 @@ class CableDrive(LawParameters):
         rest_command: commanded rest length of MODE_REST cables, target length of MODE_PD
             ones [m].
         target_velocity: (rows, n_cables) V* table [m/s], row r for t in [r, r+1) * table_dt.
-    Outputs (with ``data``): rest, peak, peak_speed, peak_power, tension, applied, setpoint; see the properties.
+    Outputs (with ``data``): rest, peak, peak_speed, peak_power, tension, applied, setpoint;
+    see the properties.
     """
 
     def __init__(self, compiled: CompiledModel, model: mujoco.MjModel,

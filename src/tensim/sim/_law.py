@@ -1,10 +1,10 @@
 """The cable law as MuJoCo actuator callbacks: the compiled one, and the Python reference.
 
-Each cable is an actuator with user dynamics and user bias (see ``tensim.model``): its
-parameters are in the model (``actuator_dynprm``, ``actuator_biasprm``), its rest length and
-peak tension, line speed and power in ``act`` (and a DC motor's speed), its command in ``ctrl``. The law
-is therefore a pure function of (model, data): :func:`cable_law` is the reference in Python,
-built on :mod:`tensim.sim._laws`, and ``_cable.c`` the same operations compiled, installed as
+Each cable is an actuator with user dynamics and user bias (see ``tensim.model``): its parameters
+are in the model (``actuator_dynprm``, ``actuator_biasprm``), its rest length and peak tension,
+line speed and power in ``act`` (and a DC motor's speed), its command in ``ctrl``. The law is
+therefore a pure function of (model, data): :func:`cable_law` is the reference in Python, built on
+:mod:`tensim.sim._laws`, and ``_cable.c`` the same operations compiled, installed as
 ``mjcb_act_dyn``/``mjcb_act_bias``.
 Being stateless, the compiled law runs on any number of threads (``mujoco.rollout``,
 ``mujoco.batch``). The callbacks are process-wide: :func:`install` sets them once, under a lock,

@@ -6,14 +6,14 @@
 MuJoCo Warp calls a model's ``act_dyn`` callback once per step for all worlds, after its own
 actuator stage; :func:`install_warp_law` sets it to launch :func:`cable_law` over worlds x
 actuators. The kernel is the law of ``_cable.c`` and :mod:`tensim.sim._laws`, operation for
-operation, on the same layout (rest length and the peak tension, line speed and power in
-``act``, then a DC motor's line speed and the implicit law's pull; the command in ``ctrl``, the parameters in
-``actuator_dynprm``/``actuator_gainprm``/``actuator_biasprm``, per world where MuJoCo Warp holds
-them per world), so a batch moves between the CPU engine and the GPU unchanged. It writes the
-motor rates into ``act_dot`` and the cable force into ``actuator_force`` (this callback runs
-after MuJoCo Warp's actuator stage and replaces its force: under the implicit law the force is
-the law's own, while MuJoCo Warp's implicit integrator takes the derivatives of the affine gain
-times the pull, as MuJoCo does). MuJoCo Warp computes in float32.
+operation, on the same layout (rest length and the peak tension, line speed and power in ``act``,
+then a DC motor's line speed and the implicit law's pull; the command in ``ctrl``, the parameters
+in ``actuator_dynprm``/``actuator_gainprm``/``actuator_biasprm``, per world where MuJoCo Warp holds
+them per world), so a batch moves between the CPU engine and the GPU unchanged. It writes the motor
+rates into ``act_dot`` and the cable force into ``actuator_force`` (this callback runs after MuJoCo
+Warp's actuator stage and replaces its force: under the implicit law the force is the law's own,
+while MuJoCo Warp's implicit integrator takes the derivatives of the affine gain times the pull, as
+MuJoCo does). MuJoCo Warp computes in float32.
 """
 
 from __future__ import annotations
