@@ -93,8 +93,8 @@ def test_design_size_on_a_100_hz_run_flags_the_motor_the_1_khz_truth_fails(tmp_p
     # speed (its peak power is T* u*), in both runs alike
     assert sized["motor_margins"]["m"] == pytest.approx(truth["motor_margins"]["m"], abs=1e-6)
     for a, b in zip(sized["cables"], truth["cables"], strict=True):
-        # (a 1 kHz sample may top them slightly: the law pairs a step's rest length with the
-        # cable length before the step, a sample with the length after it)
+        # (the summary keeps the peak tension to 0.1 mN, the speed and power to 6 digits: a
+        # 1 kHz sample, every step's reading, tops them by that much)
         assert a["peak T [N]"] == pytest.approx(b["peak T [N]"], rel=1e-5)
         assert a["peak u [m/s]"] == pytest.approx(b["peak u [m/s]"], rel=1e-9)
     # from the 100 Hz samples alone (a run folder without the tracked peaks, as an older
