@@ -42,7 +42,10 @@ def test_design_size_sizes_a_quarter_second_run_from_its_tracked_peaks(tmp_path,
                  "--record-dt", "0.25", "--out", str(coarse)]) == 0
     size = ["design", "size", "--spool-radius", "0.008", "--gear", "30"]
     assert main([*size, str(fine), "--out", str(tmp_path / "s1")]) == 0
+    capsys.readouterr()
     assert main([*size, str(coarse), "--out", str(tmp_path / "s2")]) == 0
+    # it says that the figures from the samples (RMS, mean power, work) are rough
+    assert "recorded every 0.25 s, too coarse for its gait" in capsys.readouterr().err
     rows = [json.loads((tmp_path / s / "summary.json").read_text())["cables"]
             for s in ("s1", "s2")]
     for a, b in zip(*rows, strict=True):  # the same peaks, and shaft torque and speed

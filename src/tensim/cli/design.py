@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -352,6 +353,8 @@ def run_size(args: argparse.Namespace) -> int:
             tracked = _tracked_peaks(summary)
             if not tracked:  # a run without them: its samples must catch the peaks
                 motors.check_sampling(series, _tracked_tensions(summary), str(folder))
+            elif note := motors.sampling_note(series, tracked, str(folder)):
+                print(f"tensim: note: {note}", file=sys.stderr)
             runs.append(motors.cable_duty(series, limits, tracked))
         duties = motors.merge(runs)
     source = ("tracked at every physics step" if all(d.tracked for d in duties) else

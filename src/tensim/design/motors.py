@@ -120,6 +120,26 @@ def check_sampling(series: TimeSeries, tracked: dict[str, float], source: str) -
     Raises:
         DesignError: naming the run, the cable and the figures, and what to do.
     """
+    shortfall = _shortfall(series, tracked, source)
+    if shortfall:
+        raise DesignError(f"{shortfall}, and its line speed peaks are missed too; rerun the "
+                          "simulation with a smaller --record-dt")
+
+
+def sampling_note(series: TimeSeries, tracked: dict[str, TrackedPeaks], source: str
+                  ) -> str | None:
+    """A note where a run with tracked peaks was recorded too coarsely for its gait (as
+    :func:`check_sampling` judges it): its peaks stand, but the figures taken from its samples
+    (RMS tension, mean power, work, time at the limits) are rough; None where it is fine."""
+    shortfall = _shortfall(series, {c: p.tension for c, p in tracked.items()}, source)
+    return None if shortfall is None else (
+        f"{shortfall}: the peaks are the ones tracked at every step, but its RMS tension, "
+        "mean power, work and time at the limits come from those samples")
+
+
+def _shortfall(series: TimeSeries, tracked: dict[str, float], source: str) -> str | None:
+    """Where the recorded tension peaks fall over :data:`PEAK_SHORTFALL` below the tracked
+    ones: the run, its sample period and the worst cable's figures; else None."""
     worst, cable, recorded = 0.0, "", 0.0
     for name, peak in tracked.items():
         if f"tension/{name}" not in series.channels or not peak > 0:
@@ -127,13 +147,12 @@ def check_sampling(series: TimeSeries, tracked: dict[str, float], source: str) -
         sampled = float(np.max(series[f"tension/{name}"]))
         if 1 - sampled / peak > worst:
             worst, cable, recorded = 1 - sampled / peak, name, sampled
-    if worst > PEAK_SHORTFALL:
-        period = float(np.median(np.diff(series.time)))
-        raise DesignError(f"{source}: recorded every {period:g} s, too coarse for its gait: "
-                          f"cable {cable!r} peaked at {tracked[cable]:.4g} N between samples, "
-                          f"its largest sample reads {recorded:.4g} N ({100 * worst:.2g} % "
-                          f"low; limit {100 * PEAK_SHORTFALL:g} %), and its line speed peaks "
-                          "are missed too; rerun the simulation with a smaller --record-dt")
+    if worst <= PEAK_SHORTFALL:
+        return None
+    period = float(np.median(np.diff(series.time)))
+    return (f"{source}: recorded every {period:g} s, too coarse for its gait: cable {cable!r} "
+            f"peaked at {tracked[cable]:.4g} N between samples, its largest sample reads "
+            f"{recorded:.4g} N ({100 * worst:.2g} % low; limit {100 * PEAK_SHORTFALL:g} %)")
 
 
 def cable_duty(series: TimeSeries, limits: dict[str, tuple[float, float]] | None = None,
