@@ -53,7 +53,7 @@ BIASPRM = (
     ("lag_time", "kinematic motor's first-order lag [s] (0: none)"),
     ("saturate", "1.0: max_tension back-drives the kinematic motor (a force cap), 0.0: stops it"),
     ("reserved", "stays 0: MuJoCo's compiler reads a positive one as a damping ratio"),
-    # DC motors only (actdim 3), in cable coordinates (tensim.structure.DCMotor.line)
+    # DC motors only (DC_ACTDIM), in cable coordinates (tensim.structure.DCMotor.line)
     ("stall_force", "DC motor stall force F_s [N]"),
     ("no_load_speed", "DC motor no-load line speed v0 [m/s]"),
     ("mass", "DC motor reflected mass M [kg]"),
