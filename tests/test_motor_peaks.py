@@ -104,3 +104,20 @@ def test_design_size_on_a_100_hz_run_flags_the_motor_the_1_khz_truth_fails(tmp_p
     (coarse / "summary.json").write_text(json.dumps(summary))
     code, samples = _size(coarse, catalogue, tmp_path / "s3")
     assert code == 0 and not samples["peaks_tracked"] and samples["motor_margins"]["m"] > 0
+
+
+def test_peak_use_is_the_largest_operating_point_of_the_peaks_region():
+    # against brute force: a T + b u over a fine grid of 0 <= T <= T*, 0 <= u <= u*, T u <= P*
+    from tensim.design.motors import peak_use
+
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        tension, speed = rng.uniform(1, 100), rng.uniform(0.01, 0.2)  # N, m/s
+        power = tension * speed * rng.choice([rng.uniform(0.05, 1.0), 1.0, 2.0])  # W
+        a, b = rng.uniform(0, 0.05), rng.uniform(0, 20)  # per N, per m/s
+        t, u = np.meshgrid(np.linspace(0, tension, 801), np.linspace(0, speed, 801))
+        inside = t * u <= power * (1 + 1e-12)
+        brute = float(np.max(np.where(inside, a * t + b * u, -np.inf)))
+        bound = peak_use(tension, speed, power, a, b)
+        assert brute <= bound * (1 + 1e-12)
+        assert bound - brute <= (a * tension + b * speed) / 400  # within the grid's spacing
