@@ -45,8 +45,8 @@ class RollSettings:
         steps: linearised statics steps of one plan.
         settle_s: time the robot rests on a new face, cables back at their built rest
             lengths, before the next plan [s].
-        push_s: how long a plan is held waiting for the robot to tip, after its motors have
-            had the time to wind there at their max_speed [s].
+        push_s: how long a plan is held waiting for the robot to tip, or while its motors
+            wind there at their max_speed where that takes longer [s].
         period_s: the gait's control period: it looks at the robot this often [s].
         release: on a new face, return the cables to their built rest lengths while the robot
             rests (else hold the commands it tipped with and plan from there).

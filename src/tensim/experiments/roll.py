@@ -163,10 +163,10 @@ class _Gait:
             return
         self.plans += 1
         sim.drive.rest_command[self.motorised] = plan.rest_lengths[self.motorised]
-        # held while the motors wind there at their max_speed, then push_s more
+        # held push_s, or while the motors wind there at their max_speed where that is longer
         speed = np.array([c.motor.max_speed for c in self.structure.cables])[self.motorised]
         travel = np.abs(plan.rest_lengths - sim.drive.rest)[self.motorised] / speed
-        self.hold = float(travel.max(initial=0.0)) + self.settings.push_s
+        self.hold = max(float(travel.max(initial=0.0)), self.settings.push_s)
         self.pushing = True
 
 
