@@ -6,7 +6,6 @@ way a 3-bar rolls.
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import math
 
@@ -149,26 +148,3 @@ def test_cli_turn_refuses_a_heading_and_other_experiments(tmp_path):
                  "--out", out]) == 2
     assert main(["experiment", "roll", "six_bar", "--turn", "nan", "--out", out]) == 2
     assert main(["experiment", "drag", "--turn", "30", "--out", out]) == 2
-
-
-def test_a_tip_plan_asks_no_motor_for_more_than_its_max_tension():
-    """A motor stops reeling in at its max_tension, so a plan that shortens a cable further
-    cannot be carried out. Standing on its end triangle, the prism's plan toward +x pulls one
-    top cable to 487 N with 2 kN motors; with 300 N motors it plans within 300 N (the plan's
-    own static pose, settled again here)."""
-    from tensim.control.rolling import plan_tip
-    from tensim.design.inverse import settle, with_rest_lengths
-
-    def peak(cap: float) -> float:
-        robot = _prism(lying=False)
-        robot = dataclasses.replace(robot, cables=tuple(
-            c if c.motor.passive else dataclasses.replace(
-                c, motor=dataclasses.replace(c.motor, max_tension=cap)) for c in robot.cables))
-        built = np.array([robot.rest_length(c) for c in robot.cables])
-        plan = plan_tip(robot, built.copy(), built, np.array([1.0, 0.0]), PRISM_SETTINGS)
-        tensions = settle(with_rest_lengths(robot, plan.rest_lengths), plan.feet).tensions
-        return float(max(t for t, c in zip(tensions, robot.cables, strict=True)
-                         if not c.motor.passive))
-
-    assert peak(2000.0) > 400.0  # the uncapped plan pulls past 300 N: the check below bites
-    assert peak(300.0) <= 300.0 * 1.05  # 5 %: the cap is applied on the linearised step

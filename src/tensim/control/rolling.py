@@ -45,8 +45,7 @@ class RollSettings:
         steps: linearised statics steps of one plan.
         settle_s: time the robot rests on a new face, cables back at their built rest
             lengths, before the next plan [s].
-        push_s: how long a plan is held waiting for the robot to tip, or while its motors
-            wind there at their max_speed where that takes longer [s].
+        push_s: longest time a plan is held waiting for the robot to tip [s].
         period_s: the gait's control period: it looks at the robot this often [s].
         release: on a new face, return the cables to their built rest lengths while the robot
             rests (else hold the commands it tipped with and plan from there).
@@ -262,8 +261,6 @@ def _plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.
     motorised = np.array([not c.motor.passive for c in structure.cables])
     lower = np.where(motorised, built * (1 - settings.shorten), rest)
     upper = np.where(motorised, built * (1 + settings.lengthen), rest)
-    stiffness = np.array([c.stiffness for c in structure.cables])
-    max_tension = np.array([c.motor.max_tension for c in structure.cables])
     step = (upper - lower) / settings.steps
     normal = edge[:2]
     planned = rest.copy()
@@ -271,13 +268,8 @@ def _plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.
         if normal @ _com(lin)[:2] + edge[2] >= settings.margin:
             break
         rate = normal @ (_com_jacobian(lin) @ _sensitivity(lin, structure))[:2]
-        # a motor stops reeling in at its max_tension: no shorter than the rest length that
-        # pulls that hard at the present length (tension k (L - l0), L = l0 + T / k)
-        tensions = lin.tensions  # type: ignore[attr-defined]
-        floor = np.where(motorised, planned + (tensions - max_tension) / stiffness, lower)
         useful = np.abs(rate) >= 0.2 * np.abs(rate).max()
-        planned = np.clip(planned + np.where(useful, np.sign(rate) * step, 0.0),
-                          np.minimum(np.maximum(lower, floor), upper), upper)
+        planned = np.clip(planned + np.where(useful, np.sign(rate) * step, 0.0), lower, upper)
         try:
             lin = settle(with_rest_lengths(explicit, planned), feet, gravity)
         except DesignError:

@@ -77,7 +77,6 @@ class _Gait:
     turn: float | None = None  # rad: the yaw to turn by in place (None: roll on the heading)
     start: np.ndarray | None = None  # (n, 3) the nodes at the start (turning's reference)
     turned: bool = False
-    hold: float = 0.0  # s: how long the plan being pushed is held waiting for a tip
 
     def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
         """Turning in place: the outward normal of the first edge of the sequence of rigid-hull
@@ -144,7 +143,7 @@ class _Gait:
         waited = sim.time - self.since
         if not self.pushing and waited >= self.settings.settle_s:
             self._push(sim, positions)
-        elif self.pushing and waited >= self.settings.settle_s + self.hold:
+        elif self.pushing and waited >= self.settings.settle_s + self.settings.push_s:
             self.since, self.pushing = sim.time, False  # stuck: rest and plan again
             sim.drive.rest_command[self.motorised] = self.built[self.motorised]
 
@@ -163,10 +162,6 @@ class _Gait:
             return
         self.plans += 1
         sim.drive.rest_command[self.motorised] = plan.rest_lengths[self.motorised]
-        # held push_s, or while the motors wind there at their max_speed where that is longer
-        speed = np.array([c.motor.max_speed for c in self.structure.cables])[self.motorised]
-        travel = np.abs(plan.rest_lengths - sim.drive.rest)[self.motorised] / speed
-        self.hold = max(float(travel.max(initial=0.0)), self.settings.push_s)
         self.pushing = True
 
 
