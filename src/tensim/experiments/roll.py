@@ -44,7 +44,7 @@ from tensim.structure import Structure, body_length
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
 LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
 TURN_TOLERANCE = 10.0  # deg: turning in place stops once the yaw is this near the target
-TURN_DEPTH = 4  # tips ahead turning in place looks (rigid hull)
+TURN_DEPTH = 5  # tips ahead turning in place looks (rigid hull): once around a 6-bar's hull vertex
 TURN_RADIUS = 0.1  # body lengths from the start that turning in place moves freely within
 TURN_WEIGHT = 4.0  # rad of yaw error that one body length beyond TURN_RADIUS costs as much as
 
