@@ -82,3 +82,33 @@ def test_a_whole_process_run_reports_its_cpu_time_and_memory(tmp_path):
 
     cpu, wall, peak = run_process(["info", "tetraspine3"])
     assert 0 < cpu and 0 < wall and 20 < peak < 2000  # an interpreter with numpy: tens of MiB
+
+
+def test_the_rl_bench_times_every_case_against_the_engine_and_the_plain_env():
+    import pytest
+
+    pytest.importorskip("stable_baselines3", reason="the rl extra is not installed")
+    from tensim.benchmarks.rl import CASES, bench_rl, format_rl
+
+    report = bench_rl(envs=(2,), periods=2, repeats=1)
+    rows = report["envs"][2]
+    assert tuple(rows) == CASES
+    for row in rows.values():
+        assert math.isfinite(row["cpu_rate"]) and row["cpu_rate"] > 0
+    assert rows["raw engine"]["per_engine"] == 1.0
+    assert rows["plain MujocoEnv"]["per_plain"] == 1.0
+    assert rows["SB3VecEnv"]["per_engine"] == pytest.approx(
+        rows["SB3VecEnv"]["cpu_rate"] / rows["raw engine"]["cpu_rate"])
+    assert "2 robots" in format_rl(report)
+
+
+def test_bad_robot_counts_are_refused_by_option():
+    import pytest
+
+    from tensim import InputError
+    from tensim.cli.bench import _worlds
+
+    assert _worlds("16,64", "--envs", "16,64") == [16, 64]
+    for text in ("0,16", "x", ""):
+        with pytest.raises(InputError, match="--envs: expected batch sizes such as 16,64"):
+            _worlds(text, "--envs", "16,64")

@@ -363,6 +363,31 @@ def test_the_batch_engine_fails_a_trial_whose_beads_went_through_a_wall():
                      r"smaller timestep \(--dt\) or a smaller bead spacing", flung.error)
 
 
+def test_the_warp_batch_fails_a_world_whose_beads_went_through_a_wall():
+    # the same two trials on MuJoCo Warp (its CPU device): the whipped world fails with the
+    # single run's message, the calm one runs on (removing the Warp batch's check went unseen)
+    pytest.importorskip("mujoco_warp", reason="MuJoCo Warp (pip install 'tensim[gpu]') is "
+                        "not installed")
+    from tensim.sim import Trial, run_batch
+
+    s = _taut_along_y("whip")
+    wall = Wall(height=0.05, distance=0.09, thickness=0.03, width=0.4)
+    compiled = compile_structure(s, WorldOptions(terrain=wall))
+    with Simulation(compiled) as sim:
+        m = sim.model
+        beads = [j for j in range(m.njnt) if m.jnt_type[j] == 2 and m.jnt_axis[j, 0] == 1.0]
+        still = sim.get_state()  # (on Warp every trial or none has a start state)
+        sim.data.qvel[m.jnt_dofadr[beads]] = -40.0
+        whipped = sim.get_state()
+    calm, flung = run_batch(compiled, [Trial(None, initial_state=still),
+                                       Trial(None, initial_state=whipped)], 0.02,
+                            backend="warp", device="cpu")
+    assert calm.ok, calm.error
+    assert not flung.ok
+    assert re.search(r"trial 1: contact cable tunnelled at t = .* inside 'terrain_box_0'.* "
+                     r"smaller timestep \(--dt\) or a smaller bead spacing", flung.error)
+
+
 def test_a_contact_cable_through_spans_of_different_lengths_holds_its_load():
     # a -> v: 0.6 m level (5 beads 0.1 m apart), v -> b: 0.05 m down to a 1 kg mass (1 bead
     # 0.025 m apart); the statics closed form: the mass hangs at T = m g, the routed length

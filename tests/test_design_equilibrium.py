@@ -59,7 +59,7 @@ def test_prism_counts_match_pellegrino_calladine() -> None:
 
 
 def test_six_bar_has_one_self_stress_equal_to_the_pin_jointed_one() -> None:
-    structure = six_bar()
+    structure = six_bar(standing=False)  # the self-stressed form
     eq = equilibrium(structure)
     # 12 nodes x 3 - 30 members + s(=1) - 6 rigid = 1 internal mechanism (Pellegrino 1986)
     assert (eq.s, eq.m, eq.internal_mechanisms) == (1, 7, 1)
@@ -141,3 +141,30 @@ def test_prestress_command_writes_nothing_without_a_self_stress(tmp_path, capsys
                  "--out", str(out)]) == 0
     written = self_stress(load_structure(out), cable="top_0", tension=8.0)
     assert written.tensions == pytest.approx([c.pretension for c in load_structure(out).cables])
+
+
+def _twisted(structure: Structure, angle: float) -> Structure:
+    """``structure`` with its top nodes (above the mean height) turned ``angle`` [rad] about z."""
+    middle = np.mean([n.position[2] for n in structure.nodes])
+    c, s = math.cos(angle), math.sin(angle)
+    nodes = tuple(dataclasses.replace(n, position=(c * n.position[0] - s * n.position[1],
+                                                   s * n.position[0] + c * n.position[1],
+                                                   n.position[2]))
+                  if n.position[2] > middle else n for n in structure.nodes)
+    return dataclasses.replace(structure, nodes=nodes)
+
+
+def test_the_rank_tolerance_tells_a_near_form_from_a_rounded_one() -> None:
+    # A 3-prism turned 0.003 rad (0.17 deg) off its self-stressed twist has none: its smallest
+    # singular value is 1.8e-3 of the largest, a real one (a tolerance 1000x larger counted
+    # it as zero and found a self-stress that does not exist). Its coordinates written with
+    # six digits leave ~1e-6: still the one self-stress.
+    near = _twisted(prism(3), 0.003)
+    eq = equilibrium(near)
+    assert (eq.s, eq.rank) == (0, 9)
+    with pytest.raises(DesignError, match=r"no state of self-stress at its build pose \(s = 0"):
+        self_stress(near, min_tension=5.0)
+    rounded = dataclasses.replace(prism(3), nodes=tuple(
+        dataclasses.replace(n, position=tuple(round(x, 6) for x in n.position))
+        for n in prism(3).nodes))
+    assert equilibrium(rounded).s == 1

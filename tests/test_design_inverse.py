@@ -86,3 +86,20 @@ def test_verify_winds_slowly_and_reports_small_errors() -> None:
     assert duration == pytest.approx(round(np.abs(result.change).max() / 0.01 + 2.0, 1))
     assert set(errors) == set(NODES)
     assert max(errors.values()) < 2.5e-3  # m, as in the fast-wind test above
+
+
+def test_the_feet_use_at_most_half_their_friction_cone() -> None:
+    # The statics may lean on half the feet's friction, inside the cone |f_t| <= mu f_z: a
+    # 3-prism on rods of friction 0.1 is held with its feet pushing outward, at the
+    # linearised pyramid's bound |f_x|, |f_y| <= 0.5 mu f_z / sqrt(2) on one axis of each foot,
+    # so inside |f_t| <= 0.5 mu f_z on all (measured 0.35-0.41 mu). Half the cone replaced by
+    # the whole, or the pyramid's sqrt(2) dropped, went unseen: they reach 0.82 mu and 0.58 mu.
+    import dataclasses
+
+    structure = _standing()
+    structure = dataclasses.replace(structure, rods=tuple(
+        dataclasses.replace(r, friction=0.1) for r in structure.rods))
+    result = inverse_statics(structure, {"t0": tuple(_turn(structure, 3.0))})
+    for foot, force in result.feet.items():
+        assert np.hypot(force[0], force[1]) <= 0.5 * 0.1 * force[2] * (1 + 1e-6), foot
+    assert max(result.friction_needed.values()) > 0.3 * 0.1  # the bound is what holds them

@@ -130,3 +130,21 @@ def test_rod_between_two_cables_has_the_pin_jointed_geometric_stiffness() -> Non
     assert matrix[4, 4] == pytest.approx(2 * tension * a * (a + d) / d, rel=1e-12)
     # sideways shift and turn do not couple: the two ends' pulls cancel by symmetry
     assert abs(matrix[0, 4]) < 1e-9 * matrix[0, 0]
+
+
+def test_the_growing_modes_vector_by_inverse_iteration_is_an_eigenvector():
+    """The step bound names its mode from one eigenvector found by inverse iteration (not a
+    full eigendecomposition): on random step-like matrices, real and complex dominant
+    eigenvalues alike, it satisfies M v = lambda v to round-off, as numpy's eig's does."""
+    from tensim.design.stiffness import _eigenvector
+
+    rng = np.random.default_rng(11)
+    for n in (6, 40, 200):
+        for _ in range(3):
+            matrix = rng.standard_normal((n, n)) / np.sqrt(n)
+            values = np.linalg.eigvals(matrix)
+            value = values[int(np.argmax(np.abs(values)))]
+            vector = _eigenvector(matrix, value)
+            assert np.isclose(np.linalg.norm(vector), 1.0)
+            # 1e-8: the shift off the eigenvalue (1e-10 relative) and two iterations
+            assert np.linalg.norm(matrix @ vector - value * vector) < 1e-8 * abs(value)

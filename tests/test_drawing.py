@@ -3,9 +3,11 @@ a lost process replaced, and a main process that never loads matplotlib for them
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -78,9 +80,33 @@ def test_a_drawing_process_draws_the_same_figures_as_this_one(tmp_path):
     for name in ("tensions.png", "lengths.png", "velocity_input.png", "path.png"):
         a, b = _pixels(here / name), _pixels(there / name)
         assert a.shape == b.shape and a.shape[0] > 200
-        # laid out (and drawn once) before the data came, the grid ends as one drawn at once
+        # laid out before the data came, the grid ends as one laid out at once
         assert np.array_equal(a, b), name
         assert len(np.unique(a.reshape(-1, 4), axis=0)) > 20  # a real picture, not a blank
+
+
+def test_figures_that_share_one_grid_draw_what_each_draws_on_its_own(tmp_path):
+    """A drawer fills one panel grid with each figure in turn (tensions with shaded spans
+    and set y limits, then autoscaled lengths, then V* with its zero line): each is the
+    figure its plot function draws on a grid of its own, pixel for pixel."""
+    from tensim.viz import plots
+
+    shared, alone = tmp_path / "shared", tmp_path / "alone"
+    shared.mkdir()
+    alone.mkdir()
+    plans = [dataclasses.replace(plan, options={**plan.options, "columns": 3})
+             if plan.file == "tensions.png" else plan for plan in _plans()]
+    drawer = FigureDrawer(plans)
+    _draw_all(drawer, shared)
+    table = VelocityTable(CABLES, 0.01,
+                          np.tile(np.sin(np.arange(100) * 0.1)[:, None], (1, len(CABLES))))
+    options = {plan.file: dict(plan.options) for plan in plans}
+    plots.plot_cable_tensions(_series(), alone / "tensions.png", **options["tensions.png"])
+    plots.plot_lengths(_series(), alone / "lengths.png", **options["lengths.png"])
+    plots.plot_velocity_input(table, alone / "velocity_input.png", until=0.5,
+                              **options["velocity_input.png"])
+    for name in ("tensions.png", "lengths.png", "velocity_input.png"):
+        assert np.array_equal(_pixels(shared / name), _pixels(alone / name)), name
 
 
 def test_a_figure_that_fails_in_the_drawing_process_fails_the_command(tmp_path):
@@ -130,3 +156,41 @@ def test_plans_load_no_matplotlib_and_refuse_unknown_kinds():
     assert out.strip() == "False"
     with pytest.raises(ValueError, match="unknown figure kind 'bars'"):
         FigurePlan("x.png", "bars")
+
+
+def test_the_drawing_process_loads_no_mujoco_and_gets_only_the_channels_it_draws(tmp_path):
+    """The child loads the drawing modules without the tensim package (MuJoCo, the time
+    series' Parquet library), draws what it is sent there, and is sent only the channels
+    (or the V* table's data) each figure draws."""
+    import pickle
+
+    from tensim.viz import _drawchild
+    from tensim.viz.drawing import portable
+
+    table = VelocityTable(CABLES, 0.01, np.ones((10, len(CABLES))))
+    sent = {kind: portable(kind, data) for kind, data in
+            (("tensions", _series()), ("lengths", _series()), ("path", _series()),
+             ("velocity_input", table))}
+    assert sorted(sent["path"].channels) == ["pos_x/com", "pos_x/segment_0", "pos_y/com",
+                                             "pos_y/segment_0"]
+    assert set(sent["tensions"].channels) == {f"{q}/{c}" for q in ("tension", "setpoint")
+                                              for c in CABLES}
+    assert np.array_equal(sent["velocity_input"].times, table.times)
+    (tmp_path / "jobs.pickle").write_bytes(pickle.dumps(sent))
+    probe = textwrap.dedent(f"""
+        import pickle, sys
+        from pathlib import Path
+        sys.path.insert(0, {str(Path(_drawchild.__file__).parent)!r})
+        import _drawchild
+        _drawchild.register_bare(Path(_drawchild.__file__).resolve().parents[1])
+        from tensim.viz import drawing, plots
+        jobs = pickle.loads(Path({str(tmp_path / "jobs.pickle")!r}).read_bytes())
+        plots.plot_velocity_input(jobs["velocity_input"], Path({str(tmp_path / "v.png")!r}))
+        plots.plot_lengths(jobs["lengths"], Path({str(tmp_path / "l.png")!r}))
+        print(sorted(m for m in ("mujoco", "pyarrow", "tensim.control", "tensim.model")
+                     if m in sys.modules))
+        """)
+    out = subprocess.run([sys.executable, "-P", "-c", probe], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
+    assert (tmp_path / "v.png").is_file() and (tmp_path / "l.png").is_file()

@@ -62,6 +62,7 @@ def test_drag_force_is_coulomb_friction_of_the_whole_weight() -> None:
     assert summary["coulomb_force_N"] == pytest.approx(0.075 * 2.349 * 9.81, rel=1e-3)
     assert summary["drag_force_N"] == pytest.approx(summary["coulomb_force_N"], rel=0.03)
     assert summary["effective_friction"] == pytest.approx(0.075, rel=0.03)
+    assert summary["valid"] and summary["stance_problems"] == []  # a steady slide
     # the robot follows the tow point at its speed
     assert summary["com_speed_m_per_s"] == pytest.approx(0.05, rel=0.05)
     assert result.trajectory["pos_x/com"][-1] - result.trajectory["pos_x/com"][0] > 0.2

@@ -373,7 +373,7 @@ def test_a_refused_fit_claims_no_interval(push_log, tmp_path, capsys):
 def test_noise_does_not_narrow_the_interval(robot, impedance):
     """The same stand-in read exactly and through 1 N of noise (ten times the example's):
     the noisy log's residuals look less correlated, but the variance they imply does not
-    fall with it (model error plus noise). Measured: 0.94 and 0.85 of the exact log's
+    fall with it (model error plus noise). Measured: 1.06 and 0.99 of the exact log's
     intervals (the offset's and the delay's). Before the model-error factor, a noisy log
     could claim a several times narrower interval than a clean one, as if noise were
     information. Asked: at least 0.75, and no more than 3 times (noise adds variance, but
@@ -414,7 +414,7 @@ def test_intervals_do_not_depend_on_the_logging_rate(robot, impedance):
     """One motion of the stand-in (its model error dominates the residuals) logged every
     200 ms and every 10 ms: the residuals' correlation time is a property of the motion in
     seconds, so the effective sample size and the intervals stay within 30 % (measured:
-    0.92, 0.96 and 0.90 of the 200 ms log's). On main a correlation factor counted in samples
+    0.92, 0.96 and 0.89 of the 200 ms log's). On main a correlation factor counted in samples
     multiplied an error that already counted correlation: the offset's interval doubled."""
     intervals, taus = [], []
     for period in (0.2, 0.01):
@@ -431,8 +431,10 @@ def test_intervals_do_not_depend_on_the_logging_rate(robot, impedance):
 def test_sensor_noise_does_not_narrow_the_stiffness_interval(robot, impedance, tmp_path):
     """A clean 10 ms log of the impedance gait on stiffer, rougher hardware, and the same with
     0.2 N of sensor noise: noise is no information, so the stiffness interval must not
-    narrow (measured 0.96 of the clean log's; on main 0.30: the clean log's correlated
-    residuals inflated a factor that noise then removed)."""
+    narrow (measured 0.91 of the clean log's; on main 0.30: the clean log's correlated
+    residuals inflated a factor that noise then removed). Other noise draws give 0.52-0.94:
+    the fit point moves with the draw, and the interval with the misfit it leaves (the clean
+    fit stops 2.8 N/m off, the noisy ones 0.5-2.0 N/m; docs/hardware.md)."""
     intervals = []
     for noise in (0.0, 0.2):
         log = simulated_log(robot, impedance, 8.0, parameters={"stiffness": 252.076,
@@ -473,3 +475,60 @@ def test_correlation_time_is_a_property_of_the_signal_in_seconds():
     assert 0.005 <= tau <= 0.0075, tau
     samples, effective, _ = effective_samples(*cells(noise), np.array([0.01]))
     assert samples == 600 and effective == pytest.approx(600, rel=0.35)
+
+
+def _closed_form_fit(seed):
+    """A fit's Jacobian and residual in closed form: 12 cables read s(t) = sin(2 pi t + p) +
+    0.5 sin(6 pi t + 2 p) every 10 ms for 6 s; parameters offset (J = 1), gain (J = s) and
+    delay (J = -ds/dt); the model error is a delay error that drifts over about 0.3 s, so it
+    sits where the readings change fast (the delay's score holds it), projected off J (the
+    residual at a least-squares solution)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(600) * 0.01
+    phase = rng.uniform(0.0, 2 * np.pi, 12)
+    s = np.sin(2 * np.pi * t[:, None] + phase) + 0.5 * np.sin(6 * np.pi * t[:, None] + 2 * phase)
+    ds = 2 * np.pi * (np.cos(2 * np.pi * t[:, None] + phase)
+                      + 1.5 * np.cos(6 * np.pi * t[:, None] + 2 * phase))
+    jac = np.stack([np.ones(s.size), s.ravel(), -ds.ravel()], axis=1)
+    drift = np.convolve(rng.normal(size=660), np.ones(30) / 30, mode="same")[30:630]
+    rows, cables = np.repeat(np.arange(600), 12), np.tile(np.arange(12), 600)
+
+    def at_solution(residual):
+        return residual - jac @ np.linalg.lstsq(jac, residual, rcond=None)[0]
+
+    return jac, at_solution((0.02 * ds * drift[:, None]).ravel()), rows, cables, at_solution, rng
+
+
+def test_white_noise_on_the_same_fit_does_not_narrow_the_intervals():
+    """The same fit (Jacobian and model error) with sensor noise of up to twice the model
+    error's RMS (0.02-0.03 N) added to its residuals: noise adds variance and removes none of
+    the model error's, so no interval may narrow (asked: at least 0.85 of the noise-free one;
+    measured at least 0.90). Before each parameter's own score set its correlation and the
+    window ignored the white part, the delay's fell to 0.48: the residuals' correlation time,
+    shortened by the noise, scaled an error the model error dominates."""
+    from tensim.hardware.uncertainty import fit_stderr
+
+    for seed in range(3):
+        jac, residual, rows, cables, at_solution, rng = _closed_form_fit(seed)
+        clean = fit_stderr(jac, residual, rows, cables, np.array([0.01])).stderr
+        for noise in (0.01, 0.02, 0.05):
+            noisy = fit_stderr(jac, at_solution(residual + rng.normal(scale=noise,
+                                                                      size=residual.size)),
+                               rows, cables, np.array([0.01])).stderr
+            assert (noisy >= 0.85 * clean).all(), (seed, noise, noisy / clean)
+
+
+def test_ten_times_the_noise_keeps_the_stand_ins_intervals(robot, impedance):
+    """The stand-in logged every 10 ms through 0.1 N and through 1 N of sensor noise: its
+    model error (damping, contact, step) correlates over about a second and dominates, so the
+    intervals must stay (asked: at least 0.85 of the 0.1 N log's; measured 0.98, 0.99 and
+    1.00). Before, the noise shortened the residuals' correlation window from 3 s to 0.27 s
+    and the intervals fell to 0.33, 0.35 and 0.30."""
+    intervals = []
+    for noise in (0.1, 1.0):
+        result = identify([_stand_in_log(robot, impedance, 0.01, noise)], robot, impedance,
+                          ["stiffness", "offset", "delay"],
+                          settings=SysidSettings(fit_window=(1.0, 6.99), max_simulations=12))
+        intervals.append([p["ci95"] for p in result.parameters().values()])
+    ratio = np.array(intervals[1]) / np.array(intervals[0])
+    assert (ratio >= 0.85).all(), ratio

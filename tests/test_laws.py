@@ -226,3 +226,26 @@ def test_a_compiled_part_that_cannot_be_loaded_falls_back_with_a_warning(tmp_pat
     assert "using the slower Python law" in caplog.text
     monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)  # not built: quiet
     assert load_library("tensim.sim._cable", "x", "y") is None
+
+
+READERS = ("rl/_worlds.py", "rl/_render.py", "inspect.py", "control/impedance.py",
+           "experiments/drag.py")  # the five that each typed the tension law again
+
+
+@pytest.mark.parametrize("reader", READERS)
+def test_every_tension_reader_calls_the_one_law(reader):
+    """Each of these reads a cable's tension through tensim.sim's law functions and does not
+    type the law again (a stiffness times a clipped stretch): a copy kept the nominal
+    stiffness when a randomisation changed the model's."""
+    import re
+    from pathlib import Path
+
+    import tensim
+
+    source = (Path(tensim.__file__).parent / reader).read_text()
+    assert re.search(r"\b(load_cell_reading|load_cell_tension|cable_tension)\(", source), reader
+    retyped = re.compile(r"stiffness\w*\s*\*\s*(np\.)?(maximum|clip)\(|"
+                         r"(np\.)?(maximum|clip)\([^()]*(length|stretch)[^()]*\)\s*\*\s*\w*stiff|"
+                         r"max(imum)?\(0(\.0)?,\s*[\w.\[\]]*stiffness\w*\s*\*|"
+                         r"np\.where\([^,]*>[^,]*,\s*[\w.\[\]]*stiffness\w*\s*\*")
+    assert not retyped.search(source), (reader, retyped.search(source))

@@ -106,3 +106,20 @@ def test_simulate_prints_how_far_the_robot_moved(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert f"centre of mass moved {np.hypot(dx, dy):.4f} m over the ground (x {dx:+.4f} m" \
         in printed
+
+
+def test_a_six_bar_towed_by_a_middle_node_is_not_a_valid_drag():
+    """The drag test on a six-bar (rod friction 0.8) towed by a node halfway up: it tips and
+    lags instead of sliding (an 'effective friction' of 0.09), so the summary says the
+    result is not valid and why, end to end (the detectors above, wired into run_drag)."""
+    import dataclasses
+
+    from tensim.experiments.drag import DragSettings, run_drag
+    from tensim.models import PRESETS
+
+    robot = PRESETS["six_bar"].build()
+    robot = dataclasses.replace(robot, rods=tuple(dataclasses.replace(r, friction=0.8)
+                                                  for r in robot.rods))
+    _, summary = run_drag("six_bar", structure=robot, settings=DragSettings(node="y10"))
+    assert summary["valid"] is False
+    assert any("did not slide with the tow" in p for p in summary["stance_problems"])

@@ -346,3 +346,26 @@ def test_a_replay_buffer_round_trips_as_data(tmp_path):
         np.testing.assert_array_equal(getattr(loaded, name), getattr(saved, name))
     with np.load(tmp_path / "replay_buffer.npz", allow_pickle=False) as f:  # plain arrays
         assert set(f.files) >= {"observations", "actions", "pos", "full"}
+
+
+def test_rendered_cable_colours_use_each_robots_randomised_stiffness(robot_file):
+    # the colours of env.render() come from the same load cells as the observation: with
+    # stiffness drawn x2, the tensions handed to the renderer are 2 k max(0, x - l)
+    from tensim.rl._render import Renders
+
+    config = _config(robot_file, randomization=Randomization(stiffness=(2.0, 2.0)),
+                     observation=("cable_length", "rest_length", "tension"))
+    env = TensegrityEnv(config)
+    obs, _ = env.reset(seed=0)
+    for _ in range(3):
+        obs = env.step(np.zeros(6, dtype=np.float32))[0]
+    n = env.robot.n
+    seen = []
+    renders = Renders.__new__(Renders)  # no OpenGL: a renderer that keeps what it is given
+    renders.compiled = env.robot.compiled
+    renders.renderer = type("Keep", (), {"render": lambda self, data, tension, rest, text:
+                                         seen.append(np.array(tension))})()
+    renders.image(env.worlds.models[0], env.worlds.data(0))
+    length, rest = obs[:n], obs[n:2 * n]
+    want = np.where(length > rest, 2.0 * 3000.0 * (length - rest), 0.0)
+    np.testing.assert_allclose(seen[0], want, rtol=1e-6)

@@ -16,11 +16,13 @@ class _Log:
 
 
 def test_a_fit_is_judged_on_held_out_samples_by_default():
+    from tensim.hardware import load_log
     from tensim.hardware.sysid import SysidSettings, _windows
 
+    sine = load_log("examples/hardware/sine_log.csv")  # a steady gait: the last quarter
+    plain = _windows(SysidSettings(), [sine])
+    assert plain.fit_window == (0.0, 8.0) and plain.validate_window == (6.0, 8.0)
     logs = [_Log(20.0), _Log(16.0)]
-    plain = _windows(SysidSettings(), logs)  # the last quarter of the longest log held out
-    assert plain.fit_window == (0.0, 15.0) and plain.validate_window == (15.0, 20.0)
     after = _windows(SysidSettings(fit_window=(2.0, 8.0)), logs)
     assert after.validate_window == (8.0, 20.0)
     before = _windows(SysidSettings(fit_window=(5.0, 20.0)), logs)
@@ -75,3 +77,61 @@ def test_a_noisy_log_that_records_its_push_is_valid_and_not_told_it_lacks_one(tm
     assert main(["check-log", str(path)]) == 0
     out = capsys.readouterr().out
     assert "warning: tensions jump" in out and "does not record" not in out
+
+
+# -- a hold-out that can tell fits apart -----------------------------------------------------------
+
+
+def test_the_default_hold_out_holds_the_push():
+    """disturbance_log.csv pushes from 2.5 to 6 s of its 7 s. Its last quarter (5.25-7 s,
+    the old default) is the still robot after the push: a twentieth of the log's mean
+    excitation, where every model that holds the pretension scores alike. The default is
+    now a quarter where the log moves, holding part of the push; the sine gait's stays the
+    last quarter."""
+    from tensim.hardware import load_log
+    from tensim.hardware.holdout import MIN_EXCITATION, default_hold_out, hold_out_excitation
+
+    log = load_log("examples/hardware/disturbance_log.csv")
+    assert hold_out_excitation([log], (5.25, 7.0)) < 0.5 * MIN_EXCITATION
+    window = default_hold_out([log], 0.0, 7.0)
+    assert window[1] - window[0] == 1.75 and window[0] < 5.0  # a second or more of the push
+    assert hold_out_excitation([log], window) > 3 * MIN_EXCITATION
+    sine = load_log("examples/hardware/sine_log.csv")
+    assert default_hold_out([sine], 0.0, 8.0) == (6.0, 8.0)
+
+
+def test_a_poor_fit_is_refused_on_the_default_hold_out(tmp_path, capsys):
+    """A fit from a bad start with too small a budget (friction 0.26 against the log's 0.1):
+    on the old default hold-out (5.25-7 s, after the push) it scored 0.570 N against the
+    nominal model's 0.571 N and was recommended ('use it'); on the push it is worse than the
+    nominal model and refused."""
+    import json
+
+    from tensim.cli import main
+
+    out = tmp_path / "bad"
+    assert main(["--quiet", "sysid", "examples/hardware/disturbance_log.csv", "--params",
+                 "friction,stiffness", "--start", "friction=0.3,stiffness=450", "--max-sims",
+                 "3", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "WORSE than the nominal model" in printed and "use it" not in printed
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["kept_nominal"] and summary["validation"]["excited"]
+
+
+def test_a_fit_judged_on_a_still_hold_out_is_not_recommended(tmp_path, capsys):
+    """Asked to judge on 5.25-7 s (the robot still after the push), sysid writes the fit but
+    does not recommend it, and the summary says why."""
+    import json
+
+    from tensim.cli import main
+
+    out = tmp_path / "still"
+    assert main(["--quiet", "sysid", "examples/hardware/disturbance_log.csv", "--params",
+                 "offset", "--max-sims", "4", "--validate-window", "5.25:7",
+                 "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "not recommended: the validation samples 5.25:7 s barely move" in printed
+    assert "use it" not in printed
+    validation = json.loads((out / "summary.json").read_text())["validation"]
+    assert not validation["excited"] and validation["excitation"] < 0.05

@@ -36,6 +36,16 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="instead of the cases: the cost of a step under each cable law "
                    "(explicit, implicit, implicitfast), Tetraspine3 under impedance control at "
                    "1 ms, the laws taking turns")
+    p.add_argument("--rl", action="store_true",
+                   help="instead of the cases: env steps per CPU second of the rolling 3-bar "
+                   "(the three_bar preset as `tensim rl train --task roll` trains it) in the "
+                   "raw batch engine, TensegrityVectorEnv, SB3VecEnv, TensegrityEnv and a "
+                   "plain MuJoCo Gymnasium env of the exported MJCF, taking turns (needs "
+                   "tensim[rl])")
+    p.add_argument("--envs", default="16,64", metavar="N,N,...",
+                   help="robots stepped together in --rl (default 16,64)")
+    p.add_argument("--periods", type=count, default=100, metavar="N",
+                   help="control periods per run of --rl (default 100)")
     p.add_argument("--backend", choices=("cpu", "warp"), default="cpu",
                    help="warp: aggregate steps/s of batches of worlds on MuJoCo Warp (a GPU "
                    "where there is one) beside the CPU batch engine on every core")
@@ -51,13 +61,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run)
 
 
-def _worlds(text: str) -> list[int]:
+def _worlds(text: str, option: str = "--worlds", example: str = "256,1024") -> list[int]:
     try:
         worlds = [int(w) for w in text.split(",")]
     except ValueError:
         worlds = []
     if not worlds or min(worlds) < 1:
-        raise InputError(f"--worlds: expected batch sizes such as 256,1024, got {text!r}")
+        raise InputError(f"{option}: expected batch sizes such as {example}, got {text!r}")
     return worlds
 
 
@@ -83,6 +93,23 @@ def _run_warp(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_rl(args: argparse.Namespace) -> int:
+    from tensim._files import write_json
+    from tensim.benchmarks._machine import machine_note
+
+    envs = _worlds(args.envs, "--envs", "16,64")
+    try:
+        from tensim.benchmarks.rl import bench_rl, format_rl
+    except ImportError as err:
+        raise InputError(f"--rl needs the RL extra (pip install 'tensim[rl]'): {err}") from err
+    report = bench_rl(envs=tuple(envs), periods=args.periods, repeats=args.repeats)
+    print(format_rl(report))
+    print(machine_note(report["core_share"], report["load_average_before"]))
+    if args.json:
+        write_json(Path(args.json), {"rl": report})
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     if args.backend == "warp":
         return _run_warp(args)
@@ -90,6 +117,8 @@ def run(args: argparse.Namespace) -> int:
     from tensim.benchmarks._machine import busy
     from tensim.limits import check_run
 
+    if args.rl:
+        return _run_rl(args)
     check_run(args.duration, 1e-3, 0.01, force=args.force)  # the cases' step and recording
     if args.cable_laws:
         from tensim.benchmarks._machine import load_average, machine_note

@@ -249,9 +249,12 @@ def _register_sysid(sub: argparse._SubParsersAction) -> None:
                         "stiffness,friction,offset,delay)")
     p.add_argument("--fit-window", default=None, metavar="A:B",
                    help="fit on the samples from A to B seconds after each log's start "
-                        "(default: all)")
+                        "(default: all but a held-out quarter placed where the tensions "
+                        "change)")
     p.add_argument("--validate-window", default=None, metavar="C:D",
-                   help="judge the fit on these samples (default: the fit window); without "
+                   help="judge the fit on these samples (default: the samples the fit "
+                        "leaves out, or a quarter of the log where the tensions change); "
+                        "without "
                         "--fit-window the fit uses the samples before C (after D if C is 0); "
                         "a fit worse than the nominal model there is not saved")
     p.add_argument("--force", action="store_true",
@@ -337,6 +340,12 @@ def _sysid(args: argparse.Namespace) -> int:
         print("not checked on held-out samples (the fit window spans the whole log), so not "
               "recommended: give a --fit-window that leaves samples out, or a "
               "--validate-window")
+        return 0
+    if not v["excited"]:
+        print(f"not recommended: the validation samples {window[0]:g}:{window[1]:g} s barely "
+              f"move (excitation {v['excitation']:.2g} of the log's mean), so every model "
+              "that holds the pretension scores alike there; give a --validate-window over a "
+              "stretch where the tensions change")
         return 0
     print(f"use it: tensim compare {args.logs[0]} --model {out}/fitted_structure.yaml "
           f"--sensor {out}/measurement.json (replays the log's V* and loads)")

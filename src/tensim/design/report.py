@@ -2,22 +2,26 @@
 
 Nothing in the library imports this module. Figures are drawn on
 :class:`matplotlib.figure.Figure` objects (no pyplot, no backend choice) and written
-atomically.
+atomically. matplotlib loads when a figure is made, not for the tables (a design command
+without ``--out`` never draws).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from tensim._files import atomic_path
 from tensim.design._bodies import bodies
 from tensim.design.motors import CableDuty, DriveMotor
 from tensim.design.stiffness import Stiffness
 from tensim.structure import Structure
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 def save(fig: Figure, path: Path, dpi: int = 110) -> Path:
@@ -45,6 +49,8 @@ def modes_figure(structure: Structure, result: Stiffness, count: int = 4) -> Fig
     """The ``count`` softest non-rigid modes: the build pose (grey) and each mode (colour)."""
     live = [k for k in np.argsort(result.frequencies) if result.frequencies[k] > 1e-6]
     chosen = live[:count]
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(3.2 * max(len(chosen), 1), 3.4))
     size = float(np.ptp([n.position for n in structure.nodes], axis=0).max())
     for i, k in enumerate(chosen):
@@ -75,6 +81,8 @@ def sizing_figure(duties: Sequence[CableDuty], catalogue: Sequence[DriveMotor],
                   spool_radius: float, gear_ratio: float, safety: float) -> Figure:
     """Shaft operating points (speed, torque) of every cable with each motor's torque-speed
     line: a motor suffices where all points lie under its line."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(6.4, 4.4))
     ax = fig.add_subplot(1, 1, 1)
     for duty in duties:

@@ -29,6 +29,11 @@ from scipy import optimize
 from tensim.control import ControllerConfig
 from tensim.hardware.checklog import validate_log
 from tensim.hardware.compare import Comparison, compare_tensions
+from tensim.hardware.holdout import (
+    MIN_EXCITATION,
+    default_hold_out,
+    hold_out_excitation,
+)
 from tensim.hardware.loads import loads_for
 from tensim.hardware.logs import HardwareLog, check_items
 from tensim.hardware.parameters import (
@@ -65,8 +70,9 @@ class SysidSettings:
         skip: leave each log's first seconds out of the residual [s].
         threads: threads of the batch engine that runs the perturbed models (0: every core).
         fit_window: (start, end) of the samples the fit uses, from each log's start [s]
-            (None: the first three quarters after ``skip``, or with a validation window, the
-            samples before it, or after it if it starts at 0).
+            (None: the samples after ``skip`` less a held-out quarter placed where the logs
+            move (:func:`~tensim.hardware.holdout.default_hold_out`), or with a validation
+            window, the samples before it, or after it if it starts at 0).
         validate_window: (start, end) of the samples that judge the fit [s] (None: samples
             the fit does not use, after or before the fit window; only a fit window over
             the whole log leaves none, and the verdict is then on the fitted data).
@@ -99,7 +105,8 @@ class SysidResult:
         space: the fitted parameters (names, bounds, starting values).
         fitted: (n,) fitted values.
         stderr: (n,) standard errors: the larger of the independent-sample and per-reading
-            errors times sqrt(samples / effective samples) of the residuals' correlation time
+            errors times sqrt(samples / effective samples) of the residuals' correlation time,
+            and each parameter's long-run score error
             (:func:`~tensim.hardware.uncertainty.fit_stderr`; inf: not determined).
         naive_stderr: (n,) the textbook s^2 (J^T J)^-1 errors, which assume independent
             residuals (kept for comparison; too small on autocorrelated residuals).
@@ -111,7 +118,9 @@ class SysidResult:
         simulations: simulations run.
         optimizer: scipy's result (x in unit coordinates).
         validation: RMSE [N] on the validation samples of the nominal and the fitted model,
-            and the windows (``nominal_rmse_N``, ``fitted_rmse_N``, ...).
+            the windows, and the validation samples' excitation as a share of the logs'
+            (``excited``: enough to tell fits apart; ``nominal_rmse_N``, ``fitted_rmse_N``,
+            ...).
         kept_nominal: the fit was worse than nominal on the validation samples, so
             ``structure``, ``sensor`` and ``vstar_scale`` are the nominal ones.
         world: the fitted world options (torsional and rolling friction; else as given).
@@ -386,7 +395,6 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
     for log in logs:
         validate_log(log)
     settings = _windows(settings or SysidSettings(), logs)
-    _check_windows(settings)
     _check_informed(logs, names, settings)
     try:
         check_world(names, world)
@@ -419,7 +427,8 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
         "factor": round(errors.factor, 6),
         **{f"{key}_stderr": {p.name: _finite(v * s) for p, v, s in
                              zip(space.parameters, values, scale, strict=True)}
-           for key, values in (("naive", errors.naive), ("row", errors.row))}}
+           for key, values in (("naive", errors.naive), ("row", errors.row),
+                               ("score", errors.score))}}
     validation = _validation(problem, nominal, space, fitted, before)
     kept = validation["fitted_rmse_N"] > validation["nominal_rmse_N"] and not settings.force
     named = nominal.as_dict(nominal.structure_values()) if kept else space.as_dict(fitted)
@@ -430,17 +439,16 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
                        uncertainty)
 
 
-HOLD_OUT = 0.25  # the share of the logs held out to judge a fit when no window is given
-
-
 def _windows(settings: SysidSettings, logs: Sequence[HardwareLog]) -> SysidSettings:
     """The fit and validation windows, clipped to the logs (an open end such as ``0:inf``
     ends with the longest log), with samples held out to judge the fit when no validation
-    window is given: those after the fit window (or before it), or without a fit window the
-    logs' last quarter. Only a fit window over the whole log leaves none (``on_fit_data``).
-    A validation window alone fits on the samples before it (or after it, when it starts
-    at 0): validation samples are never fitted unless asked for. A window past the logs'
-    end is left as given, for :func:`_check_informed` to refuse.
+    window is given: those after the fit window (or before it), or without a fit window a
+    quarter of the logs placed where they move (the fit takes the rest: its window then
+    holds the validation window, whose samples it leaves out). Only a fit window over the
+    whole log leaves none (``on_fit_data``). A validation window alone fits on the samples
+    before it (or after it, when it starts at 0): validation samples are never fitted unless
+    asked for. Given windows that overlap are refused; a window past the logs' end is left
+    as given, for :func:`_check_informed` to refuse.
     """
     end = max(log.duration for log in logs)
     start = settings.skip
@@ -454,9 +462,9 @@ def _windows(settings: SysidSettings, logs: Sequence[HardwareLog]) -> SysidSetti
 
     fit = clip(settings.fit_window)
     validate = clip(settings.validate_window)
+    _check_windows(fit, validate)
     if validate is None and fit is None:
-        cut = start + (1.0 - HOLD_OUT) * (end - start)
-        fit, validate = (start, cut), (cut, end)
+        fit, validate = (start, end), default_hold_out(logs, start, end)
     elif validate is None and fit is not None:
         if fit[1] < end:
             validate = (fit[1], end)
@@ -467,9 +475,9 @@ def _windows(settings: SysidSettings, logs: Sequence[HardwareLog]) -> SysidSetti
     return dataclasses.replace(settings, fit_window=fit, validate_window=validate)
 
 
-def _check_windows(settings: SysidSettings) -> None:
-    """Refuses fit and validation windows that share samples: that is no hold-out."""
-    fit, validate = settings.fit_window, settings.validate_window
+def _check_windows(fit: tuple[float, float] | None, validate: tuple[float, float] | None
+                   ) -> None:
+    """Refuses given fit and validation windows that share samples: that is no hold-out."""
     if fit is None or validate is None or not (fit[0] < validate[1] and validate[0] < fit[1]):
         return
     raise SysidError(f"--fit-window {fit[0]:g}:{fit[1]:g} and --validate-window "
@@ -505,11 +513,15 @@ def _validation(problem: _Problem, nominal: SysidSpace, space: SysidSpace,
                 fitted: np.ndarray, before: Sequence[Comparison]) -> dict[str, Any]:
     """RMSE of the nominal and the fitted model on the validation samples [N]."""
     window = problem.settings.validate_window or problem.settings.fit_window
+    excited = 1.0 if window is None else hold_out_excitation(problem.logs, window)
     nominal_residual = np.concatenate([(c.simulated - c.hardware)[problem.keep(c, window)]
                                        for c in before])
     fitted_residual = problem.residuals(space.to_unit(fitted), window)
     return {"window_s": list(window) if window else "all samples",
             "on_fit_data": problem.settings.validate_window is None,
+            "fit_window_s": list(problem.settings.fit_window or ()) or "all samples",
+            "excitation": round(excited, 4),
+            "excited": excited >= MIN_EXCITATION,
             "nominal_rmse_N": round(float(np.sqrt(np.mean(nominal_residual**2))), 6),
             "fitted_rmse_N": round(float(np.sqrt(np.mean(fitted_residual**2))), 6)}
 

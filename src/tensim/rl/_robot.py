@@ -13,6 +13,7 @@ from tensim.control import default_impedance
 from tensim.design.check import Finding, check_structure
 from tensim.model import CompiledModel, compile_structure
 from tensim.models import PRESETS, load_model, preset
+from tensim.rl._contacts import with_contact_sensors
 from tensim.rl.config import EnvConfig
 from tensim.sim import MODE_IMPEDANCE, MODE_PD, MODE_REST, CableDrive, Controller, Simulation
 from tensim.structure import Structure
@@ -78,6 +79,8 @@ class Robot:
         structure = load_robot(config.model)
         self.findings = _check(structure, config)
         self.compiled: CompiledModel = compile_structure(structure, config.world)
+        if {"contact", "end_contact"} & set(config.observation):  # read for all robots at once
+            self.compiled = with_contact_sensors(self.compiled)
         controller = default_controller(config.model, structure)
         self.action = config.action
         pd = np.array([c.motor.pd for c in structure.cables], dtype=bool)
@@ -129,6 +132,11 @@ class Robot:
                                          len(structure.rods), config.history)
         size = max(stop for _, stop in self.layout.values())
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (size,), dtype=np.float64)
+        # the action box and the commands' parts in float64, read once (each step uses them)
+        self._box = (self.action_space.low.astype(float), self.action_space.high.astype(float))
+        self._outside = (self._box[0] - 1e-6, self._box[1] + 1e-6)  # beyond these: clipped
+        self._rest_low, self._rest_high = self.low, self.high
+        self._rest0_motors = rest0[self.motors]
 
     def command(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray, Any]:
         """(n_robots, n_motors) actions -> the (n_robots, n_cables) ``ctrl`` commands in SI
@@ -140,27 +148,28 @@ class Robot:
                 ``clip_actions=False``; naming the robot.
         """
         action = np.asarray(action, dtype=float)
-        box, m = self.action_space, self.motors.size
+        m = self.motors.size
         if action.ndim != 2 or action.shape[1] != m:
             raise InputError(f"actions must have shape (n_robots, {m}) (one per motorised "
                              f"cable), got {action.shape}")
-        bad = ~np.isfinite(action).all(axis=1)
-        if bad.any():
+        if not np.isfinite(action).all():
+            bad = ~np.isfinite(action).all(axis=1)
             raise InputError(f"robot {int(np.argmax(bad))}: action holds NaN or infinite "
                              f"values: {action[int(np.argmax(bad))]}")
-        low, high = box.low.astype(float), box.high.astype(float)
-        out = np.any((action < low - 1e-6) | (action > high + 1e-6), axis=1)
-        if out.any() and not self.config.clip_actions:
+        low, high = self._box
+        out = ((action < self._outside[0]) | (action > self._outside[1])).any(axis=1)
+        if not self.config.clip_actions and out.any():
             i = int(np.argmax(out))
             raise InputError(f"robot {i}: action outside the box [{low.min()}, {high.max()}]"
                              f" (clip_actions=False): {action[i]}")
-        applied = np.clip(action, low, high)
+        applied = np.minimum(np.maximum(action, low), high)  # np.clip, without its overhead
         command = applied
         if self.config.normalize_actions and self.action == "vstar":
             command = applied * self.high
         elif self.config.normalize_actions:
-            command = np.clip(self.rest0[self.motors] * (1.0 + applied * self.config.rest_span),
-                              self.low, self.high)
+            command = np.minimum(np.maximum(
+                self._rest0_motors * (1.0 + applied * self.config.rest_span), self._rest_low),
+                self._rest_high)
         commands = np.empty((action.shape[0], self.n))
         commands[:] = self.hold
         commands[:, self.motors] = command

@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjbatch
 
+from tensim.rl._contacts import GroundContacts
 from tensim.rl._robot import Robot
 from tensim.sim import MODE_PD, PhysicsScale, StabilityLimits, Trial, load_cell_reading
 from tensim.sim._batch import setup_trial
@@ -23,6 +24,7 @@ from tensim.sim._loop import (
 )
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+any_true = np.logical_or.reduce  # a bool array's .any(), without its Python wrapper
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
 _FIELDS = ("ten_length", "xpos", "xmat", "xipos", "xquat", "subtree_com", "cvel", "qvel",
            "actuator_force", "act", "ctrl", "ncon")
@@ -77,7 +79,9 @@ class Worlds:
         self._geom_body = robot.model.geom_bodyid.copy()  # read once: each read copies
         self._end_body = robot.rods["body"].ravel()
         self._end_local = robot.rods["local"].reshape(-1, 3)
+        self._ground = GroundContacts(robot.model, idx.body, self._end_body)
         self._sigma = np.zeros(0)  # the observation noise's std, set by the first observation
+        self._noise = False  # (whether any is above 0)
 
     def _open_batch(self, models: list[mujoco.MjModel]) -> None:
         """The batch engine over ``models`` (one per robot) and its field views."""
@@ -86,7 +90,8 @@ class Worlds:
                                    persistent=True)
         if any(m is not self.models[0] for m in self.models):
             self.batch.set_models(self.models)
-        self.f = {k: self.batch.bind(k) for k in _FIELDS}
+        fields = _FIELDS + (("sensordata",) if self.models[0].nsensordata else ())
+        self.f = {k: self.batch.bind(k) for k in fields}
 
     # -- copies ----------------------------------------------------------------------------
 
@@ -213,40 +218,44 @@ class Worlds:
         self.f["ctrl"][r, :n] = commands
         before = self.f["subtree_com"][r, 0, :2].copy()
         bodies_before = self.f["xipos"][r][:, self._body, :2] if c.task == "turn" else None
-        failed = np.zeros(ids.size, dtype=bool)
+        failed: np.ndarray | bool = False
         self._calls += 1  # every RING_EVERY-th period, its last steps' forces tell ringing
-        calls = split_steps(c.control_steps) if self._calls % RING_EVERY == 0 \
-            else [(c.control_steps, False)]
+        checked = self._calls % RING_EVERY == 0
+        calls = split_steps(c.control_steps) if checked else [(c.control_steps, False)]
         try:
             for count, push in calls:
                 self.batch.step(None if isinstance(r, slice) else ids, nstep=count,
                                 stage=mujoco.mjtStage.mjSTAGE_VEL)
                 if push:
-                    self.forces.push(ids, self.f["actuator_force"][r, :n])
+                    self.forces.push(r, self.f["actuator_force"][r, :n])
         except mjbatch.SimulationError as err:
             failed = np.isin(ids, err.ids)
         self.steps[r] += 1
         self.previous[r] = applied
         f = self.f
-        speed = np.abs(f["qvel"][r]).max(axis=1)
-        force = -f["actuator_force"][r, :n].min(axis=1)
+        # (.max and .min without their Python wrappers: NaN propagates alike)
+        speed = np.maximum.reduce(np.abs(f["qvel"][r]), axis=1)
+        force = -np.minimum.reduce(f["actuator_force"][r, :n], axis=1)
         bad = self.batch.warning[r, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
-        ringing = self.forces.ringing(ids).any(axis=1)
-        energy = np.zeros(ids.size, dtype=bool)
-        if self._calls % RING_EVERY == 0:  # the energy on the ringing check's schedule
-            energy = self.energies.push(ids, self.energy.total(
+        # (no forces pushed since the last test: nothing rings)
+        ringing = self.forces.ringing(r).any(axis=1) if self.forces.fresh else False
+        energy: np.ndarray | bool = False
+        if checked:  # the energy on the ringing check's schedule
+            energy = self.energies.push(r, self.energy.total(
                 f["qvel"][r], f["xpos"][r], f["ten_length"][r], f["act"][r]))
-        unstable = failed | ~(speed < self.limits.max_speed) | \
-            ~(force < self.limits.max_tension) | bad | ringing | energy
+        unstable = ~(speed < self.limits.max_speed) | ~(force < self.limits.max_tension) | \
+            bad | failed | ringing | energy
         after = f["subtree_com"][r, 0, :2]
         progress, reached = self._progress(ids, before, after, bodies_before)
-        control = -c.control_cost * np.mean(applied ** 2, axis=1) * c.control_dt
+        # np.mean(applied ** 2, axis=1), without its overhead (the same sum and division)
+        mean = np.add.reduce(applied * applied, axis=1) / applied.shape[1]
+        control = -c.control_cost * mean * c.control_dt
         contact = np.zeros(ids.size)
         if c.bar_contact_cost:
             contact = -c.bar_contact_cost * self.bar_contacts(ids) * c.control_dt
-        terms = {"progress": np.where(unstable, 0.0, progress),
-                 "control": np.where(unstable, 0.0, control),
-                 "contact": np.where(unstable, 0.0, contact)}
+        terms = {"progress": progress, "control": control, "contact": contact}
+        if any_true(unstable):  # an unstable robot's terms are 0
+            terms = {k: np.where(unstable, 0.0, v) for k, v in terms.items()}
         terms["unstable"] = unstable
         reward = terms["progress"] + terms["control"] + terms["contact"]
         return reward, unstable | reached, terms
@@ -279,14 +288,17 @@ class Worlds:
         com = f["subtree_com"][r, 0]
         xipos = f["xipos"][r][:, self._body]
         yaw = self._frame_yaw(ids, com, xipos)
+        turn = np.cos(yaw)[:, None], np.sin(yaw)[:, None]  # (for every vector turned)
         terms: dict[str, np.ndarray] = {"height": com[:, 2:3]}
         if "pose" in robot.layout:
-            rel = _to_frame(xipos - com[:, None], yaw)
+            rel = _rotate(xipos - com[:, None], turn)
             quat = _quat_to_frame(f["xquat"][r][:, self._body], yaw)
             terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(ids.size, -1)
-        if "velocity" in robot.layout:
-            terms["velocity"] = self._velocity(ids, xipos, yaw)
         layout = robot.layout
+        # world vectors, turned into the frame together: (k, m, 3) each
+        world: dict[str, np.ndarray] = {}
+        if "velocity" in layout:
+            world["velocity"] = self._velocity(ids, xipos)
         if "cable_length" in layout or "tension" in layout:
             terms["cable_length"] = f["ten_length"][r][:, robot.compiled.index.tendon]
         if "rest_length" in layout or "tension" in layout:
@@ -305,15 +317,21 @@ class Worlds:
         if "rod_axis" in layout or "end_contact" in layout:
             ends = self._end_positions(ids)
         if "rod_axis" in layout and ends is not None:
-            terms["rod_axis"] = _to_frame(_rod_axes(ends), yaw)
+            world["rod_axis"] = _rod_axes(ends)
+        if robot.config.task in ("direction", "goal"):  # (x, y, 0): turned with the others
+            world["task"] = np.zeros((ids.size, 1, 3))
+            world["task"][:, 0, :2] = self.target[r] if robot.config.task == "direction" \
+                else self.target[r] - com[:, :2]
+        if world:
+            turned = _rotate(np.concatenate(list(world.values()), axis=1), turn)
+            start = 0
+            for name, vectors in world.items():
+                stop = start + vectors.shape[1]
+                terms[name] = turned[:, start:stop].reshape(ids.size, -1)
+                start = stop
+        terms["task"] = terms["task"][:, :2] if "task" in world else np.zeros((ids.size, 2))
         if "contact" in layout or "end_contact" in layout:
             terms["contact"], terms["end_contact"] = self._contact(ids, ends)
-        if robot.config.task == "direction":
-            terms["task"] = _to_frame(self.target[r, None], yaw)[:, 0, :2]
-        elif robot.config.task == "goal":
-            terms["task"] = _to_frame((self.target[r] - com[:, :2])[:, None], yaw)[:, 0, :2]
-        else:
-            terms["task"] = np.zeros((ids.size, 2))
         terms["previous_action"] = self.previous[r]
         terms["position"] = com[:, :2]
         obs = self._noisy(ids, np.concatenate([terms[t].reshape(ids.size, -1)
@@ -335,14 +353,15 @@ class Worlds:
             ahead = self.heading[r]
         return np.arctan2(ahead[:, 1], ahead[:, 0])
 
-    def _velocity(self, ids: np.ndarray, xipos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    def _velocity(self, ids: np.ndarray, xipos: np.ndarray) -> np.ndarray:
+        """(k, 1 + 2 n_bodies, 3) the velocities observed, in the world frame: the centre of
+        mass's, then each body's linear and angular velocity."""
         r = self._rows(ids)
         cvel = self.f["cvel"][r][:, self._body]  # (rotation, translation) at the root's com
         root_com = self.f["subtree_com"][r][:, self._root]
         linear = cvel[..., 3:] + _cross(cvel[..., :3], xipos - root_com)
         com_velocity = np.einsum("b,kbj->kj", self._mass, linear)
-        world = np.concatenate([com_velocity[:, None], linear, cvel[..., :3]], axis=1)
-        return _to_frame(world, yaw).reshape(ids.size, -1)  # centre of mass, linear, angular
+        return np.concatenate([com_velocity[:, None], linear, cvel[..., :3]], axis=1)
 
     def _contacts(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """MuJoCo's contact lists of robots ``ids``, stacked: the (c,) row in ``ids`` of each
@@ -362,7 +381,23 @@ class Worlds:
                  ) -> tuple[np.ndarray, np.ndarray]:
         """(k, n_bodies) 1 where a rigid body touches the world's geoms (the ground), and
         (k, 2 n_rods) 1 where the ground touches a rod nearer that end than the other;
-        ``ends``: the rod ends of :meth:`_end_positions`, if already known."""
+        ``ends``: the rod ends of :meth:`_end_positions`, if already known.
+
+        From the robots' contact sensors where the model has them (a robot with more contacts
+        on a body than they hold: from its contact list), else from the contact lists."""
+        if not self._ground.ready:
+            return self._contact_list(ids, ends)
+        if ends is None and self._end_body.size:
+            ends = self._end_positions(ids)
+        touch, out, over = self._ground.read(self.f["sensordata"][self._rows(ids)], ends)
+        if any_true(over):
+            touch[over], out[over] = self._contact_list(
+                ids[over], None if ends is None else ends[over])
+        return touch, out
+
+    def _contact_list(self, ids: np.ndarray, ends: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_contact` from MuJoCo's contact list of each robot."""
         at, pair, point = self._contacts(ids)
         ground = (pair == 0).any(axis=1)
         at, body, point = at[ground], pair[ground].max(axis=1), point[ground]
@@ -397,7 +432,8 @@ class Worlds:
     def _noisy(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
         if self._sigma.size != obs.shape[1]:  # once: it depends on the configuration only
             self._sigma = self._noise_sigma(obs.shape[1])
-        if not self._sigma.any():
+            self._noise = bool(self._sigma.any())
+        if not self._noise:
             return obs
         return obs + np.stack([self.rngs[i].normal(0.0, 1.0, obs.shape[1])
                                for i in ids]) * self._sigma
@@ -431,12 +467,13 @@ def _rod_axes(ends: np.ndarray) -> np.ndarray:
     (k, 2 n_rods, 3) rod ends."""
     ends = ends.reshape(ends.shape[0], -1, 2, 3)
     axis = ends[:, :, 1] - ends[:, :, 0]
-    return axis / np.linalg.norm(axis, axis=2, keepdims=True)
+    # np.linalg.norm(axis, axis=2, keepdims=True), without its overhead (the same sum)
+    return axis / np.sqrt(np.add.reduce(axis * axis, axis=2, keepdims=True))
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a x b over the last axis (np.cross's result, without its per-call overhead)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out = np.empty(a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape))
     out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
     out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
     out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
@@ -452,9 +489,10 @@ def _yaw_change(before: np.ndarray, after: np.ndarray, mass: np.ndarray) -> np.n
     return np.einsum("kb,kb->k", weight, turn) / np.maximum(weight.sum(axis=1), 1e-12)
 
 
-def _to_frame(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-    """(k, m, 3) world vectors in the robot frames turned by (k,) ``yaw`` about z."""
-    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+def _rotate(v: np.ndarray, turn: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """(k, m, 3) world vectors in the robot frames turned by the yaws about z whose (k, 1)
+    cosines and sines are ``turn`` (computed once per observation)."""
+    c, s = turn
     out = v.copy()
     out[..., 0] = c * v[..., 0] + s * v[..., 1]
     out[..., 1] = -s * v[..., 0] + c * v[..., 1]

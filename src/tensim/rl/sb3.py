@@ -54,9 +54,10 @@ class SB3VecEnv(VecEnv):
         obs, reward, terminated, truncated, info = self.env.step(self._actions)
         done = terminated | truncated
         columns = [info[k].tolist() for k in _TERMS]  # Python floats and bools, as .item()
-        infos: list[dict[str, Any]] = [dict(zip(_TERMS, row, strict=True))
-                                       for row in zip(*columns, strict=True)]
-        for i in np.flatnonzero(done):
+        infos: list[dict[str, Any]] = [
+            {"reward_progress": p, "reward_control": c, "reward_contact": k, "unstable": u}
+            for p, c, k, u in zip(*columns, strict=True)]
+        for i in done.nonzero()[0]:
             infos[i]["terminal_observation"] = info["final_obs"][i]
             infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
         return obs, reward.astype(np.float32), done, infos

@@ -12,7 +12,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from tensim._input import InputError
 from tensim.rl._render import Renders
 from tensim.rl._robot import Robot
-from tensim.rl._worlds import Worlds
+from tensim.rl._worlds import Worlds, any_true
 from tensim.rl.config import EnvConfig
 
 _MODES = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP,
@@ -112,29 +112,36 @@ class TensegrityVectorEnv(VectorEnv):
         """
         if not self._started:
             raise gym.error.ResetNeeded("call reset() before step()")
-        if self._ended.any():
+        if any_true(self._ended):
             raise gym.error.ResetNeeded(
                 f"robots {self._all[self._ended].tolist()} ended their episodes "
                 "(autoreset_mode='disabled'): reset them with "
                 "reset(options={'reset_mask': mask}) before stepping")
         commands, applied, clipped = self.robot.command(actions)
         n = self.num_envs
-        reward, terminated, truncated = np.zeros(n), np.zeros(n, bool), np.zeros(n, bool)
         info: dict[str, Any] = {}
-        live = self._all[~self._autoreset]
-        fresh = self._all[self._autoreset]
-        if fresh.size:  # next-step autoreset: these robots start over, their action unused
+        if not any_true(self._autoreset):  # (the common case: every robot steps, no copies)
+            reward, terminated, terms = self.worlds.step(self._all, commands, applied)
+            truncated = (self.worlds.steps >= self.robot.config.max_steps) & ~terminated
+            self._obs[:] = self.worlds.observe(self._all)
+            info = _step_info(n, self._all, terms, clipped)
+        else:
+            reward, terminated, truncated = np.zeros(n), np.zeros(n, bool), np.zeros(n, bool)
+            live = self._all[~self._autoreset]
+            fresh = self._all[self._autoreset]
+            # next-step autoreset: these robots start over, their action unused
             self.worlds.reset(fresh)
             self._obs[fresh] = self.worlds.observe(fresh)
-        if live.size:
-            r, done, terms = self.worlds.step(live, commands[live], applied[live])
-            reward[live] = r
-            terminated[live] = done
-            truncated[live] = (self.worlds.steps[live] >= self.robot.config.max_steps) & ~done
-            self._obs[live] = self.worlds.observe(live)
-            info = _step_info(n, live, terms, clipped)
+            if live.size:
+                r, done, terms = self.worlds.step(live, commands[live], applied[live])
+                reward[live] = r
+                terminated[live] = done
+                truncated[live] = (self.worlds.steps[live] >= self.robot.config.max_steps) \
+                    & ~done
+                self._obs[live] = self.worlds.observe(live)
+                info = _step_info(n, live, terms, clipped)
         ended = terminated | truncated
-        if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
+        if self.autoreset_mode == AutoresetMode.SAME_STEP and any_true(ended):
             info["final_obs"] = np.full(n, None, dtype=object)
             info["final_info"] = {k: v.copy() for k, v in info.items() if k != "final_obs"}
             for i in self._all[ended]:
@@ -169,13 +176,16 @@ def _step_info(n: int, live: np.ndarray, terms: dict[str, np.ndarray], clipped: 
     """Gymnasium's vector info: each key with its ``_key`` mask of the robots that have it."""
     mask = np.zeros(n, dtype=bool)
     mask[live] = True
+    every = live.size == n  # every robot stepped: the (new) term arrays are the columns
     info: dict[str, Any] = {}
     for key, values in (("reward_progress", terms["progress"]),
                         ("reward_control", terms["control"]),
                         ("reward_contact", terms["contact"]), ("unstable", terms["unstable"]),
-                        ("action_clipped", clipped[live])):
-        full = np.zeros(n, dtype=values.dtype)
-        full[live] = values
+                        ("action_clipped", clipped if every else clipped[live])):
+        full = values
+        if not every:
+            full = np.zeros(n, dtype=values.dtype)
+            full[live] = values
         info[key], info[f"_{key}"] = full, mask.copy()
     return info
 

@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from tensim.viz._child import helper_env
+
 OFFSCREEN = ("egl", "osmesa")
 _PROBE = """
 import mujoco
@@ -159,7 +161,7 @@ class GLServer:
     def __init__(self, backend: str, timeout: float = _PROBE_TIMEOUT_S):
         self.backend = backend
         ours, theirs = multiprocessing.Pipe()
-        env = {**os.environ, "MUJOCO_GL": backend}
+        env = helper_env(MUJOCO_GL=backend)
         env.pop("PYOPENGL_PLATFORM", None)
         script = Path(__file__).with_name("_glserver.py")
         try:

@@ -3,21 +3,25 @@
 Drawing a run folder's figures (matplotlib's import, then a dozen-panel grid per figure) took
 about as long as simulating the 60 s disturbance test. A command that knows its figures before
 it simulates names them in :class:`FigurePlan` records and opens a :class:`FigureDrawer`: with
-a second core free, a child process then loads matplotlib and lays out (and draws once) each
-figure's empty grid while the simulation runs, and after it only fills them with the data,
-while this process writes the folder's other files. Without a second core, or for a short run
+a second core free, a child process then loads matplotlib and lays out the empty grid of
+panels that the run's panel figures share while the simulation runs, and after it each figure
+fills that grid in turn (:func:`tensim.viz.plots.refit`), while this process
+writes the folder's other files. Without a second core, or for a short run
 whose simulation cannot hide the child's start, or with every core busy, the same functions
 draw in this process; the figures are the same either way.
 
-The child is a fresh interpreter (``python -m tensim.viz.drawing``: no copy of this process's
-MuJoCo, threads or OpenGL state, and none of its ``__main__``); it reads the plans and the
-data through a socket pair and writes the PNG files itself (atomically, as every figure). It
-ends with its socket: when the command finishes, fails or is killed.
+The child is a fresh interpreter (``python -P tensim/viz/_drawchild.py``: no copy of this
+process's MuJoCo, threads or OpenGL state, and none of its ``__main__``) that loads numpy,
+matplotlib and the drawing modules only, not the tensim package and its MuJoCo; it reads the
+plans and the data (the channels each figure draws) through a socket pair and writes the PNG
+files itself (atomically, as every figure). It ends with its socket: when the command
+finishes, fails or is killed.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import logging
 import multiprocessing
 import os
@@ -32,6 +36,9 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from tensim.viz._child import helper_env
 from tensim.viz._span import Span as Span  # re-exported: the plans name their spans
 
 log = logging.getLogger(__name__)
@@ -108,6 +115,7 @@ class FigureDrawer:
             raise ValueError("two figure plans share a file name")
         self._pending: dict[str, tuple[Any, Path, dict[str, Any]]] = {}
         self.handed: set[str] = set()  # the files handed to draw() so far
+        self._grid: Any = None  # the last panel grid drawn here, filled again by the next
         self._conn: Connection | None = None
         self._process: subprocess.Popen[bytes] | None = None
         if background:
@@ -115,14 +123,14 @@ class FigureDrawer:
 
     def _start(self) -> None:
         ours, theirs = multiprocessing.Pipe()
-        # the child imports this very tensim, wherever this process found it
-        here = str(Path(__file__).resolve().parents[2])
-        path = os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p)
+        # the child runs this very tensim's modules (the script finds them beside it); -P:
+        # the script's folder (tensim/viz) is not put on the path
+        script = Path(__file__).with_name("_drawchild.py")
         try:
             process = subprocess.Popen(
-                [sys.executable, "-m", "tensim.viz.drawing", str(theirs.fileno())],
+                [sys.executable, "-P", str(script), str(theirs.fileno())],
                 pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL, env={**os.environ, "PYTHONPATH": path})
+                stdout=subprocess.DEVNULL, env=helper_env())
             ours.send(list(self.plans.values()))
         except OSError as err:
             log.info("figures drawn in this process: no drawing process (%s)", err)
@@ -155,12 +163,12 @@ class FigureDrawer:
             return path
         if self._conn is not None:
             try:
-                self._conn.send((file, data, path, late))
+                self._conn.send((file, portable(plan.kind, data), path, late))
                 self._pending[file] = (data, path, late)
                 return path
             except (OSError, ValueError) as err:
                 self._lost(err)
-        _draw(plan, data, path, late, grid=None)
+        self._grid = _draw(plan, data, path, late, self._grid) or self._grid
         return path
 
     def wait(self) -> None:
@@ -180,7 +188,8 @@ class FigureDrawer:
             if error is not None:
                 failures.append(f"{file}: {error}")
         for file, (data, path, late) in list(self._pending.items()):
-            _draw(self.plans[file], data, path, late, grid=None)  # the child was lost
+            # the child was lost
+            self._grid = _draw(self.plans[file], data, path, late, self._grid) or self._grid
             del self._pending[file]
         if failures:
             raise FigureError("a figure could not be drawn:\n" + "\n".join(failures))
@@ -221,32 +230,59 @@ class FigureDrawer:
         self.close()
 
 
-def _draw(plan: FigurePlan, data: Any, path: Path, late: Mapping[str, Any], grid: Any) -> None:
+# The channels (by quantity) each kind of figure draws from a time series.
+QUANTITIES = {"tensions": ("tension", "setpoint"), "lengths": ("length", "rest_length"),
+              "path": ("pos_x", "pos_y")}
+
+
+def portable(kind: str, data: Any) -> Any:
+    """What a figure of ``kind`` is sent of ``data``: of a time series, the channels it draws
+    (a quarter or less of a run's); of a V* table, its :class:`~tensim.viz._held.HeldInputs`
+    (which the drawing process loads without the controllers)."""
+    from tensim.viz._held import HeldInputs
+
+    if kind in QUANTITIES and hasattr(data, "channels"):
+        return type(data)(data.time, {name: values for name, values in data.channels.items()
+                                      if name.partition("/")[0] in QUANTITIES[kind]})
+    if kind == "velocity_input" and hasattr(data, "period"):
+        return HeldInputs(tuple(data.cables), float(data.period), np.asarray(data.values))
+    return data
+
+
+def _draw(plan: FigurePlan, data: Any, path: Path, late: Mapping[str, Any], grid: Any) -> Any:
+    """Draws ``plan``'s figure of ``data`` into ``path``; a panel figure into ``grid``, a panel
+    grid drawn before (its figures share their panels: the plot function refits it, see
+    :func:`tensim.viz.plots.refit`; None: a new one). Returns the panel grid it drew into (None:
+    not a panel figure, or one the plot function laid out itself)."""
     from tensim.viz import plots
 
     function = getattr(plots, KINDS[plan.kind])
     options = {**plan.options, **late}
-    if grid is not None:
-        options["grid"] = grid
+    if plan.kind in plots.PANELS:
+        options["grid"] = grid if grid is not None else _lay_out(plan)
     function(data, path, **options)
+    return options.get("grid")
 
 
 def _lay_out(plan: FigurePlan) -> Any:
-    """The plan's empty panel grid, drawn once (None: a kind or plan without one)."""
+    """The plan's empty panel grid (None: a kind or plan without one).
+
+    It is not drawn: drawing the empty grid ahead (its ticks and text) moved some work before
+    the run's end, but cost the drawing process more CPU time in all (0.3 s of the disturbance
+    test's 1.6 s).
+    """
     from tensim.viz import plots
 
     if plan.kind not in plots.PANELS or "cables" not in plan.options:
         return None
     function = getattr(plots, KINDS[plan.kind])
-    defaults = function.__kwdefaults__ or {}
+    defaults = inspect.unwrap(function).__kwdefaults__ or {}
     options = {**defaults, **plan.options}
-    grid = plots.panel_grid(plan.kind, options["cables"], options["columns"], options["title"],
+    return plots.panel_grid(plan.kind, options["cables"], options["columns"], options["title"],
                             options.get("tags"))
-    grid.figure.canvas.draw()  # makes the ticks and the text now, while the run simulates
-    return grid
 
 
-def _serve(conn: Connection) -> None:
+def serve(conn: Connection) -> None:
     """The drawing process: lays out the planned grids, then draws what it is sent.
 
     A thread takes the jobs off the socket as they come, so the parent never waits for a
@@ -267,12 +303,13 @@ def _serve(conn: Connection) -> None:
     plans = jobs.get()
     if plans is None:
         return
-    grids = {plan.file: _lay_out(plan) for plan in plans}
+    # one grid: the run's panel figures share their panels, and each fills it in turn
+    grid = next((g for g in map(_lay_out, plans) if g is not None), None)
     by_file = {plan.file: plan for plan in plans}
     while (job := jobs.get()) is not None:
         file, data, path, late = job
         try:
-            _draw(by_file[file], data, path, late, grid=grids.pop(file, None))
+            grid = _draw(by_file[file], data, path, late, grid) or grid
             error = None
         except Exception:  # reported to the parent, which raises it
             error = traceback.format_exc()
@@ -281,7 +318,3 @@ def _serve(conn: Connection) -> None:
         except OSError:
             return
 
-
-if __name__ == "__main__":  # the drawing process: python -m tensim.viz.drawing FD
-    _serve(Connection(int(sys.argv[1])))
-    os._exit(0)  # its files are written and closed: skip the interpreter's slow shutdown

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import functools
+import gc
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, ParamSpec, TypeVar
 
 import matplotlib
 import numpy as np
@@ -16,15 +20,50 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from tensim._files import atomic_path
-from tensim.control.velocity_table import VelocityTable
-from tensim.sim import TimeSeries
 from tensim.viz._span import Span
+
+if TYPE_CHECKING:  # not imported: the drawing process loads no simulation or controller
+    from tensim.control.velocity_table import VelocityTable
+    from tensim.sim import TimeSeries
+    from tensim.viz._held import HeldInputs
 
 DPI = 120  # the saved figures' resolution [pixels per inch]
 # A panel's plot area is at most 3.5 in wide: a line is drawn from the smallest and largest
 # sample of each of its pixel columns.
 PANEL_PIXELS = round(3.5 * DPI)
 SETTLE_S = 0.2  # the y axis ignores commanded tensions before this: the start-up transient [s]
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+@contextlib.contextmanager
+def gc_paused() -> Iterator[None]:
+    """Python's cyclic garbage collector paused for the block.
+
+    A panel figure makes tens of thousands of small objects (artists, paths, transforms),
+    and each few hundred of them start a collection that walks every object the process
+    holds (a whole simulation's worth of modules): 10-15 % of a figure's CPU time. The
+    figure's own cycles are collected after the block, as before.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _gc_paused(function: Callable[P, R]) -> Callable[P, R]:
+    """Runs ``function`` under :func:`gc_paused`."""
+
+    @functools.wraps(function)
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
+        with gc_paused():
+            return function(*args, **kwargs)
+
+    return wrapper
 
 
 def thin(x: np.ndarray, y: np.ndarray, pixels: int = PANEL_PIXELS
@@ -117,8 +156,10 @@ class PanelGrid:
     """The empty grid of a panel figure: one labelled panel per cable (or group of cables,
     :func:`cable_panels`), no data yet.
 
-    It can be laid out (and drawn once, which makes its ticks and text) before a run ends; a
-    plot function of the same ``kind``, panels, columns and title then only fills it.
+    It can be laid out before a run ends; a plot function of the same ``kind``, panels,
+    columns and title then only fills it. Once
+    drawn, a plot function of any panel kind on the same panels and columns fills it again
+    (:func:`refit`).
     """
 
     kind: str
@@ -132,6 +173,7 @@ class PanelGrid:
             (kind, tuple(panels), columns, title)
 
 
+@_gc_paused
 def panel_grid(kind: str, cables: Sequence[str], columns: int = 3, title: str = "",
                tags: Mapping[str, Sequence[str]] | None = None) -> PanelGrid:
     """Lays out the empty grid of a panel figure of ``kind`` (see :data:`PANELS`) for
@@ -143,18 +185,11 @@ def panel_grid(kind: str, cables: Sequence[str], columns: int = 3, title: str = 
 
 
 def _grid(kind: str, panels: tuple[Panel, ...], columns: int, title: str) -> PanelGrid:
-    ylabel, height = PANELS[kind]
     rows = max(1, math.ceil(len(panels) / columns))
-    header = 0.85 if "\n" in title else 0.65 if title else 0.35  # title and panel titles [in]
-    width, fig_height = 4.2 * columns, height * rows + header
-    fig = new_figure((width, fig_height))
+    fig = new_figure(_size(kind, rows, columns, title))
     axes = fig.subplots(rows, columns, squeeze=False)
-    fig.subplots_adjust(left=0.62 / width, right=1 - 0.15 / width, bottom=0.5 / fig_height,
-                        top=1 - header / fig_height,
-                        wspace=0.75 / 4.2, hspace=0.55 / height)
     for ax, (name, _) in zip(axes.flat, panels, strict=False):
         ax.set_title(name, fontsize=9, pad=3, y=1.0)  # a fixed y skips a costly layout pass
-        ax.set_ylabel(ylabel, fontsize=8)
         ax.tick_params(labelsize=7)
         ax.xaxis.set_major_locator(MaxNLocator(5))  # few ticks: each is a costly artist
         ax.yaxis.set_major_locator(MaxNLocator(4))
@@ -165,20 +200,71 @@ def _grid(kind: str, panels: tuple[Panel, ...], columns: int, title: str) -> Pan
         ax.tick_params(labelbottom=False)  # shared axes: their transforms cost 0.2 s a figure)
     for ax in axes[-1]:
         ax.set_xlabel("time [s]", fontsize=8)
-    if title:  # 0.2 in from the top of a tall figure (2 % of its height: into the panels)
-        fig.suptitle(title, fontsize=11, y=0.98 if fig_height <= 12 else 1 - 0.2 / fig_height)
-    return PanelGrid(kind, panels, columns, title, fig)
+    return _label(PanelGrid(kind, panels, columns, title, fig), rows)
+
+
+def _size(kind: str, rows: int, columns: int, title: str) -> tuple[float, float]:
+    """A panel figure's (width, height) [in]."""
+    return 4.2 * columns, PANELS[kind][1] * rows + _header(title)
+
+
+def _header(title: str) -> float:
+    """The height above the panels for the title and the panel titles [in]."""
+    return 0.85 if "\n" in title else 0.65 if title else 0.35
+
+
+def _label(grid: PanelGrid, rows: int) -> PanelGrid:
+    """Sets what a grid's kind and title decide: its size, margins, y labels and title.
+
+    The margins are fixed in inches (no automatic layout pass, which cost a second a figure).
+    """
+    fig, title = grid.figure, grid.title
+    ylabel, height = PANELS[grid.kind]
+    width, fig_height = _size(grid.kind, rows, grid.columns, title)
+    header = _header(title)
+    fig.set_size_inches(width, fig_height)
+    fig.subplots_adjust(left=0.62 / width, right=1 - 0.15 / width, bottom=0.5 / fig_height,
+                        top=1 - header / fig_height,
+                        wspace=0.75 / 4.2, hspace=0.55 / height)
+    for ax in fig.axes[:len(grid.panels)]:
+        ax.set_ylabel(ylabel, fontsize=8)
+    # 0.2 in from the top of a tall figure (2 % of its height: into the panels); an empty
+    # title draws nothing (and empties a refitted grid's)
+    fig.suptitle(title, fontsize=11, y=0.98 if fig_height <= 12 else 1 - 0.2 / fig_height)
+    return grid
+
+
+def refit(grid: PanelGrid, kind: str, title: str = "") -> PanelGrid:
+    """``grid``'s figure, after it was drawn and saved, emptied of its data and labelled for a
+    figure of ``kind`` and ``title`` on the same panels (tensions.png, lengths.png and
+    velocity_input.png of a run share their panels): its axes, panel titles and ticks are
+    made once, not once per figure. It draws the same pixels as a grid laid out afresh.
+    """
+    for ax in grid.figure.axes[:len(grid.panels)]:
+        for artist in [*ax.lines, *ax.patches, *ax.collections]:
+            artist.remove()
+        legend = ax.get_legend()
+        if legend is not None:
+            legend.remove()
+        ax.relim()  # no data: the limits come from the next lines, as in a new grid
+        ax.set_autoscale_on(True)
+        ax.set_prop_cycle(None)  # each figure's lines start at the first colour
+    rows = max(1, math.ceil(len(grid.panels) / grid.columns))
+    return _label(PanelGrid(kind, grid.panels, grid.columns, title, grid.figure), rows)
 
 
 def _panels(grid: PanelGrid | None, kind: str, cables: Sequence[str], columns: int, title: str,
             draw: Callable[[Axes, str], None], draw_group: Callable[[Axes, Sequence[str]], None],
             tags: Mapping[str, Sequence[str]] | None) -> Figure:
-    """Fills ``grid`` (or a new grid, where it was laid out for other cables or options) with
+    """Fills ``grid`` (refitted where it holds another figure, :func:`refit`; a new grid where
+    it was laid out for other panels or columns) with
     ``draw(ax, cable)`` per single-cable panel and ``draw_group(ax, cables)`` per shared one,
     and the legend."""
     panels = cable_panels(cables, tags)
-    if grid is None or not grid.fits(kind, panels, columns, title):
+    if grid is None or (grid.panels, grid.columns) != (panels, columns):
         grid = _grid(kind, panels, columns, title)
+    elif not grid.fits(kind, panels, columns, title) or _holds_data(grid):
+        grid = refit(grid, kind, title)
     axes = grid.figure.axes
     for ax, (_, names) in zip(axes, panels, strict=False):
         if len(panels) == len(cables):
@@ -188,6 +274,11 @@ def _panels(grid: PanelGrid | None, kind: str, cables: Sequence[str], columns: i
     if axes and axes[0].get_legend_handles_labels()[0]:
         axes[0].legend(fontsize=7, loc="best")
     return grid.figure
+
+
+def _holds_data(grid: PanelGrid) -> bool:
+    """Whether a plot function has drawn into ``grid`` (lines, line groups, shaded spans)."""
+    return any(ax.lines or ax.collections or ax.patches for ax in grid.figure.axes)
 
 
 def _lines(ax: Axes, t: np.ndarray, lines: Sequence[np.ndarray], ls: str = "solid") -> None:
@@ -210,6 +301,7 @@ def _commanded(series: TimeSeries, name: str) -> np.ndarray | None:
     return values if np.isfinite(values).any() else None
 
 
+@_gc_paused
 def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
                         title: str = "", columns: int = 3,
                         spans: Sequence[Span] = (), grid: PanelGrid | None = None,
@@ -263,6 +355,7 @@ def plot_cable_tensions(series: TimeSeries, path: Path, *, cables: Sequence[str]
                                tags), path)
 
 
+@_gc_paused
 def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None = None,
                  columns: int = 3, title: str = LENGTHS_TITLE, grid: PanelGrid | None = None,
                  tags: Mapping[str, Sequence[str]] | None = None) -> Path:
@@ -292,6 +385,7 @@ def plot_lengths(series: TimeSeries, path: Path, *, cables: Sequence[str] | None
 PATH_LEGEND = 12  # bodies named in a path figure's legend; more are drawn as one grey bundle
 
 
+@_gc_paused
 def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None,
               title: str = "") -> Path:
     """Top view (x, y) of the bodies' paths [m] (``items``; None: every recorded body and the
@@ -322,7 +416,8 @@ def plot_path(series: TimeSeries, path: Path, items: Sequence[str] | None = None
     return save_figure(fig, path)
 
 
-def plot_velocity_input(table: VelocityTable, path: Path, *,
+@_gc_paused
+def plot_velocity_input(table: VelocityTable | HeldInputs, path: Path, *,
                         cables: Sequence[str] | None = None, columns: int = 3,
                         until: float | None = None, title: str = VELOCITY_TITLE,
                         grid: PanelGrid | None = None,
@@ -378,7 +473,10 @@ def save_figure(fig: Figure, path: Path, dpi: int = DPI) -> Path:
     if fig.dpi != dpi:
         fig.set_dpi(dpi)
     canvas.draw()
-    image = Image.fromarray(np.asarray(canvas.buffer_rgba()))
+    pixels = np.asarray(canvas.buffer_rgba())
+    image = Image.fromarray(pixels)
+    if pixels[..., 3].min() == 255:  # opaque: the same picture, a quarter less to compress
+        image = image.convert("RGB")
     with atomic_path(path) as tmp:
         # zlib level 3: 5 % larger files than matplotlib's 6, written in 60 % of the time
         image.save(tmp, format="png", compress_level=3)
