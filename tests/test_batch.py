@@ -188,7 +188,7 @@ def test_the_rollout_benchmark_replays_exactly_the_batch_trials():
     act = mujoco.mj_stateSize(compiled.model, mujoco.mjtState.mjSTATE_TIME) + compiled.model.nq \
         + compiled.model.nv  # where act starts in a full-physics state
     for k, trial in enumerate(trials):
-        rest = states[k, -1, act:act + 2 * compiled.n_cables:2]
+        rest = compiled.index.cable_act(states[k, -1, act:act + compiled.model.na])
         np.testing.assert_array_equal(trial.result.trajectory.matrix("rest_length")[-1], rest)
 
 

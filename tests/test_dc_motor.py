@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from tensim.model import WorldOptions, compile_structure
+from tensim.model._law_layout import A_PEAK_POWER, A_PEAK_SPEED, A_SPEED, ACTDIM, DC_ACTDIM
 from tensim.models import preset
 from tensim.sim import PhysicsScale, Simulation, Trial, cable_law, compiled_available, run_batch
 from tensim.sim._laws import dc_drive, dc_motor_speed
@@ -196,17 +197,19 @@ def test_compiled_law_equals_the_reference_with_dc_motors():
     p = preset("tetraspine3")
     compiled = compile_structure(_mixed(p.build()))
     m = compiled.model
-    assert list(m.actuator_actnum[:4]) == [2, 3, 2, 3]
+    assert list(m.actuator_actnum[:4]) == [ACTDIM, DC_ACTDIM, ACTDIM, DC_ACTDIM]
     rng = np.random.default_rng(11)
     with Simulation(compiled, controller=p.controller()) as sim:
         d, n, rest = sim.data, compiled.n_cables, compiled.index.rest_act
-        dc = m.actuator_actnum[:n] == 3
+        dc = m.actuator_actnum[:n] == DC_ACTDIM
         for trial in range(20):
             sim.drive.mode[:] = rng.integers(0, 2, n)
             d.qvel[:] = rng.normal(0, 0.5, m.nv)
             d.act[rest] = compiled.rest_length * rng.uniform(0.8, 1.2, n)
             d.act[rest + 1] = rng.uniform(0, 30, n)
-            d.act[rest[dc] + 2] = rng.normal(0, 0.05, dc.sum())
+            d.act[rest[dc] + A_SPEED] = rng.normal(0, 0.05, dc.sum())
+            d.act[rest + A_PEAK_SPEED] = rng.uniform(0, 0.1, n)  # m/s
+            d.act[rest + A_PEAK_POWER] = rng.uniform(0, 1.0, n)  # W
             d.ctrl[:n] = np.where(sim.drive.mode == 1, rng.normal(0, 0.05, n),
                                   compiled.rest_length * rng.uniform(0.8, 1.2, n))
             mujoco.mj_forward(m, d)
@@ -214,7 +217,9 @@ def test_compiled_law_equals_the_reference_with_dc_motors():
             assert np.abs(rates.speed_rate[dc]).max() > 0, trial  # the spools do accelerate
             np.testing.assert_array_equal(d.act_dot[rest], rates.rest_rate)
             np.testing.assert_array_equal(d.act_dot[rest + 1], rates.peak_rate)
-            np.testing.assert_array_equal(d.act_dot[rest[dc] + 2], rates.speed_rate[dc])
+            np.testing.assert_array_equal(d.act_dot[rest[dc] + A_SPEED], rates.speed_rate[dc])
+            np.testing.assert_array_equal(d.act_dot[rest + A_PEAK_SPEED], rates.peak_speed_rate)
+            np.testing.assert_array_equal(d.act_dot[rest + A_PEAK_POWER], rates.peak_power_rate)
             np.testing.assert_array_equal(d.actuator_force[:n], rates.force)
 
 

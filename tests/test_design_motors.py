@@ -22,7 +22,8 @@ def run_folder(tmp_path_factory: pytest.TempPathFactory):
 
 
 def _by_hand(series: TimeSeries, cable: str) -> dict[str, float]:
-    """Peak and RMS tension, peak speed, peak power and positive work, with plain loops."""
+    """Peak and RMS tension, peak speed, peak power through the spool and positive work of the
+    samples, with plain loops."""
     t = list(series.time)
     tension = list(series[f"tension/{cable}"])
     rest = list(series[f"rest_length/{cable}"])
@@ -35,7 +36,7 @@ def _by_hand(series: TimeSeries, cable: str) -> dict[str, float]:
     work = sum(0.5 * (max(power[i], 0) + max(power[i + 1], 0)) * (t[i + 1] - t[i])
                for i in range(n - 1))
     return {"peak T [N]": max(tension), "rms T [N]": math.sqrt(sum(x * x for x in tension) / n),
-            "peak u [m/s]": max(abs(v) for v in speed), "peak P [W]": max(power),
+            "peak u [m/s]": max(abs(v) for v in speed), "peak P [W]": max(map(abs, power)),
             "W [J]": work}
 
 
@@ -48,23 +49,38 @@ def test_sizing_matches_hand_figures(run_folder, tmp_path, capsys) -> None:
     summary = json.loads((out / "summary.json").read_text())
     assert (out / "operating_points.png").exists()
     series = TimeSeries.from_parquet(run_folder / "trajectory.parquet")
+    run = json.loads((run_folder / "summary.json").read_text())
+    assert summary["peaks_tracked"] is True
+    tracked = {c: (run["max_tension_N"][c], run["max_line_speed_m_s"][c], run["max_power_W"][c])
+               for c in series.items("tension")}
     for row in summary["cables"]:
         hand = _by_hand(series, row["cable"])
+        # the peaks: the simulation's over every step (a sample may top them by round-off)
+        for key, peak in zip(("peak T [N]", "peak u [m/s]", "peak P [W]"),
+                             tracked[row["cable"]], strict=True):
+            hand[key] = max(hand[key], peak)
         for key, value in hand.items():
             assert row[key] == pytest.approx(value, rel=1e-9, abs=1e-12), (row["cable"], key)
         # shaft: tau = 1.15 T R / N, omega = 1.15 u N / R
         assert row["tau [N m]"] == pytest.approx(1.15 * hand["peak T [N]"] * 0.01 / 20)
         assert row["omega [rad/s]"] == pytest.approx(1.15 * hand["peak u [m/s]"] * 20 / 0.01)
-    # the margin by hand: 1 - max over samples of tau/tau_s + omega/omega_0, worst cable
+    # the margin by hand: 1 - max over samples of tau/tau_s + omega/omega_0, and over the
+    # corners (T*, min(u*, P*/T*)) and (min(T*, P*/u*), u*) of the peaks' region, worst cable
+    a, b = 1.15 * 0.01 / 20 / 0.2, 1.15 * 20 / 0.01 / 800.0  # per N, per m/s
     worst = 1.0
+    rows = {row["cable"]: row for row in summary["cables"]}
     for cable in series.items("tension"):
         tension = series[f"tension/{cable}"]
         t, rest = series.time, series[f"rest_length/{cable}"]
         for i in range(len(t)):
             lo, hi = max(i - 1, 0), min(i + 1, len(t) - 1)
             u = abs((rest[hi] - rest[lo]) / (t[hi] - t[lo]))
-            use = 1.15 * max(tension[i], 0) * 0.01 / 20 / 0.2 + 1.15 * u * 20 / 0.01 / 800.0
-            worst = min(worst, 1.0 - use)
+            worst = min(worst, 1.0 - (a * max(tension[i], 0) + b * u))
+        peak_t, peak_u, peak_p = (rows[cable][k] for k in ("peak T [N]", "peak u [m/s]",
+                                                          "peak P [W]"))
+        for corner_t, corner_u in ((peak_t, min(peak_u, peak_p / peak_t)),
+                                   (min(peak_t, peak_p / peak_u), peak_u)):
+            worst = min(worst, 1.0 - (a * corner_t + b * corner_u))
     assert summary["motor_margins"]["m1"] == pytest.approx(worst, rel=1e-9)
     assert "motor m1: pass" in capsys.readouterr().out
 
@@ -91,7 +107,7 @@ def test_batch_of_unscaled_robots_equals_a_single_run() -> None:
     # gives the same duty as tensim.simulate (the CPU batch is bit-identical to single runs)
     import tensim
     from tensim.control import load_controller
-    from tensim.design.motors import cable_duty
+    from tensim.design.motors import cable_duty, tracked_peaks
     from tensim.design.robots import gait_duties, random_scales
     from tensim.structure import load_structure
 
@@ -99,11 +115,13 @@ def test_batch_of_unscaled_robots_equals_a_single_run() -> None:
     structure = load_structure(examples / "hopper.yaml")
     config = load_controller(examples / "hopper_roll.yaml", structure)
     compiled = tensim.compile_structure(structure)
-    single = cable_duty(tensim.simulate(compiled, 1.0, controller=config.build(1e-3)).trajectory)
+    run = tensim.simulate(compiled, 1.0, controller=config.build(1e-3))
+    single = cable_duty(run.trajectory, tracked=tracked_peaks(run))
     batch, done = gait_duties(compiled, lambda: config.build(1e-3), 1.0, random_scales(1, 0.0, 0))
     assert done == 1
     for a, b in zip(single, batch, strict=True):
-        assert (a.cable, a.peak_tension, a.work) == (b.cable, b.peak_tension, b.work)
+        assert (a.cable, a.peak_tension, a.peak_speed, a.peak_power, a.work, a.tracked) == \
+            (b.cable, b.peak_tension, b.peak_speed, b.peak_power, b.work, b.tracked)
     scales = random_scales(3, 0.2, seed=7)
     assert scales == random_scales(3, 0.2, seed=7)  # seeded
     assert all(0.8 <= s.stiffness <= 1.2 and 0.8 <= s.mass <= 1.2 for s in scales)
@@ -114,14 +132,15 @@ def test_the_command_sizes_a_gait_on_randomised_robots(tmp_path) -> None:
     # are a plain simulation's, and the shaft torque is safety x peak T x spool radius / gear
     import tensim
     from tensim.control import load_controller
-    from tensim.design.motors import cable_duty
+    from tensim.design.motors import cable_duty, tracked_peaks
     from tensim.structure import load_structure
 
     examples = Path(__file__).resolve().parent.parent / "examples" / "design"
     structure = load_structure(examples / "hopper.yaml")
     config = load_controller(examples / "hopper_roll.yaml", structure)
     compiled = tensim.compile_structure(structure)
-    single = cable_duty(tensim.simulate(compiled, 0.5, controller=config.build(1e-3)).trajectory)
+    run = tensim.simulate(compiled, 0.5, controller=config.build(1e-3))
+    single = cable_duty(run.trajectory, tracked=tracked_peaks(run))
     out = tmp_path / "size"
     assert main(["--quiet", "design", "size", "--model", str(examples / "hopper.yaml"),
                  "--controller", str(examples / "hopper_roll.yaml"), "--robots", "1",

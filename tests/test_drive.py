@@ -8,6 +8,7 @@ import pytest
 
 from tensim.control import load_controller
 from tensim.model import WorldOptions, compile_structure
+from tensim.model._law_layout import A_PEAK_POWER, A_PEAK_SPEED, theta
 from tensim.models import preset
 from tensim.sim import Simulation, cable_law, compiled_available, ramp_hold_release, simulate
 
@@ -94,7 +95,7 @@ def test_simultaneous_simulations_do_not_interfere():
 
 
 @needs_compiled
-@pytest.mark.parametrize("law", ["explicit", "implicit"])
+@pytest.mark.parametrize("law", ["explicit", "implicit", "implicitfast"])
 def test_compiled_law_equals_the_reference_on_random_states(law):
     """For random rest lengths, commands, modes and motions, the compiled callbacks write the
     act_dot and actuator force that tensim.sim.cable_law computes from the same data (under
@@ -111,6 +112,8 @@ def test_compiled_law_equals_the_reference_on_random_states(law):
             d.qvel[:] = rng.normal(0, 0.5, m.nv)
             d.act[0:s * n:s] = compiled.rest_length * rng.uniform(0.8, 1.6, n)
             d.act[1:s * n:s] = rng.uniform(0, 30, n)
+            d.act[A_PEAK_SPEED:s * n:s] = rng.uniform(0, 0.14, n)  # m/s, 2x max_speed: some hold
+            d.act[A_PEAK_POWER:s * n:s] = rng.uniform(0, 1.0, n)  # W
             d.ctrl[:n] = np.where(sim.drive.mode == 1, rng.normal(0, 0.05, n),
                                   compiled.rest_length * rng.uniform(0.8, 1.2, n))
             mujoco.mj_forward(m, d)
@@ -118,17 +121,22 @@ def test_compiled_law_equals_the_reference_on_random_states(law):
             assert np.abs(rates.rest_rate).max() > 0, trial  # the motors do move
             np.testing.assert_array_equal(d.act_dot[0:s * n:s], rates.rest_rate)
             np.testing.assert_array_equal(d.act_dot[1:s * n:s], rates.peak_rate)
+            np.testing.assert_array_equal(d.act_dot[A_PEAK_SPEED:s * n:s], rates.peak_speed_rate)
+            np.testing.assert_array_equal(d.act_dot[A_PEAK_POWER:s * n:s], rates.peak_power_rate)
+            assert 0 < np.count_nonzero(rates.peak_speed_rate) < n  # some peaks rise, some hold
             np.testing.assert_array_equal(d.actuator_force[:n], rates.force)
-            if law == "implicit":  # the pull: -1 exactly where taut after the motor step
-                d.act[2:s * n:s] = rng.choice([-1.0, 0.0], n)
+            if law != "explicit":  # the pull: -theta exactly where taut after the motor step
+                pulled = -theta(m)  # 1/2 under the discrete integrator, 1 under implicitfast
+                assert pulled == {"implicit": -0.5, "implicitfast": -1.0}[law]
+                d.act[s - 1:s * n:s] = rng.choice([pulled, 0.0], n)
                 mujoco.mj_forward(m, d)
                 rates = cable_law(m, d)
-                np.testing.assert_array_equal(d.act_dot[2:s * n:s], rates.pull_rate)
+                np.testing.assert_array_equal(d.act_dot[s - 1:s * n:s], rates.pull_rate)
                 np.testing.assert_array_equal(d.actuator_force[:n], rates.force)
-                pull = d.act[2:s * n:s] + rates.pull_rate * m.opt.timestep
+                pull = d.act[s - 1:s * n:s] + rates.pull_rate * m.opt.timestep
                 rest = d.act[0:s * n:s] + rates.rest_rate * m.opt.timestep
                 taut = d.ten_length[compiled.index.tendon] > rest
-                np.testing.assert_allclose(pull, np.where(taut, -1.0, 0.0), atol=1e-12)
+                np.testing.assert_allclose(pull, np.where(taut, pulled, 0.0), atol=1e-12)
                 assert 0 < taut.sum() < n and np.all(rates.force[~taut] == 0.0)
 
 

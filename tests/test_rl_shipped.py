@@ -63,12 +63,13 @@ def test_the_shipped_randomised_policy_rolls_on_nominal_and_heavier_physics():
         assert along / run["time"][-1] / body_length("three_bar") >= least, physics
 
 
-def test_the_shipped_6_bar_policy_rolls_along_its_heading():
-    # docs/rl.md: 0.227 body lengths/s over 30 s from the start of seed 2 (0.095 and 0.142
-    # from seeds 0 and 1: the goal of 0.2 is reached from one start of three)
+def test_the_shipped_6_bar_policy_runs_as_docs_rl_md_says():
+    # docs/rl.md: the goal (0.2 body lengths/s) is NOT met; from the start of seed 0 the
+    # policy rolls about 3 m along its heading in 30 s (0.099 body lengths/s), stably
     settings, policy = load_policy(EXAMPLES / "six_bar_roll" / "seed0" / "policy.json")
     assert settings.model == "six_bar" and settings.timestep == 0.005
-    run = run_policy(settings, policy, 30.0, seed=2)
+    assert policy.meta["training"]["env_steps"] == 2_998_272
+    run = run_policy(settings, policy, 30.0, seed=0)
     assert not run["unstable"]
     along = (run["com"][-1, :2] - run["com"][0, :2]) @ run["heading"]
-    assert along / run["time"][-1] / body_length("six_bar") >= 0.2
+    assert 0.05 <= along / run["time"][-1] / body_length("six_bar") < 0.2

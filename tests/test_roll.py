@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from tensim.control.rolling import support_edges, support_face
+from tensim.control.rolling import MOVED_M, heading_error_deg, support_edges, support_face
 from tensim.design import check_structure
 from tensim.experiments.roll import body_length, roll
 from tensim.models import three_bar
@@ -72,6 +72,27 @@ def test_summary_fields_from_the_trajectory(runs, heading):
     assert summary["distance_m"] == pytest.approx(distance, abs=1e-6)
     assert summary["body_lengths_per_s"] == pytest.approx(distance / STRUT / DURATION, abs=1e-6)
     assert summary["heading_error_deg"] == pytest.approx(error, abs=1e-3)
+
+
+@pytest.mark.parametrize("heading_deg", [0.0, 90.0, -150.0])
+@pytest.mark.parametrize("turn_deg", [0.0, 30.0, -45.0, 120.0, -170.0])
+def test_heading_error_is_the_signed_angle_from_the_heading(heading_deg, turn_deg):
+    # the displacement is the heading turned counter-clockwise by turn_deg: that is the error
+    h = math.radians(heading_deg)
+    heading = np.array([math.cos(h), math.sin(h)])
+    for length in (0.05, 3.0):
+        moved = length * np.array([math.cos(h + math.radians(turn_deg)),
+                                   math.sin(h + math.radians(turn_deg))])
+        assert heading_error_deg(moved, heading) == pytest.approx(turn_deg, abs=1e-9)
+    assert heading_error_deg(0.99 * MOVED_M * heading, heading) is None  # too short to say
+
+
+def test_the_roll_experiment_and_the_rl_evaluation_share_the_heading_error():
+    from tensim.experiments import roll as experiment
+    from tensim.rl import evaluate
+
+    assert experiment.heading_error_deg is heading_error_deg
+    assert evaluate.heading_error_deg is heading_error_deg
 
 
 def test_goal_point_steers_toward_it():

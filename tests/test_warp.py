@@ -45,6 +45,10 @@ def test_warp_worlds_agree_with_the_cpu_engine():
         assert np.abs(a.matrix("tension") - b.matrix("tension")).max() < 1.0
         assert np.abs(a.matrix("rest_length") - b.matrix("rest_length")).max() < 1e-3
         np.testing.assert_allclose(w.result.peak_tension, c.result.peak_tension, atol=0.5)
+        # the kernel tracks the peak line speed and power too (measured: within 5.7e-6 m/s and
+        # 0.006 W; a kernel that dropped either would read 0.07 m/s and ~1 W off)
+        np.testing.assert_allclose(w.result.peak_speed, c.result.peak_speed, atol=3e-5)
+        np.testing.assert_allclose(w.result.peak_power, c.result.peak_power, atol=0.03)
         for axis in "xyz":
             assert np.abs(a[f"pos_{axis}/com"] - b[f"pos_{axis}/com"]).max() < 1e-3
     # the per-world parameters took effect: the stiffer robot's tensions differ from the gait's

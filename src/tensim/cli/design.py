@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tensim.cli._common import load_model, output_option, positive
 
 if TYPE_CHECKING:
-    from tensim.design.motors import CableDuty
+    from tensim.design.motors import CableDuty, TrackedPeaks
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -348,9 +349,17 @@ def run_size(args: argparse.Namespace) -> int:
                 limits = {c.name: (c.motor.max_speed, c.motor.max_tension)
                           for c in load_structure(folder / STRUCTURE_FILE).cables}
             series = TimeSeries.from_parquet(folder / "trajectory.parquet")
-            motors.check_sampling(series, _tracked_peaks(folder), str(folder))
-            runs.append(motors.cable_duty(series, limits))
+            summary = _run_summary(folder)
+            tracked = _tracked_peaks(summary)
+            if not tracked:  # a run without them: its samples must catch the peaks
+                motors.check_sampling(series, _tracked_tensions(summary), str(folder))
+            elif note := motors.sampling_note(series, tracked, str(folder)):
+                print(f"tensim: note: {note}", file=sys.stderr)
+            runs.append(motors.cable_duty(series, limits, tracked))
         duties = motors.merge(runs)
+    source = ("tracked at every physics step" if all(d.tracked for d in duties) else
+              "from the recorded samples (the runs do not track them)")
+    print(f"peak tension, line speed and power: {source}")
     needs = motors.requirements(duties, args.spool_radius, args.gear, args.safety)
     period = args.period
     rows = [(d.cable, d.peak_tension, d.rms_tension, d.peak_speed, d.peak_power, d.mean_power,
@@ -373,6 +382,7 @@ def run_size(args: argparse.Namespace) -> int:
         finish_run(stage, {"runs": [str(r) for r in args.runs], "model": args.model,
                            "robots": args.robots if args.model else None,
                            "safety_factor": args.safety,
+                           "peaks_tracked": all(d.tracked for d in duties),
                            "spool_radius_m": args.spool_radius, "gear_ratio": args.gear,
                            "cables": [dict(zip(header, row, strict=True)) for row in rows],
                            "motor_margins": verdicts})
@@ -385,17 +395,36 @@ def run_size(args: argparse.Namespace) -> int:
     return 0
 
 
-def _tracked_peaks(folder: Path) -> dict[str, float]:
-    """The run's peak tension per cable over every physics step (its summary's
-    ``max_tension_N``; empty when the summary lacks it)."""
+def _run_summary(folder: Path) -> dict[str, object]:
+    """A run folder's ``summary.json`` (empty when missing or unreadable)."""
     import json
 
     try:
-        peaks = json.loads((folder / "summary.json").read_text()).get("max_tension_N")
+        summary = json.loads((folder / "summary.json").read_text())
     except (OSError, ValueError):
         return {}
+    return summary if isinstance(summary, dict) else {}
+
+
+def _tracked_tensions(summary: dict[str, object], key: str = "max_tension_N"
+                      ) -> dict[str, float]:
+    """Per cable, a peak over every physics step from a run's summary (``key``: tension [N],
+    ``max_line_speed_m_s`` or ``max_power_W``; empty when the summary lacks it)."""
+    peaks = summary.get(key)
     return {str(k): float(v) for k, v in peaks.items()
             if isinstance(v, (int, float))} if isinstance(peaks, dict) else {}
+
+
+def _tracked_peaks(summary: dict[str, object]) -> dict[str, TrackedPeaks]:
+    """Per cable, the peak tension, line speed and power over every physics step from a run's
+    summary (empty unless it has all three: a run of an older tensim has only the tension)."""
+    from tensim.design.motors import TrackedPeaks
+
+    tension, speed, power = (_tracked_tensions(summary, key) for key in
+                             ("max_tension_N", "max_line_speed_m_s", "max_power_W"))
+    if not speed or not (set(tension) == set(speed) == set(power)):
+        return {}
+    return {c: TrackedPeaks(tension[c], speed[c], power[c]) for c in tension}
 
 
 def _move(text: str) -> tuple[str, tuple[float, float, float]]:

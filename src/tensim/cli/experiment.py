@@ -296,8 +296,9 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         print(f"rolled {summary['distance_m']:.3f} m along the heading in "
               f"{summary['duration_s']:g} s: {summary['body_lengths_per_s']:.3f} body lengths/s"
               " (body length "
-              f"{summary['body_length_m']:.3f} m), heading error "
-              f"{summary['heading_error_deg']:.1f} deg" + (
+              f"{summary['body_length_m']:.3f} m), " + (
+                  "no net displacement" if summary["heading_error_deg"] is None else
+                  f"heading error {summary['heading_error_deg']:.1f} deg") + (
                   "" if summary["rolls"] is None else
                   f", {summary['rolls']} rolls over {summary['faces_visited']} faces"))
     else:

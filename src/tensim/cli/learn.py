@@ -30,13 +30,14 @@ if TYPE_CHECKING:
 # options that define a run; a resumed run takes them from its folder
 _PROBLEM_OPTIONS = ("model", "controller", "base_controller", "optimizer", "trial_duration",
                     "seed", "segment", "direction", "energy_weight", "settle", "max_tilt",
-                    "penalty", "dt", "record_dt", "terrain", "target", "step", "batch",
+                    "penalty", "dt", "cable_law", "record_dt", "terrain", "target", "step",
+                    "batch",
                     "monte_carlo", "randomize", "robots", "robust")
 _DEFAULTS: dict[str, Any] = {
     "model": "tetraspine3", "controller": "cpg", "optimizer": "ntrt", "evaluations": 100,
     "trial_duration": 10.0, "seed": 0, "segment": "com",
     "energy_weight": 0.0, "settle": 0.0, "max_tilt": 90.0, "penalty": -1.0, "dt": 1e-3,
-    "record_dt": 0.01, "monte_carlo": 48, "out": "runs/learn",
+    "cable_law": "explicit", "record_dt": 0.01, "monte_carlo": 48, "out": "runs/learn",
 }
 
 
@@ -87,6 +88,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                          help="score of a failed trial (flipped, unstable, gait error; "
                          "default -1)")
     problem.add_argument("--dt", type=positive, help="physics step [s] (default 0.001)")
+    problem.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
+                         help="the cable law of the trials, as for `tensim simulate` "
+                         "(default explicit; implicit holds stiff, damped cables at 1-10 ms, "
+                         "see docs/speed.md)")
     problem.add_argument("--record-dt", type=positive, help="trial recording period [s] "
                          "(default 0.01)")
     add_terrain_option(problem)

@@ -127,8 +127,10 @@ def roll_parameters(structure: Structure, cables: Sequence[str], *,
     down = np.array([0.0, 0.0, -1.0])
     down = down - (down @ u) * u
     if np.linalg.norm(down) < 0.5:
-        raise ValueError(f"rolling axis {[round(float(x), 3) for x in u]} is within 30 degrees "
-                         "of vertical; a robot rolls about a horizontal axis")
+        # built standing on an end (a lab's prism on its end triangle): it falls onto its
+        # side first; the angles about the axis (body-fixed) are then taken from +x (or +y)
+        down = np.eye(3)[int(np.argmin(np.abs(u[:2])))]
+        down = down - (down @ u) * u
     down /= np.linalg.norm(down)
     side = np.cross(u, down)
     centre = np.mean([n.position for n in structure.nodes], axis=0)

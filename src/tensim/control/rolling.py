@@ -30,6 +30,7 @@ from tensim.design.inverse import settle, with_rest_lengths
 from tensim.structure import Structure
 
 FACE_TOLERANCE = 0.02  # share of the robot's size within which a node lies on the support plane
+MOVED_M = 0.01  # the net displacement [m] below which a heading error means nothing
 
 
 @dataclasses.dataclass(frozen=True)
@@ -89,6 +90,21 @@ def heading_vector(heading_deg: float) -> np.ndarray:
     """(2,) unit vector of a heading, counter-clockwise from +x [deg]."""
     angle = math.radians(heading_deg)
     return np.array([math.cos(angle), math.sin(angle)])
+
+
+def heading_error_deg(moved: np.ndarray, heading: np.ndarray) -> float | None:
+    """The angle [deg] from ``heading`` to the net displacement ``moved``, counter-clockwise
+    (in (-180, 180]); None where the displacement is shorter than :data:`MOVED_M`.
+
+    Args:
+        moved: (2,) net horizontal displacement [m].
+        heading: (2,) unit vector of the heading.
+    """
+    moved, heading = np.asarray(moved, dtype=float), np.asarray(heading, dtype=float)
+    if float(np.hypot(*moved)) < MOVED_M:
+        return None
+    return math.degrees(math.atan2(float(heading[0] * moved[1] - heading[1] * moved[0]),
+                                   float(moved @ heading)))
 
 
 def support_face(positions: dict[str, np.ndarray]) -> tuple[str, ...]:

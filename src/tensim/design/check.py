@@ -143,7 +143,7 @@ def _timestep(structure: Structure, timestep: float, pose: BuildPose,
 
 
 def _any_step(explicit: float) -> list[Finding]:
-    """The implicit law's note: its linearised step is stable at every step (backward Euler in
+    """The implicit law's note: its linearised step is stable at every step (trapezoidal in
     the cables' stiffness and damping); the explicit law's bound beside it."""
     if not np.isfinite(explicit):
         return []

@@ -14,7 +14,7 @@ from collections.abc import Callable
 import numpy as np
 
 from tensim.design._errors import DesignError
-from tensim.design.motors import CableDuty, cable_duty, merge
+from tensim.design.motors import CableDuty, cable_duty, merge, tracked_peaks
 from tensim.model import CompiledModel
 from tensim.sim import Controller, PhysicsScale, Trial, run_batch
 
@@ -54,4 +54,5 @@ def gait_duties(compiled: CompiledModel, controller: Callable[[], Controller | N
     if not done:
         raise DesignError("every randomised robot's run failed; check the gait with "
                           "`tensim simulate` first")
-    return merge([cable_duty(run.trajectory, limits) for run in done]), len(done)
+    return merge([cable_duty(run.trajectory, limits, tracked_peaks(run)) for run in done]), \
+        len(done)

@@ -24,6 +24,7 @@ from scipy.linalg import eigh, lu_factor, lu_solve
 from tensim.design._blas import blas_threads, one_blas_thread
 from tensim.design._bodies import BuildPose, build_pose, cable_tensions
 from tensim.design.equilibrium import RANK_TOLERANCE, equilibrium
+from tensim.model._law_layout import THETA_DISCRETE
 from tensim.structure import Structure
 
 STIFF_TOLERANCE = 1e-7  # eigenvalues below this x the largest count as zero stiffness
@@ -168,8 +169,9 @@ def step_matrix(stiffness: np.ndarray, damping: np.ndarray, mass: np.ndarray, dt
     adds (tensim's explicit cable law). With ``implicitfast`` the damping MuJoCo knows is
     implicit, a = (M + dt D)^-1 (-K x - C v), where D is ``implicit`` (default C): MuJoCo keeps
     only the blocks of C inside the sparsity of M, each body's own (see
-    :func:`body_blocks`). With ``discrete`` stiffness and damping are implicit, a = (M + dt C
-    + dt^2 K)^-1 (-K x - C v - dt K v): stable at every step.
+    :func:`body_blocks`). With ``discrete`` the implicit cable law hands MuJoCo's step a share
+    theta = 1/2 of stiffness and damping (``THETA_DISCRETE``; docs/architecture.md), a = (M +
+    theta (dt C + dt^2 K))^-1 (-K x - C v - theta dt K v): trapezoidal, stable at every step.
 
     Args:
         stiffness: (n, n) K.
@@ -184,9 +186,10 @@ def step_matrix(stiffness: np.ndarray, damping: np.ndarray, mass: np.ndarray, dt
     inertia = mass
     if integrator == "implicitfast":
         inertia = mass + dt * (damping if implicit is None else implicit)
-    elif integrator == "discrete":
-        inertia = mass + dt * damping + dt**2 * stiffness
-        force = np.hstack([stiffness, damping + dt * stiffness])
+    elif integrator == "discrete":  # the implicit law takes a share THETA_DISCRETE of both
+        theta = THETA_DISCRETE
+        inertia = mass + theta * (dt * damping + dt**2 * stiffness)
+        force = np.hstack([stiffness, damping + theta * dt * stiffness])
     gain = np.linalg.solve(inertia, force)  # a = -gain @ (x, v)
     n = len(mass)
     velocity = np.hstack([np.zeros((n, n)), np.eye(n)]) - dt * gain
@@ -229,7 +232,7 @@ def step_bound(result: Stiffness, integrator: str = "euler") -> StepBound:
         ValueError: an unknown integrator.
     """
     _check_integrator(integrator)
-    if integrator == "discrete":  # backward Euler in K and C: no step grows
+    if integrator == "discrete":  # trapezoidal in K and C: no step grows
         return StepBound(np.inf, 0.0, 0.0, integrator)
     with blas_threads(2 * result.mass.shape[0]):
         return _step_bound(result, integrator)

@@ -174,7 +174,8 @@ def run_drag(model: str = "tetraspine3", settings: DragSettings | None = None, *
         trajectory = sim.run(settings.duration, progress, on_record=tow)
         wall = time.perf_counter() - start
         result = SimulationResult(trajectory, sim.drive.peak.copy(), wall, settings.duration,
-                                  sim.dt, sim.index.cables)
+                                  sim.dt, sim.index.cables, sim.drive.peak_speed.copy(),
+                                  sim.drive.peak_power.copy())
     times, forces = np.array(tow.times), np.array(tow.forces)
     window = times >= settings.settle + settings.steady_from
     m = compiled.model

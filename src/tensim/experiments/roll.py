@@ -27,6 +27,7 @@ from tensim.control import ControllerConfig
 from tensim.control.rolling import (
     RollSettings,
     default_settings,
+    heading_error_deg,
     heading_vector,
     plan_tip,
     support_edges,
@@ -43,7 +44,7 @@ from tensim.structure import Structure, body_length
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
 LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
 TURN_TOLERANCE = 10.0  # deg: turning in place stops once the yaw is this near the target
-TURN_DEPTH = 4  # tips ahead turning in place looks (rigid hull)
+TURN_DEPTH = 5  # tips ahead turning in place looks (rigid hull): once around a 6-bar's hull vertex
 TURN_RADIUS = 0.1  # body lengths from the start that turning in place moves freely within
 TURN_WEIGHT = 4.0  # rad of yaw error that one body length beyond TURN_RADIUS costs as much as
 
@@ -225,7 +226,8 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
         trajectory = _join(chunks)
         result = SimulationResult(trajectory, sim.drive.peak.copy(), time.perf_counter() - start,
                                   round(done, 9) if gait.turned else duration, sim.dt,
-                                  sim.index.cables)
+                                  sim.index.cables, sim.drive.peak_speed.copy(),
+                                  sim.drive.peak_power.copy())
     direction = heading_vector(heading_deg) if goal is None else None
     summary = {**result.summary(), **world_record(compiled.world),
                **roll_summary(trajectory, body_length(structure), direction, goal),
@@ -346,7 +348,9 @@ def roll_summary(trajectory: TimeSeries, length: float, heading: np.ndarray | No
     Returns:
         ``distance_m`` (net displacement of the centre of mass along the heading),
         ``body_lengths_per_s`` (that distance per body length per second of run),
-        ``heading_error_deg`` (angle between the net displacement and the heading),
+        ``heading_error_deg`` (angle between the net displacement and the heading: the size
+        of :func:`~tensim.control.rolling.heading_error_deg`, None below its
+        :data:`~tensim.control.rolling.MOVED_M`),
         ``body_length_m``; with a goal also ``goal_distance_m`` at the start and the end.
     """
     x, y = trajectory[f"pos_x/{COM}"], trajectory[f"pos_y/{COM}"]
@@ -358,12 +362,12 @@ def roll_summary(trajectory: TimeSeries, length: float, heading: np.ndarray | No
     moved = end - start
     distance = float(moved @ heading)
     span = float(trajectory.time[-1] - trajectory.time[0])
-    error = math.degrees(math.atan2(float(heading[0] * moved[1] - heading[1] * moved[0]),
-                                    distance)) if np.linalg.norm(moved) > 0 else 180.0
+    error = heading_error_deg(moved, heading)
     out: dict[str, Any] = {"body_length_m": round(length, 6), "distance_m": round(distance, 6),
                            "body_lengths_per_s": round(distance / length / span, 6) if span > 0
                            else 0.0,
-                           "heading_error_deg": round(abs(error), 3)}
+                           "heading_error_deg": None if error is None
+                           else round(abs(error), 3)}
     if goal is not None:
         out["goal_distance_m"] = [round(float(np.linalg.norm(np.asarray(goal) - p)), 6)
                                   for p in (start, end)]

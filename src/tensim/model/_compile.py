@@ -21,6 +21,9 @@ import numpy as np
 
 from tensim.model import _beads
 from tensim.model._law_layout import (
+    A_PEAK,
+    A_PEAK_POWER,
+    A_PEAK_SPEED,
     ACTDIM,
     CABLE_LAWS,
     DC_ACTDIM,
@@ -92,9 +95,10 @@ class WorldOptions:
         rolling_friction: rolling friction coefficient [m] (condim 6).
         cable_law: ``"explicit"`` (the default: the law computes each cable's force and MuJoCo
             integrates it with its semi-implicit Euler step, as the paper's figures were made),
-            ``"implicit"`` (MuJoCo's ``discrete`` integrator takes each taut cable's stiffness
-            and damping implicitly through a native actuator term, and solves the contacts in
-            the same metric: stiff, strongly damped cables at 1-10 ms steps) or
+            ``"implicit"`` (MuJoCo's ``discrete`` integrator takes half of each taut cable's
+            stiffness and damping implicitly through a native actuator term, a trapezoidal
+            step, and solves the contacts in the same metric: stiff, strongly damped cables at
+            1-10 ms steps) or
             ``"implicitfast"`` (the same term under MuJoCo's cheaper ``implicitfast``, which
             takes only the damping, and only each body's own share of it: right for cables
             anchored to the world, poor for cables between free bodies); docs/speed.md.
@@ -181,20 +185,26 @@ class ModelIndex:
     bead: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=np.int32))
 
     def cable_act(self, act: np.ndarray, part: int = 0) -> np.ndarray:
-        """Each cable's activation ``part`` (0: rest length, 1: peak tension) from ``act``
-        (..., na): a view where every cable has as many activations (two, or three under the
-        implicit law), else a copy."""
+        """Each cable's activation ``part`` (a slot of ``_law_layout.ACT``: A_REST, A_PEAK,
+        A_PEAK_SPEED, A_PEAK_POWER) from ``act`` (..., na): a view where every cable has as
+        many activations, else a copy."""
         stride = self._act_stride
         if stride:
             return act[..., part:stride * len(self.cables):stride]
         return act[..., self.rest_act + part]
 
+    def cable_peaks(self, act: np.ndarray) -> np.ndarray:
+        """(..., 3, n) each cable's running maxima over every step from ``act`` (..., na): the
+        load-cell tension [N], the motor's line speed |dl/dt| [m/s], and their product [W]."""
+        return np.stack([self.cable_act(act, part)
+                         for part in (A_PEAK, A_PEAK_SPEED, A_PEAK_POWER)], axis=-2)
+
     @functools.cached_property
     def _act_stride(self) -> int:
-        """The activations per cable where every cable has as many (2 or 3), else 0 (looked
-        up once: the recorder and the checks call :meth:`cable_act` every few steps)."""
+        """The activations per cable where every cable has as many, else 0 (looked up once:
+        the recorder and the checks call :meth:`cable_act` every few steps)."""
         n = len(self.cables)
-        return next((stride for stride in (2, 3)
+        return next((stride for stride in range(ACTDIM, DC_ACTDIM + IMPLICIT_EXTRA + 1)
                      if np.array_equal(self.rest_act, np.arange(0, stride * n, stride))), 0)
 
     def cable_id(self, name: str) -> int:
@@ -425,11 +435,11 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
     _add_load_actuators(spec, bodies, node_body, node_local, load_nodes)
     _add_bead_springs(spec, structure, world, bead_paths)
     rest = [structure.rest_length(c) for c in structure.cables]
-    # per cable: rest length, peak tension 0 (and a DC motor's spool at rest; the implicit
-    # law's pull: the law sets it in the first step)
+    # per cable: rest length, peak tension, line speed and power 0 (and a DC motor's spool at
+    # rest; the implicit law's pull: the law sets it in the first step)
     pull = (0.0,) * (IMPLICIT_EXTRA if world.cable_law != LAW_EXPLICIT else 0)
     act = [v for c, r in zip(structure.cables, rest, strict=True)
-           for v in ((r, 0.0) if c.motor.dc is None else (r, 0.0, 0.0)) + pull]
+           for v in (r,) + (0.0,) * ((ACTDIM if c.motor.dc is None else DC_ACTDIM) - 1) + pull]
     spec.add_key(name=BUILD_KEY, act=act, ctrl=rest + [0.0] * (3 * len(load_nodes)))
     model = _compile_spec(spec)
     _check_wraps(structure, model)
@@ -558,10 +568,11 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float,
 
     Its parameters go into the slots that ``tensim.model._law_layout`` names (every body of the
     law reads them from there): rest mode, the motor's limits, L* = the build rest length;
-    k and b in gainprm; act = [rest length, peak tension]; ctrl = the command. A DC motor adds
-    its line speed to act (actdim 3) and its parameters, in cable coordinates, to biasprm.
+    k and b in gainprm; act = [rest length, peak tension, peak line speed, peak power]
+    (``_law_layout.ACT``); ctrl = the command. A DC motor adds its line speed to act and its
+    parameters, in cable coordinates, to biasprm.
     The explicit law's gain is fixed at zero. The implicit law's is MuJoCo's affine one
-    (k x + b xdot) times the pull, a last activation the law keeps at -1 while the cable is
+    (k x + b xdot) times the pull, a last activation the law keeps at -theta while the cable is
     taut (read after this step's update: ``actearly``), and its force is limited to <= 0
     (tension only), so that MuJoCo drops the term's derivatives while it clamps.
     """

@@ -5,7 +5,7 @@ A tensim cable is one MuJoCo actuator whose law parameters live in the ``MjModel
 ``act``. Under the explicit law (``LAW_EXPLICIT``) the gain is fixed at zero and the law writes
 the whole force as bias; under the implicit laws (``LAW_IMPLICIT``, ``LAW_IMPLICITFAST``) the
 gain is MuJoCo's affine one, ``k x + b xdot`` from ``gainprm``'s stiffness and damping, times
-the last activation (``pull``: -1 while the cable is taut, else 0), so MuJoCo's implicit
+the last activation (``pull``: -theta while the cable is taut, else 0), so MuJoCo's implicit
 integrators see the cable's stiffness and damping (``discrete``) or damping (``implicitfast``);
 the bias then makes the force exactly the law's (docs/architecture.md). This module names each
 slot once. The compiler writes the parameters through these names, the Python reference law and
@@ -53,7 +53,7 @@ BIASPRM = (
     ("lag_time", "kinematic motor's first-order lag [s] (0: none)"),
     ("saturate", "1.0: max_tension back-drives the kinematic motor (a force cap), 0.0: stops it"),
     ("reserved", "stays 0: MuJoCo's compiler reads a positive one as a damping ratio"),
-    # DC motors only (actdim 3), in cable coordinates (tensim.structure.DCMotor.line)
+    # DC motors only (DC_ACTDIM), in cable coordinates (tensim.structure.DCMotor.line)
     ("stall_force", "DC motor stall force F_s [N]"),
     ("no_load_speed", "DC motor no-load line speed v0 [m/s]"),
     ("mass", "DC motor reflected mass M [kg]"),
@@ -65,8 +65,10 @@ BIASPRM = (
 ACT = (
     ("rest", "the motor's rest length l [m]"),
     ("peak", "running maximum of the load-cell tension [N]"),
+    ("peak_speed", "running maximum of the motor's line speed |dl/dt| [m/s]"),
+    ("peak_power", "running maximum of the load-cell tension times the line speed [W]"),
     ("speed", "DC motors only: the spool's line speed dl/dt [m/s]"),
-    ("pull", "implicit law only, always the last: -1.0 while the cable is taut after this "
+    ("pull", "implicit law only, always the last: -theta while the cable is taut after this "
              "step's motor update, else 0.0 (the gain's input)"),
 )
 GAIN = 0.0  # actuator_gainprm[0]
@@ -80,9 +82,15 @@ CABLE_LAWS = (LAW_EXPLICIT, LAW_IMPLICIT, LAW_IMPLICITFAST)
 MODE_REST = 0  # the motor follows a commanded rest length (ctrl: the rest length [m])
 MODE_IMPEDANCE = 1  # the motor realises the impedance law's setpoint (ctrl: V* [m/s])
 MODE_PD = 2  # a tension-only PD on length beside the cable's spring (ctrl: its target [m])
-ACTDIM = 2  # a kinematic motor's activations: rest length, peak tension
-DC_ACTDIM = 3  # a DC motor's: rest length, peak tension, line speed
+ACTDIM = 4  # a kinematic motor's activations: rest length, peak tension, speed and power
+DC_ACTDIM = 5  # a DC motor's: those and its line speed
 IMPLICIT_EXTRA = 1  # the implicit law adds the pull after them
+# the pull of a taut cable is -THETA: the share of the gain term's derivatives that MuJoCo's
+# implicit integrator takes (the rest of the force stays explicit, in the bias); 1/2 makes the
+# discrete step trapezoidal in the cable's stiffness and damping (second order), implicitfast,
+# which loses the cross-body terms, needs all of it (docs/architecture.md)
+THETA_DISCRETE = 0.5
+THETA_IMPLICITFAST = 1.0
 
 
 def _slot(table: tuple[tuple[str, str], ...], name: str) -> int:
@@ -102,6 +110,7 @@ B_POSITION_TIME = _slot(BIASPRM, "position_time")
 B_BACK_DRIVABLE = _slot(BIASPRM, "back_drivable")
 B_LAG_TIME, B_SATURATE = _slot(BIASPRM, "lag_time"), _slot(BIASPRM, "saturate")
 A_REST, A_PEAK, A_SPEED = (_slot(ACT, n) for n in ("rest", "peak", "speed"))
+A_PEAK_SPEED, A_PEAK_POWER = _slot(ACT, "peak_speed"), _slot(ACT, "peak_power")
 # the pull is the last activation (MuJoCo's gain reads the last): slot actdim - 1, not A_PULL
 A_PULL = _slot(ACT, "pull")
 
@@ -135,6 +144,13 @@ def biasprm(dc: dict[str, float] | None = None) -> list[float]:
     for name, value in (dc or {}).items():
         row[_slot(BIASPRM, name)] = float(value)
     return row
+
+
+def theta(model: mujoco.MjModel) -> float:
+    """The share of the gain term's derivatives that the model's integrator takes: the pull of
+    a taut cable is -theta (THETA_IMPLICITFAST under ``implicitfast``, else THETA_DISCRETE)."""
+    fast = model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    return THETA_IMPLICITFAST if fast else THETA_DISCRETE
 
 
 def implicit(model: mujoco.MjModel) -> np.ndarray:
@@ -196,7 +212,9 @@ def _definitions() -> list[str]:
              f"#define TENSIM_MODE_IMPEDANCE {float(MODE_IMPEDANCE)!r}",
              f"#define TENSIM_MODE_PD {float(MODE_PD)!r}",
              f"#define TENSIM_ACTDIM {ACTDIM}", f"#define TENSIM_DC_ACTDIM {DC_ACTDIM}",
-             f"#define TENSIM_IMPLICIT_EXTRA {IMPLICIT_EXTRA}"]
+             f"#define TENSIM_IMPLICIT_EXTRA {IMPLICIT_EXTRA}",
+             f"#define TENSIM_THETA_DISCRETE {THETA_DISCRETE!r}",
+             f"#define TENSIM_THETA_IMPLICITFAST {THETA_IMPLICITFAST!r}"]
     for prefix, table in (("P", DYNPRM), ("G", GAINPRM), ("B", BIASPRM), ("A", ACT)):
         lines.append("")
         lines += [f"#define TENSIM_{prefix}_{name.upper()} {k} /* {doc} */"

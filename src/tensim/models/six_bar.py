@@ -3,6 +3,11 @@
 Three pairs of parallel struts along x, y and z; each pair is half a strut length apart, the
 form in which equal cable force densities are in equilibrium (cable length = strut * sqrt(6)/4,
 strut force density = -1.5 x the cable's). Scale: 1 m struts as on ReCTeR.
+
+Standing: built resting on a closed triangle of cables in its static pose under gravity on
+frictionless feet, as ``three_bar`` and ``superball`` are (:mod:`tensim.models._standing`), so
+it stands still as built; ``six_bar(standing=False)`` is the symmetric form (the one the
+design tools' tests take as the published expanded octahedron).
 """
 
 from __future__ import annotations
@@ -11,12 +16,15 @@ import itertools
 
 import numpy as np
 
+from tensim.models._standing import face_down
+from tensim.models._standing import standing as settled
 from tensim.structure import Cable, Motor, Node, PointMass, Rod, Structure
 
 STRUT_LENGTH = 1.0  # m
 ROD_RADIUS = 0.01  # m
 ROD_LINEAR_DENSITY = 0.2  # kg/m
 END_MASS = 0.05  # kg, end caps
+CAP_RADIUS = 0.02  # m, end caps (the feet: they touch the ground before the rods)
 STIFFNESS = 500.0  # N/m
 DAMPING = 5.0  # N s/m
 PRETENSION = 15.0  # N, the same in every cable
@@ -34,22 +42,28 @@ def six_bar_nodes(strut_length: float = STRUT_LENGTH) -> dict[str, np.ndarray]:
     return nodes
 
 
-def six_bar(height: float = 0.05) -> Structure:
-    """The six-bar resting above the ground: its lowest nodes ``height`` metres up."""
+def six_bar(clearance: float = 0.0, standing: bool = True) -> Structure:
+    """The six-bar resting on a closed triangle of cables, as it rests between rolls: in its
+    static pose under gravity on frictionless feet (:func:`tensim.models._standing.standing`:
+    it stands still as built), its lowest end cap ``clearance`` metres up before it
+    settles. ``standing=False``: the symmetric self-stressed form, unsettled (rest lengths from
+    the pretension), lifted the same way."""
     positions = six_bar_nodes()
-    lift = height - min(p[2] for p in positions.values())
-    nodes = tuple(Node(n, tuple(p + np.array([0.0, 0.0, lift]))) for n, p in positions.items())
+    length = STRUT_LENGTH * np.sqrt(6) / 4
+    pairs = [(a, b) for a, b in itertools.combinations(positions, 2)
+             if abs(np.linalg.norm(positions[a] - positions[b]) - length) < 1e-9]
+    face = next(f for f in itertools.combinations(positions, 3)
+                if all(p in pairs for p in itertools.combinations(f, 2)))
+    positions = face_down(positions, face, clearance + max(ROD_RADIUS, CAP_RADIUS))
+    nodes = tuple(Node(n, tuple(p)) for n, p in positions.items())
     rods = tuple(
         Rod(f"rod_{axis}{pair}", (f"{axis}{pair}0", f"{axis}{pair}1"), ROD_RADIUS,
             linear_density=ROD_LINEAR_DENSITY, friction=1.0, tags=(f"rod_{axis}{pair}",))
         for axis in "xyz" for pair in (0, 1)
     )
-    cable_length = STRUT_LENGTH * np.sqrt(6) / 4
-    cables = []
-    for a, b in itertools.combinations(positions, 2):
-        if abs(np.linalg.norm(positions[a] - positions[b]) - cable_length) < 1e-9:
-            cables.append(Cable(f"cable_{a}_{b}", (a, b), STIFFNESS, damping=DAMPING,
-                                pretension=PRETENSION, motor=Motor(max_speed=0.2,
-                                                                   max_tension=500.0)))
-    masses = tuple(PointMass(n, END_MASS, 0.02) for n in positions)
-    return Structure("six_bar", nodes, rods, tuple(cables), masses)
+    cables = tuple(Cable(f"cable_{a}_{b}", (a, b), STIFFNESS, damping=DAMPING,
+                         pretension=PRETENSION, motor=Motor(max_speed=0.2, max_tension=500.0))
+                   for a, b in pairs)
+    masses = tuple(PointMass(n, END_MASS, CAP_RADIUS) for n in positions)
+    robot = Structure("six_bar", nodes, rods, cables, masses)
+    return settled(robot) if standing else robot

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from tensim._input import InputError
+from tensim.control.rolling import heading_error_deg
 from tensim.models import PRESETS
 from tensim.rl._worlds import _yaw_change
 from tensim.rl.config import Randomization
@@ -17,7 +18,6 @@ from tensim.rl.policy import Policy, load
 from tensim.rl.train import TrainSettings, load_settings
 from tensim.structure import body_length as structure_body_length
 
-MOVED_M = 0.01  # the net displacement [m] below which a heading error means nothing
 PHYSICS = ("friction", "stiffness", "damping", "mass", "motor_speed")  # evaluate's multipliers
 
 
@@ -139,7 +139,8 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
     """Evaluates the policy of ``folder`` (a training run, or an exported ``policy.json``) and
     writes a run folder ``out`` (``trajectory.parquet``, ``summary.json`` with
     ``body_lengths_per_s`` and ``heading_error_deg``, the angle from the heading to the net
-    displacement, counter-clockwise, None below :data:`MOVED_M`; ``path.png``,
+    displacement, counter-clockwise, None below :data:`~tensim.control.rolling.MOVED_M`
+    (:func:`~tensim.control.rolling.heading_error_deg`); ``path.png``,
     ``report.html``; with ``video``, ``video.mp4``). ``timestep`` [s] and ``cable_law``
     replace the physics the policy was trained with (None: as trained); ``physics`` holds
     fixed multipliers of the robot's friction, stiffness, damping, mass or motor speed
@@ -168,7 +169,7 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
     t, com, heading = run["time"], run["com"], run["heading"]
     moved = com[-1, :2] - com[0, :2]
     along = float(moved @ heading)
-    error = np.degrees(np.arctan2(heading[0] * moved[1] - heading[1] * moved[0], along))
+    error = heading_error_deg(moved, heading)
     length = body_length(settings.model)
     summary = {"command": "rl evaluate", "policy_run": str(folder), "model": settings.model,
                "algo": settings.algo, "task": settings.task, "seed": seed,
@@ -177,8 +178,7 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
                "speed_m_per_s": round(along / t[-1], 6) if t[-1] > 0 else 0.0,
                "body_lengths_per_s": round(along / t[-1] / length, 6) if t[-1] > 0 else 0.0,
                "heading_world": [round(float(h), 6) for h in heading],
-               "heading_error_deg": round(float(error), 3) if np.hypot(*moved) >= MOVED_M
-               else None,
+               "heading_error_deg": None if error is None else round(error, 3),
                "yaw_turned_rad": round(float(run["yaw"][-1]), 6),
                "yaw_rate_deg_per_s": round(float(np.degrees(run["yaw"][-1]) / t[-1]), 6)
                if t[-1] > 0 else 0.0,

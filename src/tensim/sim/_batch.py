@@ -400,7 +400,7 @@ class _BatchRun:
     def results(self, duration: float, wall: float) -> list[TrialResult]:
         assert self.samples is not None
         return trial_results(self.samples, self.count, self.models, self.error,
-                             self.compiled.index.cable_act(self.batch.bind("act"), 1),
+                             self.compiled.index.cable_peaks(self.batch.bind("act")),
                              self.compiled.index, self.dt, duration, wall)
 
 

@@ -3,19 +3,21 @@
  * Each cable is one MuJoCo actuator on its tendon with user dynamics, a gain and user bias.
  * Everything the law needs lives in the model and the data, so the callbacks keep no state and
  * are safe to run from many threads at once (mujoco.rollout, mujoco.batch):
- *   act          rest length l [m], peak load-cell tension [N], and for DC motors
- *                (actdim 3) the spool's line speed dl/dt [m/s]
+ *   act          rest length l [m], peak load-cell tension [N], peak line speed |dl/dt|
+ *                [m/s] and power [W], and for DC motors (TENSIM_DC_ACTDIM) the spool's line
+ *                speed dl/dt [m/s]
  *   ctrl[cadr]   V* [m/s] (impedance mode) or the commanded rest length [m] (rest mode)
- *   pull         the implicit law's last activation: -1 while taut after the motor step
+ *   pull         the implicit law's last activation: -theta while taut after the motor step
  *   dynprm, gainprm, biasprm  the law's parameters; their slots are named in _cable_layout.h,
  *                generated from the one specification, tensim/model/_law_layout.py
  * The dynamics callback moves the rest length one motor step (its rate into act_dot) and keeps
- * the running peak; the bias callback returns -f, the tension from the rest length after that
+ * the running peaks; the bias callback returns -f, the tension from the rest length after that
  * step (exactly as MuJoCo's Euler step will integrate it: l + l_dot * dt).
  * The implicit law (an affine gain, k x + b xdot, times the pull) differs only in that: the
  * dynamics callback also sets the pull, and the bias callback returns -f minus MuJoCo's gain
  * term, so that MuJoCo's force, gain term + bias, is -f while its implicit integrator sees the
- * term's derivatives (-b while taut; none while slack or clamped).
+ * term's derivatives (-theta k and -theta b while taut; none while slack or clamped): theta
+ * of them implicit, the rest explicit (TENSIM_THETA_*).
  * The marker in dynprm selects the law's body per model: TENSIM_CABLE_MARKER runs the law
  * below, TENSIM_REFERENCE_MARKER hands the actuator to the Python reference law (registered
  * by tensim.sim._law), so one process can step models of either kind at once. Actuators
@@ -73,7 +75,7 @@ static double cable_marker(const mjModel* m, int i) {
   return marker == TENSIM_CABLE_MARKER || marker == TENSIM_REFERENCE_MARKER ? marker : 0.0;
 }
 
-/* DC motor (actdim 3): one step of the spool's line speed act[adr + 2] under its torque-speed
+/* DC motor: one step of the spool's line speed act[adr + TENSIM_A_SPEED] under its torque-speed
  * curve, inertia, friction and the cable's tension (_laws.dc_drive, _laws.dc_motor_speed);
  * writes the speed's rate and returns the new rest length. */
 static double dc_step(const mjModel* m, const mjData* d, int i, const mjtNum* p,
@@ -181,9 +183,17 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
   if (P(MODE) == TENSIM_MODE_PD) spring += pd_static(p, g, x, input); /* the load cell reads both */
   double peak = d->act[adr + TENSIM_A_PEAK];
   act_dot[adr + TENSIM_A_PEAK] = (fmax(peak, spring) - peak) / dt;
-  if (implicit) { /* pull: -1 while taut after the motor step, the gain term's input */
+  /* the running maxima of the line speed |dl/dt| and of the power it takes, tension x speed */
+  double speed = fabs(act_dot[adr + TENSIM_A_REST]), power = spring * speed;
+  double peak_speed = d->act[adr + TENSIM_A_PEAK_SPEED];
+  double peak_power = d->act[adr + TENSIM_A_PEAK_POWER];
+  act_dot[adr + TENSIM_A_PEAK_SPEED] = (fmax(peak_speed, speed) - peak_speed) / dt;
+  act_dot[adr + TENSIM_A_PEAK_POWER] = (fmax(peak_power, power) - peak_power) / dt;
+  if (implicit) { /* pull: -theta while taut after the motor step, the gain term's input */
     int last = adr + m->actuator_actnum[i] - 1;
-    act_dot[last] = ((stretch > 0.0 ? -1.0 : 0.0) - d->act[last]) / dt;
+    double theta = m->opt.integrator == mjINT_IMPLICITFAST ? TENSIM_THETA_IMPLICITFAST
+                                                           : TENSIM_THETA_DISCRETE;
+    act_dot[last] = ((stretch > 0.0 ? -theta : 0.0) - d->act[last]) / dt;
   }
   return act_dot[adr + TENSIM_A_PEAK];
 }

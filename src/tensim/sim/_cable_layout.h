@@ -7,9 +7,11 @@
 #define TENSIM_MODE_REST 0.0
 #define TENSIM_MODE_IMPEDANCE 1.0
 #define TENSIM_MODE_PD 2.0
-#define TENSIM_ACTDIM 2
-#define TENSIM_DC_ACTDIM 3
+#define TENSIM_ACTDIM 4
+#define TENSIM_DC_ACTDIM 5
 #define TENSIM_IMPLICIT_EXTRA 1
+#define TENSIM_THETA_DISCRETE 0.5
+#define TENSIM_THETA_IMPLICITFAST 1.0
 
 #define TENSIM_P_MARKER 0 /* CABLE_MARKER or REFERENCE_MARKER: a tensim cable, and its law's body */
 #define TENSIM_P_MODE 1 /* MODE_REST, MODE_IMPEDANCE or MODE_PD */
@@ -41,9 +43,11 @@
 
 #define TENSIM_A_REST 0 /* the motor's rest length l [m] */
 #define TENSIM_A_PEAK 1 /* running maximum of the load-cell tension [N] */
-#define TENSIM_A_SPEED 2 /* DC motors only: the spool's line speed dl/dt [m/s] */
-#define TENSIM_A_PULL 3 /* implicit law only, always the last: -1.0 while the cable is taut after this step's motor update, else 0.0 (the gain's input) */
+#define TENSIM_A_PEAK_SPEED 2 /* running maximum of the motor's line speed |dl/dt| [m/s] */
+#define TENSIM_A_PEAK_POWER 3 /* running maximum of the load-cell tension times the line speed [W] */
+#define TENSIM_A_SPEED 4 /* DC motors only: the spool's line speed dl/dt [m/s] */
+#define TENSIM_A_PULL 5 /* implicit law only, always the last: -theta while the cable is taut after this step's motor update, else 0.0 (the gain's input) */
 
-#define TENSIM_LAYOUT_ID 3118587612u
+#define TENSIM_LAYOUT_ID 2383126592u
 
 #endif

@@ -16,7 +16,16 @@ import mujoco
 import numpy as np
 
 from tensim.model import CompiledModel
-from tensim.model._law_layout import MODE_IMPEDANCE, MODE_PD, MODE_REST, LawParameters
+from tensim.model._law_layout import (
+    A_PEAK,
+    A_PEAK_POWER,
+    A_PEAK_SPEED,
+    A_REST,
+    MODE_IMPEDANCE,
+    MODE_PD,
+    MODE_REST,
+    LawParameters,
+)
 from tensim.sim import _laws
 from tensim.sim._loads import NodeLoad
 
@@ -35,7 +44,8 @@ class CableDrive(LawParameters):
         rest_command: commanded rest length of MODE_REST cables, target length of MODE_PD
             ones [m].
         target_velocity: (rows, n_cables) V* table [m/s], row r for t in [r, r+1) * table_dt.
-    Outputs (with ``data``): rest, peak, tension, applied, setpoint; see the properties.
+    Outputs (with ``data``): rest, peak, peak_speed, peak_power, tension, applied, setpoint;
+    see the properties.
     """
 
     def __init__(self, compiled: CompiledModel, model: mujoco.MjModel,
@@ -84,13 +94,24 @@ class CableDrive(LawParameters):
     def rest(self) -> np.ndarray:
         """(n,) the motors' rest lengths [m] (a live view of the activations unless some
         cable has a DC motor)."""
-        return self._compiled.index.cable_act(self._need_data().act, 0)
+        return self._compiled.index.cable_act(self._need_data().act, A_REST)
 
     @property
     def peak(self) -> np.ndarray:
         """(n,) running maximum of the load-cell tension over every step [N] (live view,
         as :attr:`rest`)."""
-        return self._compiled.index.cable_act(self._need_data().act, 1)
+        return self._compiled.index.cable_act(self._need_data().act, A_PEAK)
+
+    @property
+    def peak_speed(self) -> np.ndarray:
+        """(n,) running maximum of the motors' line speed |dl/dt| over every step [m/s]."""
+        return self._compiled.index.cable_act(self._need_data().act, A_PEAK_SPEED)
+
+    @property
+    def peak_power(self) -> np.ndarray:
+        """(n,) running maximum of the load-cell tension times the line speed over every
+        step [W]."""
+        return self._compiled.index.cable_act(self._need_data().act, A_PEAK_POWER)
 
     def _tensions(self) -> tuple[np.ndarray, np.ndarray]:
         d = self._need_data()

@@ -1,10 +1,10 @@
 """The cable law as MuJoCo actuator callbacks: the compiled one, and the Python reference.
 
-Each cable is an actuator with user dynamics and user bias (see ``tensim.model``): its
-parameters are in the model (``actuator_dynprm``, ``actuator_biasprm``), its rest length and
-peak tension in ``act`` (and a DC motor's speed, actdim 3), its command in ``ctrl``. The law
-is therefore a pure function of (model, data): :func:`cable_law` is the reference in Python,
-built on :mod:`tensim.sim._laws`, and ``_cable.c`` the same operations compiled, installed as
+Each cable is an actuator with user dynamics and user bias (see ``tensim.model``): its parameters
+are in the model (``actuator_dynprm``, ``actuator_biasprm``), its rest length and peak tension,
+line speed and power in ``act`` (and a DC motor's speed), its command in ``ctrl``. The law is
+therefore a pure function of (model, data): :func:`cable_law` is the reference in Python, built on
+:mod:`tensim.sim._laws`, and ``_cable.c`` the same operations compiled, installed as
 ``mjcb_act_dyn``/``mjcb_act_bias``.
 Being stateless, the compiled law runs on any number of threads (``mujoco.rollout``,
 ``mujoco.batch``). The callbacks are process-wide: :func:`install` sets them once, under a lock,
@@ -27,6 +27,8 @@ import numpy as np
 from tensim._native import load_library
 from tensim.model._law_layout import (
     A_PEAK,
+    A_PEAK_POWER,
+    A_PEAK_SPEED,
     A_REST,
     A_SPEED,
     B_BACK_DRIVABLE,
@@ -62,6 +64,7 @@ from tensim.model._law_layout import (
     is_cable,
     layout_id,
     motor_actdim,
+    theta,
 )
 from tensim.sim import _laws
 
@@ -81,6 +84,8 @@ class LawRates(NamedTuple):
         force: (n,) the actuator force -f [N] (under the implicit law, MuJoCo's sum of the
             gain term and the law's bias, clamped to <= 0, as MuJoCo forms it).
         pull_rate: (n,) d(pull)/dt of implicit-law cables [1/s] (0 for the explicit law).
+        peak_speed_rate: (n,) d(peak line speed |rest_rate|)/dt [m/s^2].
+        peak_power_rate: (n,) d(peak power, load-cell tension x line speed)/dt [W/s].
     """
 
     rest_rate: np.ndarray
@@ -88,6 +93,8 @@ class LawRates(NamedTuple):
     speed_rate: np.ndarray
     force: np.ndarray
     pull_rate: np.ndarray
+    peak_speed_rate: np.ndarray
+    peak_power_rate: np.ndarray
 
 _ACT = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)
 _MARKERS = (CABLE_MARKER, REFERENCE_MARKER)
@@ -177,18 +184,26 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
                                                 g[:, G_PD_STIFFNESS], g[:, G_PD_DAMPING],
                                                 p[:, P_MAX_TENSION])
     peak_rate = (np.maximum(peak, spring) - peak) / dt
+    # the running maxima of the line speed |dl/dt| and of the power it takes, tension x speed
+    speed = np.abs(rest_rate)
+    power = spring * speed
+    peak_speed, peak_power = d.act[adr + A_PEAK_SPEED], d.act[adr + A_PEAK_POWER]
+    peak_speed_rate = (np.maximum(peak_speed, speed) - peak_speed) / dt
+    peak_power_rate = (np.maximum(peak_power, power) - peak_power) / dt
     force, pull_rate = -applied, np.zeros(len(ids))
     native = implicit(m)[ids]
     if native.any():
         # the pull, and MuJoCo's force: its gain term plus the law's bias, clamped
         last = adr[native] + m.actuator_actnum[ids][native] - 1
-        pull_rate[native] = (_laws.pull(x[native], next_rest[native]) - d.act[last]) / dt
+        pull_rate[native] = (_laws.pull(x[native], next_rest[native], theta(m))
+                             - d.act[last]) / dt
         pull = d.act[last] + pull_rate[native] * dt
         out = m.actuator_outadr[ids][native]
         term = _laws.gain_term(d.actuator_length[out], d.actuator_velocity[out], k[native],
                                damping[native], pull)
         force[native] = np.minimum(term + (force[native] - term), 0.0)
-    return LawRates(rest_rate, peak_rate, speed_rate, force, pull_rate)
+    return LawRates(rest_rate, peak_rate, speed_rate, force, pull_rate, peak_speed_rate,
+                    peak_power_rate)
 
 
 def _dc_step(p: np.ndarray, g: np.ndarray, b: np.ndarray, speed: np.ndarray,
@@ -223,6 +238,8 @@ def _python_dyn(m: Any, d: Any, i: int) -> float:
     rates = cable_law(m, d, ids)
     adr = m.actuator_actadr[i]
     d.act_dot[adr + A_REST], d.act_dot[adr + A_PEAK] = rates.rest_rate[0], rates.peak_rate[0]
+    d.act_dot[adr + A_PEAK_SPEED] = rates.peak_speed_rate[0]
+    d.act_dot[adr + A_PEAK_POWER] = rates.peak_power_rate[0]
     if motor_actdim(m)[i] == DC_ACTDIM:
         d.act_dot[adr + A_SPEED] = rates.speed_rate[0]
     if implicit(m)[i]:

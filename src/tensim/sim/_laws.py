@@ -199,14 +199,16 @@ def dc_motor_speed(speed: np.ndarray, drive: np.ndarray, tension: np.ndarray,
     return np.where(back_drivable != 0.0, new, held)
 
 
-def pull(length: np.ndarray, rest_length: np.ndarray) -> np.ndarray:
-    """The implicit law's pull: -1.0 where the cable is taut (x > l), else 0.0.
+def pull(length: np.ndarray, rest_length: np.ndarray, theta: float = 1.0) -> np.ndarray:
+    """The implicit law's pull: -theta where the cable is taut (x > l), else 0.0.
 
     Args:
         length: (n,) anchor-to-anchor length x [m].
         rest_length: (n,) rest length l after this step's motor update [m].
+        theta: the share of the gain term's derivatives the integrator takes
+            (``_law_layout.theta``).
     """
-    return np.where(length - rest_length > 0.0, -1.0, 0.0)
+    return np.where(length - rest_length > 0.0, -theta, 0.0)
 
 
 def gain_term(length: np.ndarray, velocity: np.ndarray, stiffness: np.ndarray,
@@ -214,7 +216,7 @@ def gain_term(length: np.ndarray, velocity: np.ndarray, stiffness: np.ndarray,
     """The implicit law's native term, MuJoCo's affine gain times the pull:
     (0 + k x + b xdot) * pull [N], in MuJoCo's order of operations.
 
-    Its derivatives, -k pull and -b pull, are what MuJoCo's implicit integrator sees; the bias
+    Its derivatives, k pull and b pull, are what MuJoCo's implicit integrator sees; the bias
     that the law returns beside it (the force less this term) makes the total exactly the law's.
     """
     return (0.0 + stiffness * length + damping * velocity) * pull_

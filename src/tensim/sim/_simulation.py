@@ -382,6 +382,10 @@ class SimulationResult:
         duration_s: simulated time [s].
         dt_s: physics step [s].
         cables: cable names, in the order of ``peak_tension``.
+        peak_speed: (n_cables,) maximum line speed |dl/dt| of each motor over every step
+            [m/s] (None where not tracked).
+        peak_power: (n_cables,) maximum load-cell tension times line speed over every step
+            [W] (None where not tracked).
     """
 
     trajectory: TimeSeries
@@ -390,6 +394,8 @@ class SimulationResult:
     duration_s: float
     dt_s: float
     cables: tuple[str, ...]
+    peak_speed: np.ndarray | None = None
+    peak_power: np.ndarray | None = None
 
     @property
     def real_time_factor(self) -> float:
@@ -402,7 +408,7 @@ class SimulationResult:
             self.trajectory.matrix("pos_y", [COM])[:, 0], \
             self.trajectory.matrix("pos_z", [COM])[:, 0]
         displacement = [float(axis[-1] - axis[0]) for axis in com]
-        return {
+        summary: dict[str, object] = {
             "duration_s": self.duration_s,
             "dt_s": self.dt_s,
             "wall_s": round(self.wall_s, 4),
@@ -412,6 +418,12 @@ class SimulationResult:
             "max_system_tension_N": round(float(self.peak_tension.max(initial=0.0)), 4),
             "com_displacement_m": [round(v, 6) for v in displacement],
         }
+        for key, peaks in (("max_line_speed_m_s", self.peak_speed),
+                           ("max_power_W", self.peak_power)):
+            if peaks is not None:
+                summary[key] = {c: float(f"{float(v):.6g}") for c, v in
+                                zip(self.cables, peaks, strict=True)}
+        return summary
 
 
 def simulate(compiled: CompiledModel, duration: float, *, controller: Controller | None = None,
@@ -437,7 +449,8 @@ def simulate(compiled: CompiledModel, duration: float, *, controller: Controller
         trajectory = sim.run(duration, progress)
         wall = _time.perf_counter() - start
         return SimulationResult(trajectory, sim.drive.peak.copy(), wall, duration, sim.dt,
-                                sim.index.cables)
+                                sim.index.cables, sim.drive.peak_speed.copy(),
+                                sim.drive.peak_power.copy())
 
 
 __all__ = ["COM", "CableSetup", "Controller", "Simulation", "SimulationError", "SimulationResult",

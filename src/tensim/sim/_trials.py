@@ -133,10 +133,11 @@ def setup_trial(compiled: CompiledModel, model: mujoco.MjModel, trial: Trial,
 
 
 def trial_results(samples: SampleBuffers, count: np.ndarray, models: Sequence[mujoco.MjModel],
-                  errors: Sequence[str | None], peak: np.ndarray, index: ModelIndex, dt: float,
+                  errors: Sequence[str | None], peaks: np.ndarray, index: ModelIndex, dt: float,
                   duration: float, wall: float) -> list[TrialResult]:
     """Each trial's recorded run (channels derived with its own model's parameters), or its
-    error; ``peak``: (n_trials, n_cables) the peak tensions [N]."""
+    error; ``peaks``: (n_trials, 3, n_cables) the peak tensions [N], line speeds [m/s] and
+    powers [W] (:meth:`ModelIndex.cable_peaks`)."""
     n = len(index.cables)
     out = []
     for i, model in enumerate(models):
@@ -146,9 +147,9 @@ def trial_results(samples: SampleBuffers, count: np.ndarray, models: Sequence[mu
         series = sample_channels(samples.trial(i).head(int(count[i])), index,
                                  model.actuator_dynprm[:n], model.actuator_gainprm[:n])
         # wall_s: the trial's share of the batch's wall time
-        out.append(TrialResult(SimulationResult(series, np.array(peak[i], dtype=float),
-                                                wall / len(models), duration, dt,
-                                                index.cables)))
+        tension, speed, power = np.array(peaks[i], dtype=float)
+        out.append(TrialResult(SimulationResult(series, tension, wall / len(models), duration,
+                                                dt, index.cables, speed, power)))
     return out
 
 

@@ -382,6 +382,6 @@ class _WarpRun:
 
     def results(self, duration: float, wall: float) -> list[TrialResult]:
         return trial_results(self.samples, self.count, self.models, self.error,
-                             self.compiled.index.cable_act(self.d.act.numpy(), 1),
+                             self.compiled.index.cable_peaks(self.d.act.numpy()),
                              self.compiled.index, self.dt, duration, wall)
 

@@ -6,14 +6,14 @@
 MuJoCo Warp calls a model's ``act_dyn`` callback once per step for all worlds, after its own
 actuator stage; :func:`install_warp_law` sets it to launch :func:`cable_law` over worlds x
 actuators. The kernel is the law of ``_cable.c`` and :mod:`tensim.sim._laws`, operation for
-operation, on the same layout (rest length and peak tension in ``act``, then a DC motor's line
-speed and the implicit law's pull; the command in ``ctrl``, the parameters in
-``actuator_dynprm``/``actuator_gainprm``/``actuator_biasprm``, per world where MuJoCo Warp holds
-them per world), so a batch moves between the CPU engine and the GPU unchanged. It writes the
-motor rates into ``act_dot`` and the cable force into ``actuator_force`` (this callback runs
-after MuJoCo Warp's actuator stage and replaces its force: under the implicit law the force is
-the law's own, while MuJoCo Warp's implicit integrator takes the derivatives of the affine gain
-times the pull, as MuJoCo does). MuJoCo Warp computes in float32.
+operation, on the same layout (rest length and the peak tension, line speed and power in ``act``,
+then a DC motor's line speed and the implicit law's pull; the command in ``ctrl``, the parameters
+in ``actuator_dynprm``/``actuator_gainprm``/``actuator_biasprm``, per world where MuJoCo Warp holds
+them per world), so a batch moves between the CPU engine and the GPU unchanged. It writes the motor
+rates into ``act_dot`` and the cable force into ``actuator_force`` (this callback runs after MuJoCo
+Warp's actuator stage and replaces its force: under the implicit law the force is the law's own,
+while MuJoCo Warp's implicit integrator takes the derivatives of the affine gain times the pull, as
+MuJoCo does). MuJoCo Warp computes in float32.
 """
 
 from __future__ import annotations
@@ -40,6 +40,9 @@ _P_MIN_REST, _P_MIN_LENGTH = wp.constant(layout.P_MIN_REST), wp.constant(layout.
 _P_OFFSET, _P_GAIN_K = wp.constant(layout.P_OFFSET), wp.constant(layout.P_GAIN_K)
 _P_GAIN_B, _P_TARGET = wp.constant(layout.P_GAIN_B), wp.constant(layout.P_TARGET_LENGTH)
 _G_K, _G_DAMPING = wp.constant(layout.G_STIFFNESS), wp.constant(layout.G_DAMPING)
+_THETA_DISCRETE = wp.constant(layout.THETA_DISCRETE)
+_THETA_FAST = wp.constant(layout.THETA_IMPLICITFAST)
+_IMPLICITFAST = wp.constant(int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST))
 _G_PD_K, _G_PD_B = wp.constant(layout.G_PD_STIFFNESS), wp.constant(layout.G_PD_DAMPING)
 _B_STALL, _B_V0 = wp.constant(layout.B_STALL_FORCE), wp.constant(layout.B_NO_LOAD_SPEED)
 _B_MASS, _B_VISCOUS = wp.constant(layout.B_MASS), wp.constant(layout.B_VISCOUS)
@@ -49,12 +52,14 @@ _B_LAG = wp.constant(layout.B_LAG_TIME)
 _B_SATURATE = wp.constant(layout.B_SATURATE)
 _A_REST, _A_PEAK = wp.constant(layout.A_REST), wp.constant(layout.A_PEAK)
 _A_SPEED = wp.constant(layout.A_SPEED)
+_A_PEAK_SPEED = wp.constant(layout.A_PEAK_SPEED)
+_A_PEAK_POWER = wp.constant(layout.A_PEAK_POWER)
 
 
 @wp.func
 def _dc_step(p: vec10, g: vec10, b: vec10, speed: float, rest: float, target: float, x: float,
              v: float, dt: float) -> wp.vec2:
-    """DC motor (actdim 3): (new rest length, new line speed), as ``_cable.c``'s dc_step."""
+    """DC motor: (new rest length, new line speed), as ``_cable.c``'s dc_step."""
     stretch = x - rest
     measured = 0.0
     applied = 0.0
@@ -91,6 +96,7 @@ def _dc_step(p: vec10, g: vec10, b: vec10, speed: float, rest: float, target: fl
 @wp.kernel(module="unique", enable_backward=False)
 def cable_law(
     opt_timestep: wp.array(dtype=float),
+    opt_integrator: int,
     actuator_dynprm: wp.array2d(dtype=vec10),
     actuator_gainprm: wp.array2d(dtype=vec10),
     actuator_biasprm: wp.array2d(dtype=vec10),
@@ -106,7 +112,7 @@ def cable_law(
     act_dot: wp.array2d(dtype=float),
     actuator_force: wp.array2d(dtype=float),
 ):
-    """One cable of one world: motor step, peak, and the tension-only force (eq. 1-3)."""
+    """One cable of one world: motor step, peaks, and the tension-only force (eq. 1-3)."""
     world, i = wp.tid()
     p = actuator_dynprm[world % actuator_dynprm.shape[0], i]
     implicit = actuator_gaintype[i] == _AFFINE
@@ -174,21 +180,30 @@ def cable_law(
         applied += wp.min(wp.max(pull_pd + g[_G_PD_B] * v, 0.0), p[_P_MAX_TENSION])
     peak = act[world, adr + _A_PEAK]
     act_dot[world, adr + _A_PEAK] = (wp.max(peak, spring) - peak) / dt
-    if implicit:  # the pull, the last activation: -1 while taut (the gain term's input)
+    # the running maxima of the line speed |dl/dt| and of the power it takes, tension x speed
+    speed_now = wp.abs(rate)
+    power = spring * speed_now
+    peak_speed = act[world, adr + _A_PEAK_SPEED]
+    act_dot[world, adr + _A_PEAK_SPEED] = (wp.max(peak_speed, speed_now) - peak_speed) / dt
+    peak_power = act[world, adr + _A_PEAK_POWER]
+    act_dot[world, adr + _A_PEAK_POWER] = (wp.max(peak_power, power) - peak_power) / dt
+    if implicit:  # the pull, the last activation: -theta while taut (the gain term's input)
         last = adr + actnum + _EXTRA - 1
         pull = 0.0
         if stretch > 0.0:
-            pull = -1.0
+            pull = -_THETA_DISCRETE
+            if opt_integrator == _IMPLICITFAST:
+                pull = -_THETA_FAST
         act_dot[world, last] = (pull - act[world, last]) / dt
     actuator_force[world, i] = -applied
 
 
 def _launch(m: Any, d: Any) -> None:
     wp.launch(cable_law, dim=(d.nworld, m.nactuator),
-              inputs=[m.opt.timestep, m.actuator_dynprm, m.actuator_gainprm,
-                      m.actuator_biasprm, m.actuator_gaintype, m.actuator_actadr,
-                      m.actuator_actnum, m.actuator_ctrladr, m.actuator_trnid, d.ten_length,
-                      d.ten_velocity, d.act, d.ctrl],
+              inputs=[m.opt.timestep, int(m.opt.integrator), m.actuator_dynprm,
+                      m.actuator_gainprm, m.actuator_biasprm, m.actuator_gaintype,
+                      m.actuator_actadr, m.actuator_actnum, m.actuator_ctrladr, m.actuator_trnid,
+                      d.ten_length, d.ten_velocity, d.act, d.ctrl],
               outputs=[d.act_dot, d.actuator_force])
 
 
