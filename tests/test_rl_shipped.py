@@ -64,12 +64,12 @@ def test_the_shipped_randomised_policy_rolls_on_nominal_and_heavier_physics():
 
 
 def test_the_shipped_6_bar_policy_runs_as_docs_rl_md_says():
-    # docs/rl.md: the goal (0.2 body lengths/s) is NOT met; from the start of seed 0 the
-    # policy rolls about 3 m along its heading in 30 s (0.099 body lengths/s), stably
+    # docs/rl.md: the goal (0.2 body lengths/s) is not met; from the start of seed 0 the
+    # policy rolls about 6 m along its heading in 30 s (0.1998 body lengths/s), stably
     settings, policy = load_policy(EXAMPLES / "six_bar_roll" / "seed0" / "policy.json")
     assert settings.model == "six_bar" and settings.timestep == 0.005
-    assert policy.meta["training"]["env_steps"] == 2_998_272
+    assert policy.meta["training"]["env_steps"] == 3_596_288
     run = run_policy(settings, policy, 30.0, seed=0)
     assert not run["unstable"]
     along = (run["com"][-1, :2] - run["com"][0, :2]) @ run["heading"]
-    assert 0.05 <= along / run["time"][-1] / body_length("six_bar") < 0.2
+    assert along / run["time"][-1] / body_length("six_bar") >= 0.15
