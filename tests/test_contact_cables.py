@@ -341,6 +341,20 @@ def test_the_batch_engine_runs_contact_cables_as_a_single_run_does():
         np.testing.assert_array_equal(values, trial.result.trajectory[name], err_msg=name)
 
 
+def _whipped_beads_by_a_wall():
+    """The whipped contact cable beside a wall: its compiled model, its resting state and the
+    state with every bead flung toward the wall at 40 m/s."""
+    s = _taut_along_y("whip")
+    wall = Wall(height=0.05, distance=0.09, thickness=0.03, width=0.4)
+    compiled = compile_structure(s, WorldOptions(terrain=wall))
+    with Simulation(compiled) as sim:
+        m = sim.model
+        beads = [j for j in range(m.njnt) if m.jnt_type[j] == 2 and m.jnt_axis[j, 0] == 1.0]
+        still = sim.get_state()
+        sim.data.qvel[m.jnt_dofadr[beads]] = -40.0
+        return compiled, still, sim.get_state()
+
+
 def test_the_batch_engine_fails_a_trial_whose_beads_went_through_a_wall():
     # the whipped cable of the test above, as one trial of a batch beside an undisturbed one:
     # only the whipped trial fails, with the single run's message
@@ -348,14 +362,7 @@ def test_the_batch_engine_fails_a_trial_whose_beads_went_through_a_wall():
 
     if not compiled_available():
         pytest.skip("the batch engine needs the compiled cable law")
-    s = _taut_along_y("whip")
-    wall = Wall(height=0.05, distance=0.09, thickness=0.03, width=0.4)
-    compiled = compile_structure(s, WorldOptions(terrain=wall))
-    with Simulation(compiled) as sim:
-        m = sim.model
-        beads = [j for j in range(m.njnt) if m.jnt_type[j] == 2 and m.jnt_axis[j, 0] == 1.0]
-        sim.data.qvel[m.jnt_dofadr[beads]] = -40.0
-        whipped = sim.get_state()
+    compiled, _, whipped = _whipped_beads_by_a_wall()
     calm, flung = run_batch(compiled, [Trial(None), Trial(None, initial_state=whipped)], 0.2)
     assert calm.ok, calm.error
     assert not flung.ok
@@ -370,15 +377,7 @@ def test_the_warp_batch_fails_a_world_whose_beads_went_through_a_wall():
                         "not installed")
     from tensim.sim import Trial, run_batch
 
-    s = _taut_along_y("whip")
-    wall = Wall(height=0.05, distance=0.09, thickness=0.03, width=0.4)
-    compiled = compile_structure(s, WorldOptions(terrain=wall))
-    with Simulation(compiled) as sim:
-        m = sim.model
-        beads = [j for j in range(m.njnt) if m.jnt_type[j] == 2 and m.jnt_axis[j, 0] == 1.0]
-        still = sim.get_state()  # (on Warp every trial or none has a start state)
-        sim.data.qvel[m.jnt_dofadr[beads]] = -40.0
-        whipped = sim.get_state()
+    compiled, still, whipped = _whipped_beads_by_a_wall()  # (on Warp every trial or none has a start state)
     calm, flung = run_batch(compiled, [Trial(None, initial_state=still),
                                        Trial(None, initial_state=whipped)], 0.02,
                             backend="warp", device="cpu")

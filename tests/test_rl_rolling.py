@@ -98,14 +98,21 @@ def test_seeds_differ_by_default_and_one_seed_repeats_its_episode(robot_file):
     assert gym.spec(ENV_ID).max_episode_steps == EnvConfig().max_steps
 
 
-def test_observed_tensions_use_each_robots_randomised_stiffness(robot_file):
-    # stiffness drawn x2 exactly: the load cells must read 2 k max(0, x - l) with k the file's
+def _stepped_with_stiffness_doubled(robot_file):
+    """An env whose stiffness is drawn x2 exactly, and its observation (cable length, rest
+    length, tension) after three zero-action steps."""
     config = _config(robot_file, randomization=Randomization(stiffness=(2.0, 2.0)),
                      observation=("cable_length", "rest_length", "tension"))
     env = TensegrityEnv(config)
-    obs, _ = env.reset(seed=0)
+    env.reset(seed=0)
     for _ in range(3):
         obs = env.step(np.zeros(6, dtype=np.float32))[0]
+    return env, obs
+
+
+def test_observed_tensions_use_each_robots_randomised_stiffness(robot_file):
+    # stiffness drawn x2 exactly: the load cells must read 2 k max(0, x - l) with k the file's
+    env, obs = _stepped_with_stiffness_doubled(robot_file)
     n = env.robot.n
     length, rest, tension = obs[:n], obs[n:2 * n], obs[2 * n:]
     k = np.array([3000.0] * n)  # the structure file's stiffness [N/m]
@@ -423,12 +430,7 @@ def test_rendered_cable_colours_use_each_robots_randomised_stiffness(robot_file)
     # stiffness drawn x2, the tensions handed to the renderer are 2 k max(0, x - l)
     from tensim.rl._render import Renders
 
-    config = _config(robot_file, randomization=Randomization(stiffness=(2.0, 2.0)),
-                     observation=("cable_length", "rest_length", "tension"))
-    env = TensegrityEnv(config)
-    obs, _ = env.reset(seed=0)
-    for _ in range(3):
-        obs = env.step(np.zeros(6, dtype=np.float32))[0]
+    env, obs = _stepped_with_stiffness_doubled(robot_file)
     n = env.robot.n
     seen = []
     renders = Renders.__new__(Renders)  # no OpenGL: a renderer that keeps what it is given
