@@ -377,7 +377,8 @@ def test_the_warp_batch_fails_a_world_whose_beads_went_through_a_wall():
                         "not installed")
     from tensim.sim import Trial, run_batch
 
-    compiled, still, whipped = _whipped_beads_by_a_wall()  # (on Warp every trial or none has a start state)
+    # (on Warp every trial or none has a start state)
+    compiled, still, whipped = _whipped_beads_by_a_wall()
     calm, flung = run_batch(compiled, [Trial(None, initial_state=still),
                                        Trial(None, initial_state=whipped)], 0.02,
                             backend="warp", device="cpu")
