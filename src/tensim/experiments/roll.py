@@ -26,9 +26,11 @@ import numpy as np
 from tensim.control import ControllerConfig
 from tensim.control.rolling import (
     RollSettings,
+    TipPlan,
     default_settings,
     heading_error_deg,
     heading_vector,
+    landing_pose,
     plan_tip,
     support_edges,
     support_face,
@@ -46,6 +48,7 @@ LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait ai
 TURN_TOLERANCE = 10.0  # deg: turning in place stops once the yaw is this near the target
 TURN_DEPTH = 5  # tips ahead turning in place looks (rigid hull): once around a 6-bar's hull vertex
 TURN_RADIUS = 0.1  # body lengths from the start that turning in place moves freely within
+PUMP_HOLD_S = 0.2  # s: a pumped plan is held at least this long before it may let go
 TURN_WEIGHT = 4.0  # rad of yaw error that one body length beyond TURN_RADIUS costs as much as
 
 
@@ -77,6 +80,11 @@ class _Gait:
     turn: float | None = None  # rad: the yaw to turn by in place (None: roll on the heading)
     start: np.ndarray | None = None  # (n, 3) the nodes at the start (turning's reference)
     turned: bool = False
+    plan: TipPlan | None = None  # the tip commanded now
+    ahead: tuple[str, ...] | None = None  # the face a pipelined plan was made for
+    crossed: np.ndarray | None = None  # (3,) the edge a pipelined plan's tip is crossing
+    com_before: np.ndarray | None = None  # (2,) the centre of mass a control period ago [m]
+    released: bool = False  # pumping: the plan let go while the robot swings back
 
     def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
         """Turning in place: the outward normal of the first edge of the sequence of rigid-hull
@@ -133,11 +141,17 @@ class _Gait:
         positions = node_positions(sim)
         face = support_face(positions)
         held, self.seen = face == self.seen, face  # a new face counts once seen twice running
+        com = sim.data.subtree_com[0][:2].copy()
+        before, self.com_before = self.com_before, com
+        if self.settings.extra_feet and set(self.face) < set(face):
+            face = self.face  # flattened onto one more node: still on the same face
         if face != self.face:
             if held or not self.faces:
-                self.face, self.since, self.pushing = face, sim.time, False
+                landed_ahead = self.ahead is not None and face == self.ahead
+                self.face, self.since, self.pushing = face, sim.time, landed_ahead
                 self.faces.append(face)
-                if self.settings.release:
+                self.ahead, self.released = None, False
+                if self.settings.release and not landed_ahead:
                     sim.drive.rest_command[self.motorised] = self.built[self.motorised]
             return
         waited = sim.time - self.since
@@ -145,12 +159,57 @@ class _Gait:
             self._push(sim, positions)
         elif self.pushing and waited >= self.settings.settle_s + self.settings.push_s:
             self.since, self.pushing = sim.time, False  # stuck: rest and plan again
+            self.ahead = None
             sim.drive.rest_command[self.motorised] = self.built[self.motorised]
+        elif self.ahead is not None and self.crossed is not None and (
+                self.crossed[:2] @ sim.data.subtree_com[0][:2] + self.crossed[2]
+                < -self.settings.margin):  # rocked back: plan again from where it stands
+            self.ahead, self.pushing = None, False
+            self.since = sim.time - self.settings.settle_s
+        elif (self.pushing and self.settings.pipeline and self.ahead is None
+              and self.turn is None and self.plan is not None
+              and self.plan.edge[:2] @ sim.data.subtree_com[0][:2] + self.plan.edge[2] > 0):
+            self._pipeline(sim, positions)
+        elif (self.settings.pump and self.pushing and self.plan is not None
+              and self.ahead is None and self.plan.margin < self.settings.margin
+              and before is not None):
+            self._pump(sim, float(self.plan.direction @ (com - before)), waited)
 
-    def _push(self, sim: Simulation, positions: dict[str, np.ndarray]) -> None:
-        pose = dataclasses.replace(self.structure, nodes=tuple(
+    def _pump(self, sim: Simulation, rate: float, waited: float) -> None:
+        """A tip that statics cannot make: let go while the robot swings back from the edge,
+        pull again as it swings toward it, in phase with its rocking."""
+        assert self.plan is not None
+        if not self.released and rate < 0 and waited >= self.settings.settle_s + PUMP_HOLD_S:
+            sim.drive.rest_command[self.motorised] = self.built[self.motorised]
+            self.released = True
+        elif self.released and rate > 0:
+            sim.drive.rest_command[self.motorised] = self.plan.rest_lengths[self.motorised]
+            self.released = False
+
+    def _pipeline(self, sim: Simulation, positions: dict[str, np.ndarray]) -> None:
+        """The centre of mass has crossed the edge: plans the tip from the face the robot will
+        land on and commands it now."""
+        assert self.plan is not None
+        landed = landing_pose(positions, self.plan.edge)
+        pose = self._pose(landed)
+        com = sim.data.subtree_com[0]
+        try:
+            plan = plan_tip(pose, sim.drive.rest.copy(), self.built, self.heading(com),
+                            self.settings)
+        except DesignError:
+            return
+        self.plans += 1
+        self.crossed = self.plan.edge
+        self.plan, self.ahead = plan, plan.feet
+        sim.drive.rest_command[self.motorised] = plan.rest_lengths[self.motorised]
+
+    def _pose(self, positions: dict[str, np.ndarray]) -> Structure:
+        return dataclasses.replace(self.structure, nodes=tuple(
             dataclasses.replace(n, position=tuple(positions[n.name]))
             for n in self.structure.nodes))
+
+    def _push(self, sim: Simulation, positions: dict[str, np.ndarray]) -> None:
+        pose = self._pose(positions)
         com = sim.data.subtree_com[0]
         heading = self.heading(com) if self.turn is None else self._turn_heading(positions)
         if heading is None or self.turned:
@@ -162,7 +221,7 @@ class _Gait:
             return
         self.plans += 1
         sim.drive.rest_command[self.motorised] = plan.rest_lengths[self.motorised]
-        self.pushing = True
+        self.pushing, self.plan, self.released = True, plan, False
 
 
 def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
