@@ -154,6 +154,8 @@ def test_cli_writes_a_run_folder_with_the_rolling_fields(tmp_path):
     dy = ts["pos_y/com"][-1] - ts["pos_y/com"][0]  # heading 90: along +y
     assert summary["distance_m"] == pytest.approx(dy, abs=1e-6)
     assert summary["body_lengths_per_s"] == pytest.approx(dy / STRUT / 1.0, abs=1e-6)
-    for field in ("heading_error_deg", "faces_visited", "rolls", "body_length_m"):
+    for field in ("heading_error_deg", "faces_visited", "rolls", "body_length_m",
+                  "rocks_back", "first_roll_s"):
         assert field in summary
+    assert 0 <= summary["rocks_back"] <= max(0, summary["rolls"] - 1)
     assert (out / "structure.yaml").is_file()

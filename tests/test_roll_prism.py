@@ -16,6 +16,8 @@ from tensim.control.rolling import (
     PRISM_SETTINGS,
     RollSettings,
     default_settings,
+    landing_pose,
+    rocks_back,
     support_edges,
     tip_rotation,
     yaw_between,
@@ -77,6 +79,16 @@ def test_a_3bar_rolls_both_ways_along_x(runs):
         assert summary["distance_m"] == pytest.approx(sign * dx, abs=1e-6)
         assert summary["heading_error_deg"] < 30.0
         assert summary["rolls"] >= 2
+        assert 0 <= summary["rocks_back"] <= summary["rolls"] - 1
+        assert 0 < summary["first_roll_s"] < DURATION
+
+
+def test_rocks_back_counts_returns_to_the_face_before():
+    a, b, c, d = ("a",), ("b",), ("c",), ("d",)
+    assert rocks_back([]) == rocks_back([a]) == rocks_back([a, b]) == 0
+    # a-b-a and b-a-b are rocks; b-c, c-d and the rest get on
+    assert rocks_back([a, b, a, b, c, d, c]) == 3
+    assert rocks_back([a, b, c, d]) == 0
 
 
 def test_tip_rotation_lays_a_box_on_its_side():
@@ -89,6 +101,20 @@ def test_tip_rotation_lays_a_box_on_its_side():
     assert np.allclose(sorted(set(np.round(landed[:, 0], 9))), [0.5, 1.0])
     assert np.allclose(sorted(set(np.round(landed[:, 2], 9))), [0.0, 1.0])
     assert np.allclose(rotation @ rotation.T, np.eye(3))
+
+
+def test_landing_pose_lays_a_raised_box_on_its_side():
+    # the same box standing 0.1 m up (feet at z = 0.1) lands on its 0.5 x 2 face at z = 0.1
+    corners = np.array(list(itertools.product((-0.5, 0.5), (-1.0, 1.0), (0.1, 0.6))))
+    positions = {f"n{i}": p for i, p in enumerate(corners)}
+    feet = corners[corners[:, 2] == 0.1]
+    edge = next(e for e in support_edges(feet[:, :2]) if e[0] > 0.5)
+    landed = np.array(list(landing_pose(positions, edge).values()))
+    assert np.allclose(sorted(set(np.round(landed[:, 0], 9))), [0.5, 1.0])
+    assert np.allclose(sorted(set(np.round(landed[:, 2], 9))), [0.1, 1.1])
+    # distances between nodes are kept (a rigid tip)
+    assert np.allclose(np.linalg.norm(landed[:, None] - landed[None], axis=2),
+                       np.linalg.norm(corners[:, None] - corners[None], axis=2))
 
 
 def _yawed(points: np.ndarray, angle: float) -> np.ndarray:

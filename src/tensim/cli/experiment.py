@@ -309,6 +309,11 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     if goal is not None:
         before, after = summary["goal_distance_m"]
         print(f"goal ({goal[0]:g}, {goal[1]:g}) m: distance {before:.3f} -> {after:.3f} m")
+    if args.turn is None and summary["rolls"] is not None:
+        first = summary["first_roll_s"]
+        print(f"{summary['rocks_back']} of the {summary['rolls']} rolls went back to the face "
+              "before; first roll after " + ("none" if first is None else f"{first:.2f} s")
+              + f"; {summary['plans']} plans")
     return summary
 
 

@@ -120,6 +120,13 @@ def heading_error_deg(moved: np.ndarray, heading: np.ndarray) -> float | None:
                                    float(moved @ heading)))
 
 
+def rocks_back(faces: list[tuple[str, ...]]) -> int:
+    """How many changes of face in the sequence ``faces`` (the support faces stood on, in
+    order) return to the face stood on before the last: rocks back over the edge just crossed,
+    where a roll that gets on moves to a third face."""
+    return sum(1 for i in range(2, len(faces)) if faces[i] == faces[i - 2])
+
+
 def support_face(positions: dict[str, np.ndarray]) -> tuple[str, ...]:
     """The nodes of the convex-hull face the robot stands on (its outward normal nearest
     straight down), with every node within :data:`FACE_TOLERANCE` of its plane; sorted."""

@@ -32,6 +32,7 @@ from tensim.control.rolling import (
     heading_vector,
     landing_pose,
     plan_tip,
+    rocks_back,
     support_edges,
     support_face,
     tip_rotation,
@@ -76,6 +77,7 @@ class _Gait:
     since: float = 0.0
     pushing: bool = False
     faces: list[tuple[str, ...]] = dataclasses.field(default_factory=list)
+    first_roll_s: float | None = None  # when the robot first left its first face [s]
     plans: int = 0
     turn: float | None = None  # rad: the yaw to turn by in place (None: roll on the heading)
     start: np.ndarray | None = None  # (n, 3) the nodes at the start (turning's reference)
@@ -143,13 +145,15 @@ class _Gait:
         held, self.seen = face == self.seen, face  # a new face counts once seen twice running
         com = sim.data.subtree_com[0][:2].copy()
         before, self.com_before = self.com_before, com
-        if self.settings.extra_feet and set(self.face) < set(face):
+        if self.settings.extra_feet and self.face and set(self.face) < set(face):
             face = self.face  # flattened onto one more node: still on the same face
         if face != self.face:
             if held or not self.faces:
                 landed_ahead = self.ahead is not None and face == self.ahead
                 self.face, self.since, self.pushing = face, sim.time, landed_ahead
                 self.faces.append(face)
+                if len(self.faces) == 2:
+                    self.first_roll_s = sim.time
                 self.ahead, self.released = None, False
                 if self.settings.release and not landed_ahead:
                     sim.drive.rest_command[self.motorised] = self.built[self.motorised]
@@ -293,7 +297,9 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                "heading_deg": heading_deg if goal is None else None,
                "goal_xy_m": list(goal) if goal is not None else None,
                "faces_visited": len(set(gait.faces)), "rolls": max(0, len(gait.faces) - 1),
-               "plans": gait.plans}
+               "plans": gait.plans, "rocks_back": rocks_back(gait.faces),
+               "first_roll_s": None if gait.first_roll_s is None
+               else round(gait.first_roll_s, 6)}
     if turn_deg is not None:
         bodies = dict(zip((int(b) for b in sim.index.body), sim.index.bodies, strict=True))
         nodes = {n: (bodies[b], sim.index.node_local[n])
