@@ -49,16 +49,9 @@ class RollSettings:
         period_s: the gait's control period: it looks at the robot this often [s].
         release: on a new face, return the cables to their built rest lengths while the robot
             rests (else hold the commands it tipped with and plan from there).
-        pipeline: once the centre of mass has crossed the tipping edge, plan the next face's
-            tip on the face the robot will land on (the hull rolled rigidly over the edge,
-            :func:`landing_pose`) and command it while the robot is still tipping, so that the
-            motors wind toward the next tip during this one and its momentum carries on.
         pump: a plan whose static centre of mass stays short of the edge (a tip only
             momentum can make) is let go while the robot swings back from the edge and
             commanded again as it swings toward it, building up its rocking.
-        extra_feet: a support face that holds the current one's nodes and more (the robot
-            flattened onto a further node, as a 3-bar's plan often makes it) is the same face,
-            not a roll: the plan goes on.
     """
 
     shorten: float = 0.5
@@ -69,9 +62,7 @@ class RollSettings:
     push_s: float = 2.0
     period_s: float = 0.05
     release: bool = True
-    pipeline: bool = False
     pump: bool = False
-    extra_feet: bool = False
 
     def __post_init__(self) -> None:
         for name in ("shorten", "lengthen", "margin", "settle_s", "push_s", "period_s"):
@@ -177,23 +168,6 @@ def tip_rotation(points: np.ndarray, feet: np.ndarray, edge: np.ndarray) -> tupl
     return rotation, anchor
 
 
-def landing_pose(positions: dict[str, np.ndarray], edge: np.ndarray) -> dict[str, np.ndarray]:
-    """The nodes where the robot lands tipped rigidly over a support edge (:func:`tip_rotation`,
-    then lowered so that its lowest node is at the height of the lowest node now).
-
-    Args:
-        positions: node name -> position now [m].
-        edge: (3,) the support edge as a x + b y + c = 0, (a, b) its unit outward normal.
-    """
-    names = list(positions)
-    points = np.array([positions[n] for n in names])
-    feet = np.array([positions[n] for n in support_face(positions)])
-    rotation, anchor = tip_rotation(points, feet, edge)
-    landed = (points - anchor) @ rotation.T + anchor
-    landed[:, 2] -= landed[:, 2].min() - points[:, 2].min()
-    return dict(zip(names, landed, strict=True))
-
-
 def yaw_between(start: np.ndarray, end: np.ndarray) -> float:
     """The yaw [rad] of the best-fitting rotation (Kabsch) taking the point set ``start`` (n, 3)
     to ``end``: the angle of the rotation about z nearest to it (exact when the robot stands
@@ -242,14 +216,12 @@ class TipPlan:
         direction: (2,) unit outward normal of the edge it tips over.
         margin: how far past the edge the planned static centre of mass lies [m]
             (negative: short of it, the motors' travel spent).
-        edge: (3,) the edge as a x + b y + c = 0, (a, b) = ``direction``.
     """
 
     rest_lengths: np.ndarray
     feet: tuple[str, ...]
     direction: np.ndarray
     margin: float
-    edge: np.ndarray
 
 
 def plan_tip(structure: Structure, rest: np.ndarray, built: np.ndarray, heading: np.ndarray,
@@ -313,5 +285,4 @@ def _plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.
             lin = settle(with_rest_lengths(explicit, planned), feet, gravity)
         except DesignError:
             break
-    return TipPlan(planned, feet, normal.copy(), float(normal @ _com(lin)[:2] + edge[2]),
-                   np.array(edge, dtype=float))
+    return TipPlan(planned, feet, normal.copy(), float(normal @ _com(lin)[:2] + edge[2]))

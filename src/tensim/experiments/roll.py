@@ -30,7 +30,6 @@ from tensim.control.rolling import (
     default_settings,
     heading_error_deg,
     heading_vector,
-    landing_pose,
     plan_tip,
     rocks_back,
     support_edges,
@@ -49,8 +48,8 @@ LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait ai
 TURN_TOLERANCE = 10.0  # deg: turning in place stops once the yaw is this near the target
 TURN_DEPTH = 5  # tips ahead turning in place looks (rigid hull): once around a 6-bar's hull vertex
 TURN_RADIUS = 0.1  # body lengths from the start that turning in place moves freely within
-PUMP_HOLD_S = 0.2  # s: a pumped plan is held at least this long before it may let go
 TURN_WEIGHT = 4.0  # rad of yaw error that one body length beyond TURN_RADIUS costs as much as
+PUMP_HOLD_S = 0.2  # s: a pumped plan is held at least this long before it may let go
 
 
 def node_positions(sim: Simulation) -> dict[str, np.ndarray]:
@@ -83,8 +82,6 @@ class _Gait:
     start: np.ndarray | None = None  # (n, 3) the nodes at the start (turning's reference)
     turned: bool = False
     plan: TipPlan | None = None  # the tip commanded now
-    ahead: tuple[str, ...] | None = None  # the face a pipelined plan was made for
-    crossed: np.ndarray | None = None  # (3,) the edge a pipelined plan's tip is crossing
     com_before: np.ndarray | None = None  # (2,) the centre of mass a control period ago [m]
     released: bool = False  # pumping: the plan let go while the robot swings back
 
@@ -145,17 +142,14 @@ class _Gait:
         held, self.seen = face == self.seen, face  # a new face counts once seen twice running
         com = sim.data.subtree_com[0][:2].copy()
         before, self.com_before = self.com_before, com
-        if self.settings.extra_feet and self.face and set(self.face) < set(face):
-            face = self.face  # flattened onto one more node: still on the same face
         if face != self.face:
             if held or not self.faces:
-                landed_ahead = self.ahead is not None and face == self.ahead
-                self.face, self.since, self.pushing = face, sim.time, landed_ahead
+                self.face, self.since, self.pushing = face, sim.time, False
                 self.faces.append(face)
                 if len(self.faces) == 2:
                     self.first_roll_s = sim.time
-                self.ahead, self.released = None, False
-                if self.settings.release and not landed_ahead:
+                self.released = False
+                if self.settings.release:
                     sim.drive.rest_command[self.motorised] = self.built[self.motorised]
             return
         waited = sim.time - self.since
@@ -163,19 +157,9 @@ class _Gait:
             self._push(sim, positions)
         elif self.pushing and waited >= self.settings.settle_s + self.settings.push_s:
             self.since, self.pushing = sim.time, False  # stuck: rest and plan again
-            self.ahead = None
             sim.drive.rest_command[self.motorised] = self.built[self.motorised]
-        elif self.ahead is not None and self.crossed is not None and (
-                self.crossed[:2] @ sim.data.subtree_com[0][:2] + self.crossed[2]
-                < -self.settings.margin):  # rocked back: plan again from where it stands
-            self.ahead, self.pushing = None, False
-            self.since = sim.time - self.settings.settle_s
-        elif (self.pushing and self.settings.pipeline and self.ahead is None
-              and self.turn is None and self.plan is not None
-              and self.plan.edge[:2] @ sim.data.subtree_com[0][:2] + self.plan.edge[2] > 0):
-            self._pipeline(sim, positions)
         elif (self.settings.pump and self.pushing and self.plan is not None
-              and self.ahead is None and self.plan.margin < self.settings.margin
+              and self.plan.margin < self.settings.margin
               and before is not None):
             self._pump(sim, float(self.plan.direction @ (com - before)), waited)
 
@@ -189,23 +173,6 @@ class _Gait:
         elif self.released and rate > 0:
             sim.drive.rest_command[self.motorised] = self.plan.rest_lengths[self.motorised]
             self.released = False
-
-    def _pipeline(self, sim: Simulation, positions: dict[str, np.ndarray]) -> None:
-        """The centre of mass has crossed the edge: plans the tip from the face the robot will
-        land on and commands it now."""
-        assert self.plan is not None
-        landed = landing_pose(positions, self.plan.edge)
-        pose = self._pose(landed)
-        com = sim.data.subtree_com[0]
-        try:
-            plan = plan_tip(pose, sim.drive.rest.copy(), self.built, self.heading(com),
-                            self.settings)
-        except DesignError:
-            return
-        self.plans += 1
-        self.crossed = self.plan.edge
-        self.plan, self.ahead = plan, plan.feet
-        sim.drive.rest_command[self.motorised] = plan.rest_lengths[self.motorised]
 
     def _pose(self, positions: dict[str, np.ndarray]) -> Structure:
         return dataclasses.replace(self.structure, nodes=tuple(
