@@ -19,6 +19,7 @@ from tensim.model._compile import _compile_spec
 SLOTS = 4  # contacts each sensor reports (a capsule on a plane makes at most 2)
 _FOUND, _POS = 1, 16  # mjtConDataField bits: the number of matches, the contact position
 _NAME = "tensim_ground_contact_"
+any_true = np.logical_or.reduce  # a bool array's .any(), without its Python wrapper
 
 
 def with_contact_sensors(compiled: CompiledModel) -> CompiledModel:
@@ -73,7 +74,7 @@ class GroundContacts:
         data = sensordata[:, self.index]  # (k, n_bodies, SLOTS, 4)
         found = data[:, :, 0, 0]
         touch = (found > 0).astype(float)
-        over = np.asarray((found > SLOTS).any(axis=1))
+        over = any_true(found > SLOTS, axis=1)
         out = np.zeros((data.shape[0], self.n_ends))
         if ends is None or not self.ends.size:
             return touch, out, over
@@ -82,9 +83,13 @@ class GroundContacts:
             return touch, out, over
         # (c, most) each contact's distance to each end of its body: np.linalg.norm without
         # its overhead (the same sum)
-        gap = ends[robot[:, None], self.ends[body]] - data[robot, body, slot, 1:][:, None]
+        own = self.ends[body]
+        gap = ends[robot[:, None], own] - data[robot, body, slot, 1:][:, None]
         far = np.sqrt(np.add.reduce(gap * gap, axis=2)) + self.pad[body]
-        nearest = np.argmin(far, axis=1)  # (the first of equals: the lowest end, as before)
-        hit = far[np.arange(far.shape[0]), nearest] < np.inf
-        out[robot[hit], self.ends[body[hit], nearest[hit]]] = 1.0
+        nearest = far.argmin(axis=1)  # (the first of equals: the lowest end, as before)
+        hit = np.minimum.reduce(far, axis=1) < np.inf  # (its distance is the least)
+        if np.logical_and.reduce(hit):  # (the common case: every body touching has an end)
+            out[robot, own[np.arange(own.shape[0]), nearest]] = 1.0
+        else:
+            out[robot[hit], own[hit, nearest[hit]]] = 1.0
         return touch, out, over

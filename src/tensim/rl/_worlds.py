@@ -26,7 +26,7 @@ from tensim.sim._loop import (
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 any_true = np.logical_or.reduce  # a bool array's .any(), without its Python wrapper
 _BADQACC = int(mujoco.mjtWarning.mjWARN_BADQACC)
-_VEL = int(mujoco.mjtStage.mjSTAGE_VEL)
+_VEL, _NONE = int(mujoco.mjtStage.mjSTAGE_VEL), int(mujoco.mjtStage.mjSTAGE_NONE)
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
 _FIELDS = ("ten_length", "xpos", "xmat", "xipos", "xquat", "subtree_com", "cvel", "qvel",
            "actuator_force", "act", "ctrl", "ncon")
@@ -242,13 +242,20 @@ class Worlds:
         self._calls += 1  # every RING_EVERY-th period, its last steps' forces tell ringing
         checked = self._calls % RING_EVERY == 0
         calls = split_steps(c.control_steps) if checked else [(c.control_steps, False)]
+        rows = None if isinstance(r, slice) else ids
+        stage = _NONE
         try:
-            for count, push in calls:
-                self.batch.step(None if isinstance(r, slice) else ids, nstep=count, stage=_VEL)
+            for j, (count, push) in enumerate(calls):
+                # the stages at the new state after the last call only (the observation's):
+                # the forces pushed are each step's own, from its actuation
+                stage = _VEL if j == len(calls) - 1 else _NONE
+                self.batch.step(rows, nstep=count, stage=stage)
                 if push:
                     self.forces.push(r, self.f["actuator_force"][r, :n])
         except mjbatch.SimulationError as err:
             failed = np.isin(ids, err.ids)
+            if stage == _NONE and not failed.all():  # the others' stages, as after the last
+                self.batch.forward(ids[~failed], stage=_VEL)
         self.steps[r] += 1
         self.previous[r] = applied
         f, limits = self.f, self.limits

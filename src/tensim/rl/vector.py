@@ -123,7 +123,7 @@ class TensegrityVectorEnv(VectorEnv):
         if not any_true(self._autoreset):  # (the common case: every robot steps, no copies)
             reward, terminated, terms = self.worlds.step(self._all, commands, applied)
             truncated = (self.worlds.steps >= self.robot.config.max_steps) & ~terminated
-            self._obs[:] = self.worlds.observe(self._all)
+            self.worlds.observe(self._all, out=self._obs)
             info = _step_info(n, self._all, terms, clipped)
         else:
             reward, terminated, truncated = np.zeros(n), np.zeros(n, bool), np.zeros(n, bool)
