@@ -55,6 +55,10 @@ class GroundContacts:
         adr = model.sensor_adr[ids] if self.ready else np.zeros(0, dtype=int)
         # (n_bodies, SLOTS, 4) indices into a robot's sensordata: found, x, y, z per slot
         self.index = adr[:, None, None] + np.arange(SLOTS * 4).reshape(SLOTS, 4)
+        flat = self.index.ravel()  # (where the sensors lie one after another: a slice, a view)
+        self._rows: np.ndarray | slice = self.index
+        if flat.size and (np.diff(flat) == 1).all():
+            self._rows = slice(int(flat[0]), int(flat[-1]) + 1)
         # each body's rod ends, in order, padded to (n_bodies, most ends on a body); the
         # padding is never the nearest end (its distance is inf)
         own = [np.flatnonzero(end_body == b) for b in bodies]
@@ -71,7 +75,7 @@ class GroundContacts:
         1 at the nearest end of its body to each contact (``ends``: (k, n_ends, 3) rod end
         positions [m], or None for no ends), and (k,) robots with more contacts on a body
         than the sensors hold (their flags must come from the contact list)."""
-        data = sensordata[:, self.index]  # (k, n_bodies, SLOTS, 4)
+        data = sensordata[:, self._rows].reshape(-1, *self.index.shape)  # (k, n_bodies, SLOTS, 4)
         found = data[:, :, 0, 0]
         touch = (found > 0).astype(float)
         over = any_true(found > SLOTS, axis=1)

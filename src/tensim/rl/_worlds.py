@@ -51,7 +51,7 @@ class Worlds:
         idx = robot.compiled.index
         self._body = idx.body
         self._bodies = _as_slice(idx.body)  # (a slice where the ids run on: views, no copies)
-        self._root = robot.model.body_rootid[idx.body]
+        self._root = _as_slice(robot.model.body_rootid[idx.body])  # (free bodies: themselves)
         mass = robot.model.body_mass[idx.body]
         self._mass = mass / mass.sum()
         free = robot.model.jnt_type == mujoco.mjtJoint.mjJNT_FREE
