@@ -174,9 +174,11 @@ class TensegrityVectorEnv(VectorEnv):
 def _step_info(n: int, live: np.ndarray, terms: dict[str, np.ndarray], clipped: np.ndarray
                ) -> dict[str, Any]:
     """Gymnasium's vector info: each key with its ``_key`` mask of the robots that have it."""
-    mask = np.zeros(n, dtype=bool)
-    mask[live] = True
     every = live.size == n  # every robot stepped: the (new) term arrays are the columns
+    mask = np.ones(n, dtype=bool)
+    if not every:
+        mask[:] = False
+        mask[live] = True
     info: dict[str, Any] = {}
     for key, values in (("reward_progress", terms["progress"]),
                         ("reward_control", terms["control"]),
