@@ -147,3 +147,21 @@ def test_the_plain_env_of_the_rl_bench_observes_what_the_rolling_observation_hol
     tips = env.data.site_xpos[env.ends]
     flagged = part["end_contact"] == 1.0
     assert flagged.any() and (tips[flagged, 2] < 0.1).all()  # end caps on the ground: 25 mm
+
+
+def test_the_cable_law_bench_shows_what_the_implicit_step_couples():
+    """The explicit law's three free bodies are three constraint islands, on Euler's and on
+    the discrete step alike (no cable in the metric); the implicit law puts every taut cable
+    of the prestressed spine into the discrete step's metric, which joins them into one."""
+    from tensim.benchmarks.engine import DISCRETE_EXPLICIT, bench_laws, format_laws
+
+    report = bench_laws(duration=0.02, repeats=1)
+    laws = report["laws"]
+    assert set(laws) == {"explicit", "implicit", "implicitfast", DISCRETE_EXPLICIT}
+    for row in ("explicit", DISCRETE_EXPLICIT):
+        assert laws[row]["islands_per_step"] == 3 and laws[row]["integrator_cables_per_step"] == 0
+    assert laws["implicit"]["islands_per_step"] == 1
+    assert laws["implicit"]["integrator_cables_per_step"] == 12
+    assert laws["explicit"]["ratio_to_explicit"] == 1
+    assert all(f["solver_iterations_per_step"] > 0 for f in laws.values())
+    assert DISCRETE_EXPLICIT in format_laws(report)
