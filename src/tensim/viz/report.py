@@ -164,7 +164,7 @@ def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
         log.info("report without a frame of the robot: %s", err)
         return f"No frame of the robot: {err}"
     with atomic_path(out / "frame.png") as tmp:
-        Image.fromarray(image).save(tmp, format="png")
+        Image.fromarray(image).save(tmp, format="png", compress_level=3)  # as the figures
     return None
 
 
