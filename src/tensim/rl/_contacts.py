@@ -19,6 +19,7 @@ from tensim.model._compile import _compile_spec
 SLOTS = 4  # contacts each sensor reports (a capsule on a plane makes at most 2)
 _FOUND, _POS = 1, 16  # mjtConDataField bits: the number of matches, the contact position
 _NAME = "tensim_ground_contact_"
+_PAIR = "tensim_bar_contact_"
 any_true = np.logical_or.reduce  # a bool array's .any(), without its Python wrapper
 
 
@@ -33,9 +34,39 @@ def with_contact_sensors(compiled: CompiledModel) -> CompiledModel:
                         objtype=mujoco.mjtObj.mjOBJ_BODY, objname=body,
                         reftype=mujoco.mjtObj.mjOBJ_BODY, refname="world",
                         intprm=[_FOUND | _POS, 0, SLOTS])
+    return _recompiled(compiled, spec)
+
+
+def with_bar_sensors(compiled: CompiledModel) -> CompiledModel:
+    """``compiled`` with a contact sensor on each pair of rigid bodies, counting their contacts
+    (``data="found"``); unchanged without its ``MjSpec``."""
+    if compiled.spec is None:
+        return compiled
+    spec = compiled.spec.copy()
+    bodies = compiled.index.bodies
+    for i, a in enumerate(bodies):
+        for b in bodies[i + 1:]:
+            spec.add_sensor(name=f"{_PAIR}{a}_{b}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                            objtype=mujoco.mjtObj.mjOBJ_BODY, objname=a,
+                            reftype=mujoco.mjtObj.mjOBJ_BODY, refname=b,
+                            intprm=[_FOUND, 0, 1])
+    return _recompiled(compiled, spec)
+
+
+def _recompiled(compiled: CompiledModel, spec: mujoco.MjSpec) -> CompiledModel:
     model = _compile_spec(spec)
     model.key_ctrl[:] = compiled.model.key_ctrl  # (edited after compiling, as the spec's)
     return dataclasses.replace(compiled, model=model, spec=spec)
+
+
+def bar_sensor_rows(model: mujoco.MjModel, bodies: list[str]) -> np.ndarray | None:
+    """The ``sensordata`` rows of :func:`with_bar_sensors`' counts, or None where the model
+    has not every pair's sensor."""
+    ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"{_PAIR}{a}_{b}")
+           for i, a in enumerate(bodies) for b in bodies[i + 1:]]
+    if not ids or min(ids) < 0:
+        return None
+    return model.sensor_adr[ids]
 
 
 class GroundContacts:

@@ -13,7 +13,7 @@ from tensim.control import default_impedance
 from tensim.design.check import Finding, check_structure
 from tensim.model import CompiledModel, compile_structure
 from tensim.models import PRESETS, load_model, preset
-from tensim.rl._contacts import with_contact_sensors
+from tensim.rl._contacts import with_bar_sensors, with_contact_sensors
 from tensim.rl.config import EnvConfig
 from tensim.sim import MODE_IMPEDANCE, MODE_PD, MODE_REST, CableDrive, Controller, Simulation
 from tensim.structure import Structure
@@ -81,6 +81,8 @@ class Robot:
         self.compiled: CompiledModel = compile_structure(structure, config.world)
         if {"contact", "end_contact"} & set(config.observation):  # read for all robots at once
             self.compiled = with_contact_sensors(self.compiled)
+        if config.bar_contact_cost:  # the bar-bar contacts counted for all robots at once
+            self.compiled = with_bar_sensors(self.compiled)
         controller = default_controller(config.model, structure)
         self.action = config.action
         pd = np.array([c.motor.pd for c in structure.cables], dtype=bool)

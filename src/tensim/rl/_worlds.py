@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjbatch
 
-from tensim.rl._contacts import GroundContacts
+from tensim.rl._contacts import GroundContacts, bar_sensor_rows
 from tensim.rl._robot import Robot
 from tensim.sim import MODE_PD, PhysicsScale, StabilityLimits, Trial, load_cell_reading
 from tensim.sim._batch import setup_trial
@@ -86,6 +86,7 @@ class Worlds:
         self._end_body = robot.rods["body"].ravel()
         self._end_local = robot.rods["local"].reshape(-1, 3)
         self._ground = GroundContacts(robot.model, idx.body, self._end_body)
+        self._bar_rows = bar_sensor_rows(robot.model, list(idx.bodies))
         layout = robot.layout
         self._terms = tuple(t for t in layout if t != "history")
         # the world vectors an observation turns into its frame, (start, stop) rows of a buffer
@@ -468,7 +469,10 @@ class Worlds:
         return self.f["xipos"][self._rows(ids)][:, self._body].copy()
 
     def bar_contacts(self, ids: np.ndarray) -> np.ndarray:
-        """(k,) contacts between two of the robot's rigid bodies, per robot."""
+        """(k,) contacts between two of the robot's rigid bodies, per robot: the sum of the
+        pair sensors' counts where the model has them, else from the contact lists."""
+        if self._bar_rows is not None:
+            return np.add.reduce(self.f["sensordata"][self._rows(ids)][:, self._bar_rows], axis=1)
         at, bodies, _ = self._contacts(ids)
         both = self._robot_body[bodies].all(axis=1) & (bodies[:, 0] != bodies[:, 1])
         return np.bincount(at[both], minlength=ids.size).astype(float)
