@@ -532,3 +532,47 @@ def test_ten_times_the_noise_keeps_the_stand_ins_intervals(robot, impedance):
         intervals.append([p["ci95"] for p in result.parameters().values()])
     ratio = np.array(intervals[1]) / np.array(intervals[0])
     assert (ratio >= 0.85).all(), ratio
+
+
+def _impedance_log(robot, impedance, noise, seed):
+    """docs/hardware.md's 8 s impedance log: stiffer cables and less friction than nominal,
+    read every 10 ms through a 0.5 N offset, a 30 ms delay and ``noise`` [N] of sensor noise."""
+    return simulated_log(robot, impedance, 8.0, parameters={"stiffness": 252.076,
+                                                           "friction": 0.1},
+                         sensor=SensorModel(offset=0.5, noise=noise, delay=0.03),
+                         rng=np.random.default_rng(seed), feedback_period=0.01)
+
+
+IMPEDANCE_TRUTH = {"stiffness": 252.076, "friction": 0.1, "offset": 0.5, "delay": 0.03}
+
+
+def test_noise_widens_every_interval_of_the_impedance_log_at_one_fit_point(robot, impedance):
+    """The impedance log clean and through 0.2 N of sensor noise in four draws, each judged
+    at one fit point (the truth; its clean residual is the replay's own error, 0.05 N RMS,
+    correlated over the gait): noise adds variance and removes none of the model error's, so
+    every parameter's interval must widen (measured 1.18-3.85 of the clean one). Before, a
+    window taken from the residuals' own correlation shrank with the noise: 0.68 (the delay's)
+    to 2.62. The Jacobian is the same for every log: it differences simulations, not
+    readings, and the replays depend on the logged V* only."""
+    from tensim.hardware import SysidSpace
+    from tensim.hardware import sysid as fitting
+    from tensim.hardware.uncertainty import fit_stderr
+
+    clean = _impedance_log(robot, impedance, 0.0, 1)
+    settings = fitting._windows(SysidSettings(fit_window=(0.0, 5.0),
+                                              validate_window=(5.0, 8.0)), [clean])
+    space = SysidSpace.build(robot, list(IMPEDANCE_TRUTH), start=IMPEDANCE_TRUTH)
+    problem = fitting._Problem(space, [clean], impedance, SensorModel(), None, settings, None)
+    unit = space.to_unit(space.snap(space.start))
+    jac = problem.jacobian(unit)
+    rows, cables = problem.sample_cells(unit)
+
+    def stderr() -> np.ndarray:
+        return fit_stderr(jac, problem.residuals(unit), rows, cables, problem.periods()).stderr
+
+    reference = stderr()
+    assert np.sqrt(np.mean(problem.residuals(unit) ** 2)) == pytest.approx(0.05, abs=0.01)
+    for seed in range(1, 5):
+        problem.logs = [_impedance_log(robot, impedance, 0.2, seed)]  # the same replays
+        ratio = stderr() / reference
+        assert (ratio >= 1.0).all(), (seed, ratio)
