@@ -562,8 +562,8 @@ def test_noise_widens_every_interval_of_the_impedance_log_at_one_fit_point(robot
     settings = SysidSettings(fit_window=(0.0, 5.0), validate_window=(5.0, 8.0))
 
     def stderr(noise: float, seed: int) -> np.ndarray:
-        errors, _ = errors_at([_impedance_log(robot, impedance, noise, seed)], robot,
-                              impedance, IMPEDANCE_TRUTH, settings=settings)
+        errors, _, _ = errors_at([_impedance_log(robot, impedance, noise, seed)], robot,
+                                 impedance, IMPEDANCE_TRUTH, settings=settings)
         return np.array(list(errors.values()))
 
     reference = stderr(0.0, 1)

@@ -59,15 +59,20 @@ def impedance_log(robot, impedance, noise: float, seed: int):
 def noise(robot, impedance, draws: int) -> None:
     logs = [impedance_log(robot, impedance, 0.0 if k == 0 else 0.2, k or 1)
             for k in range(draws + 1)]
-    at_truth = [np.array(list(errors_at([log], robot, impedance, TRUTH,
-                                        settings=SETTINGS)[0].values())) for log in logs]
-    fitted = [np.array([p["ci95"] for p in identify(
-        [log], robot, impedance, list(TRUTH), settings=SETTINGS).parameters().values()])
-        for log in logs]
-    for draw in range(1, draws + 1):
-        print(f"noise draw {draw}: {', '.join(TRUTH)} intervals with 0.2 N / clean: "
-              f"one point {_figures(at_truth[draw] / at_truth[0])}; "
-              f"fitted {_figures(fitted[draw] / fitted[0])}")
+    at_truth = [errors_at([log], robot, impedance, TRUTH, settings=SETTINGS) for log in logs]
+    fits = [identify([log], robot, impedance, list(TRUTH), settings=SETTINGS) for log in logs]
+    intervals = [np.array([p["ci95"] for p in fit.parameters().values()]) for fit in fits]
+    truth = np.array(list(TRUTH.values()))
+    for draw, (fit, (errors, _, rms)) in enumerate(zip(fits, at_truth, strict=True)):
+        miss = np.abs(fit.fitted - truth)
+        print(f"{'clean log' if draw == 0 else f'noise draw {draw}'}: the fit misses the "
+              f"stiffness by {miss[0]:.1f} N/m and the delay by {miss[3] * 1000:.2f} ms; "
+              f"residual {np.sqrt(np.mean(fit.optimizer.fun**2)):.3f} N RMS (at the truth "
+              f"{rms:.3f} N)")
+        if draw:
+            point = np.array(list(errors.values())) / np.array(list(at_truth[0][0].values()))
+            print(f"  {', '.join(TRUTH)} intervals with 0.2 N / clean: one point "
+                  f"{_figures(point)}; fitted {_figures(intervals[draw] / intervals[0])}")
 
 
 def white(robot, impedance) -> None:
@@ -75,8 +80,8 @@ def white(robot, impedance) -> None:
     replay's own error, judged at the truth."""
     ratios = []
     for seed in range(1, 5):
-        _, errors = errors_at([impedance_log(robot, impedance, 2.0, seed)], robot, impedance,
-                              TRUTH, settings=SETTINGS)
+        _, errors, _ = errors_at([impedance_log(robot, impedance, 2.0, seed)], robot,
+                                 impedance, TRUTH, settings=SETTINGS)
         ratios.append(errors.stderr / errors.naive)
     print(f"white: {', '.join(TRUTH)} intervals through 2 N of noise / independent-sample: "
           f"{_figures(np.mean(ratios, axis=0))}")

@@ -442,7 +442,7 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
 def errors_at(logs: Sequence[HardwareLog], structure: Structure, config: ControllerConfig,
               values: Mapping[str, float], *, sensor: SensorModel | None = None,
               world: WorldOptions | None = None, settings: SysidSettings | None = None
-              ) -> tuple[dict[str, float], FitErrors]:
+              ) -> tuple[dict[str, float], FitErrors, float]:
     """The standard errors :func:`identify` would report for a fit that ended at ``values``
     (no fit is run): the Jacobian and the residuals at that point, on the fit samples.
 
@@ -451,8 +451,8 @@ def errors_at(logs: Sequence[HardwareLog], structure: Structure, config: Control
         values: parameter name -> value (the names are the parameters).
 
     Returns:
-        Name -> standard error [the parameter's unit] (inf: not determined), and the
-        estimate's parts in unit coordinates.
+        Name -> standard error [the parameter's unit] (inf: not determined), the estimate's
+        parts in unit coordinates, and the RMS of the residuals there [N].
     """
     for log in logs:
         validate_log(log)
@@ -460,11 +460,12 @@ def errors_at(logs: Sequence[HardwareLog], structure: Structure, config: Control
     space = SysidSpace.build(structure, list(values), start=values, world=world)
     problem = _Problem(space, logs, config, sensor or SensorModel(), world, settings, None)
     unit = space.to_unit(space.snap(space.start))
-    errors = fit_stderr(problem.jacobian(unit), problem.residuals(unit),
-                        *problem.sample_cells(unit), problem.periods())
+    jac, residual = problem.jacobian(unit), problem.residuals(unit)
+    errors = fit_stderr(jac, residual, *problem.sample_cells(unit), problem.periods())
     scale = space.high - space.low
     return ({p.name: float(v * s) for p, v, s in
-             zip(space.parameters, errors.stderr, scale, strict=True)}, errors)
+             zip(space.parameters, errors.stderr, scale, strict=True)}, errors,
+            float(np.sqrt(np.mean(residual**2))))
 
 
 def _windows(settings: SysidSettings, logs: Sequence[HardwareLog]) -> SysidSettings:
