@@ -112,3 +112,21 @@ def test_bad_robot_counts_are_refused_by_option():
     for text in ("0,16", "x", ""):
         with pytest.raises(InputError, match="--envs: expected batch sizes such as 16,64"):
             _worlds(text, "--envs", "16,64")
+
+
+def test_the_cable_law_bench_shows_what_the_implicit_step_couples():
+    """The explicit law's three free bodies are three constraint islands, on Euler's and on
+    the discrete step alike (no cable in the metric); the implicit law puts every taut cable
+    of the prestressed spine into the discrete step's metric, which joins them into one."""
+    from tensim.benchmarks.engine import DISCRETE_EXPLICIT, bench_laws, format_laws
+
+    report = bench_laws(duration=0.02, repeats=1)
+    laws = report["laws"]
+    assert set(laws) == {"explicit", "implicit", "implicitfast", DISCRETE_EXPLICIT}
+    for row in ("explicit", DISCRETE_EXPLICIT):
+        assert laws[row]["islands_per_step"] == 3 and laws[row]["integrator_cables_per_step"] == 0
+    assert laws["implicit"]["islands_per_step"] == 1
+    assert laws["implicit"]["integrator_cables_per_step"] == 12
+    assert laws["explicit"]["ratio_to_explicit"] == 1
+    assert all(f["solver_iterations_per_step"] > 0 for f in laws.values())
+    assert DISCRETE_EXPLICIT in format_laws(report)
