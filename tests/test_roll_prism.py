@@ -90,6 +90,30 @@ def test_rocks_back_counts_returns_to_the_face_before():
     assert rocks_back([a, b, c, d]) == 0
 
 
+def test_the_pump_lets_go_swinging_back_and_pulls_swinging_forward():
+    from types import SimpleNamespace
+
+    from tensim.control.rolling import TipPlan
+    from tensim.experiments.roll import PUMP_HOLD_S, _Gait
+
+    built, planned = np.array([1.0, 1.0, 2.0]), np.array([0.7, 1.2, 2.0])
+    motorised = np.array([True, True, False])
+    gait = _Gait(_prism(), built, motorised, RollSettings(pump=True, settle_s=0.0), 0.0, None,
+                 np.zeros(2), 1.0, pushing=True,
+                 plan=TipPlan(planned, ("b0",), np.array([1.0, 0.0]), -0.1))
+    sim = SimpleNamespace(drive=SimpleNamespace(rest_command=planned.copy()))
+    gait._pump(sim, -0.1, PUMP_HOLD_S / 2)  # held too briefly to let go
+    assert np.array_equal(sim.drive.rest_command, planned)
+    gait._pump(sim, 0.1, PUMP_HOLD_S)  # still swinging toward the edge: keep pulling
+    assert np.array_equal(sim.drive.rest_command, planned)
+    gait._pump(sim, -0.1, PUMP_HOLD_S)  # swinging back: let go (motorised cables only)
+    assert np.array_equal(sim.drive.rest_command, built) and gait.released
+    gait._pump(sim, -0.1, PUMP_HOLD_S + 0.05)
+    assert np.array_equal(sim.drive.rest_command, built)
+    gait._pump(sim, 0.1, PUMP_HOLD_S + 0.1)  # toward the edge again: pull
+    assert np.array_equal(sim.drive.rest_command, planned) and not gait.released
+
+
 def test_tip_rotation_lays_a_box_on_its_side():
     # a 1 x 2 x 0.5 box tipped over its +x edge lies on its 0.5 x 2 face, spanning x 0.5..1
     corners = np.array(list(itertools.product((-0.5, 0.5), (-1.0, 1.0), (0.0, 0.5))))
