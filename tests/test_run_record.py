@@ -73,3 +73,23 @@ def test_a_robot_of_hundreds_of_cables_prints_a_summary_not_every_cable(capsys, 
     assert len(out) == 3 + TOP_CABLES
     assert "90 cables" in out[2] and "median 44.500 N" in out[2]
     assert out[3].split() == ["c89", "89.000"]  # the most loaded first
+
+
+def test_simulate_prints_the_peaks_the_law_tracked_beside_each_tension(capsys, tmp_path):
+    """The per-cable table carries summary.json's tracked peaks, each in its own column and
+    row (a swapped key or a shifted row would show)."""
+    from tensim.cli._common import print_summary
+
+    summary = {"duration_s": 1.0, "wall_s": 0.1, "real_time_factor": 10.0,
+               "max_tension_N": {"a": 10.0, "b": 20.0}, "max_system_tension_N": 20.0,
+               "max_line_speed_m_s": {"a": 0.25, "b": 0.0},
+               "max_power_W": {"a": 2.5, "b": 0.0}}
+    print_summary(summary, tmp_path)
+    out = capsys.readouterr().out.splitlines()
+    assert "line speed [m/s] and power [W]" in out[2]
+    assert out[3].split() == ["a", "10.000", "0.2500", "2.500"]
+    assert out[4].split() == ["b", "20.000", "0.0000", "0.000"]
+    # an older summary without the peaks prints tensions alone
+    del summary["max_line_speed_m_s"], summary["max_power_W"]
+    print_summary(summary, tmp_path)
+    assert capsys.readouterr().out.splitlines()[3].split() == ["a", "10.000"]

@@ -171,44 +171,75 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
     return BenchCase(f"{name}{label}", m.opt.timestep, timings["tensim"], timings["engine"])
 
 
+DISCRETE_EXPLICIT = "explicit, discrete step"  # bench_laws' row: the integrator alone
+
+
 def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine3",
                dt: float = 1e-3) -> dict[str, Any]:
     """The cost of a step under each cable law (``WorldOptions.cable_law``): preset ``name``
     under its impedance controller at step ``dt``, the laws' loops taking turns.
 
+    A further row runs the explicit law on MuJoCo's ``discrete`` step (the implicit law's
+    integrator, with no cable in its metric), which separates the integrator's own cost from
+    that of the cables the implicit law couples into it. After the timed runs each loop runs
+    once more from the same state, one step at a time, for what MuJoCo does per step: the
+    constraint solver's iterations summed over its islands (the explicit law's free bodies
+    are solved as separate islands, which the cables of the implicit law's metric join into
+    one), the islands, and the cables whose terms MuJoCo's integrator takes (the taut cables
+    under the implicit laws: in ``discrete``'s metric, or ``implicitfast``'s damping).
+
     Returns:
-        JSON-ready figures: per law, the best and median CPU and wall time per step [us] and
-        the ratio of its best CPU time to the explicit law's.
+        JSON-ready figures: per law, the best and median CPU and wall time per step [us], the
+        ratio of its best CPU time to the explicit law's, and the per-step means above.
     """
-    from tensim.model._law_layout import CABLE_LAWS
+    from tensim.model._law_layout import CABLE_LAWS, LAW_EXPLICIT, implicit
 
     model = preset(name)
     structure = model.build()
     loops: dict[str, Callable[[], None]] = {}
-    sims = []
-    for law in CABLE_LAWS:
+    sims: dict[str, Simulation] = {}
+    states: dict[str, np.ndarray] = {}
+    rows = [(law, law) for law in CABLE_LAWS] + [(DISCRETE_EXPLICIT, LAW_EXPLICIT)]
+    for row, law in rows:
         compiled = compile_structure(structure, WorldOptions(timestep=dt, cable_law=law))
         sim = Simulation(compiled, controller=model.controller())
-        sims.append(sim)
+        sims[row] = sim
+        if row == DISCRETE_EXPLICIT:
+            sim.model.opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
         sim.step(int(SETTLE_S / sim.dt))
-        state = sim.get_state()
+        states[row] = state = sim.get_state()
 
         def loop(sim: Simulation = sim, state: np.ndarray = state) -> None:
             sim.set_state(state)
             sim.run(duration)
-        loops[law] = loop
+        loops[row] = loop
     try:
-        timings = _interleaved(loops, repeats, round(duration / dt))
+        n_steps = round(duration / dt)
+        timings = _interleaved(loops, repeats, n_steps)
+        per_step = {}
+        for row, sim in sims.items():
+            sim.set_state(states[row])
+            m, d, n = sim.model, sim.data, sim.compiled.n_cables
+            pull = (m.actuator_actadr + m.actuator_actnum - 1)[:n][implicit(m)[:n]]
+            counts = np.zeros((n_steps, 3))
+            for k in range(n_steps):
+                sim.step(1)
+                counts[k] = (d.solver_niter[:max(1, d.nisland)].sum(), d.nisland,
+                             np.count_nonzero(d.act[pull]))
+            per_step[row] = counts.mean(axis=0)
     finally:
-        for sim in sims:
+        for sim in sims.values():
             sim.close()
     base = timings[CABLE_LAWS[0]].best()
     return {"model": name, "dt_s": dt, "duration_s": duration, "repeats": repeats,
-            "laws": {law: {"cpu_us_per_step_best": round(t.best(), 3),
+            "laws": {row: {"cpu_us_per_step_best": round(t.best(), 3),
                            "cpu_us_per_step_median": round(t.median(), 3),
                            "wall_us_per_step_best": round(t.best("wall"), 3),
-                           "ratio_to_explicit": round(t.best() / base, 3)}
-                     for law, t in timings.items()},
+                           "ratio_to_explicit": round(t.best() / base, 3),
+                           "solver_iterations_per_step": round(float(per_step[row][0]), 3),
+                           "islands_per_step": round(float(per_step[row][1]), 3),
+                           "integrator_cables_per_step": round(float(per_step[row][2]), 3)}
+                     for row, t in timings.items()},
             "core_share": min(t.core_share() for t in timings.values())}
 
 
@@ -216,11 +247,15 @@ def format_laws(report: dict[str, Any]) -> str:
     """The per-law table of :func:`bench_laws`."""
     lines = [f"cable laws, {report['model']} at {report['dt_s'] * 1e3:g} ms, "
              f"{report['repeats']} runs each taking turns: us per step (CPU best / median, "
-             "wall best), ratio to the explicit law from the best CPU times"]
+             "wall best), ratio to the explicit law from the best CPU times; per step: the "
+             "constraint solver's iterations (all islands), its islands, the taut cables "
+             "whose terms MuJoCo's integrator takes"]
     for law, f in report["laws"].items():
-        lines.append(f"  {law:<12} {f['cpu_us_per_step_best']:7.1f} / "
+        lines.append(f"  {law:<23} {f['cpu_us_per_step_best']:7.1f} / "
                      f"{f['cpu_us_per_step_median']:<7.1f} {f['wall_us_per_step_best']:7.1f}"
-                     f" {f['ratio_to_explicit']:6.2f}x")
+                     f" {f['ratio_to_explicit']:6.2f}x   {f['solver_iterations_per_step']:5.2f}"
+                     f" it {f['islands_per_step']:4.2f} isl {f['integrator_cables_per_step']:5.2f}"
+                     " cables")
     return "\n".join(lines)
 
 

@@ -149,7 +149,16 @@ def print_summary(summary: dict[str, Any], out: Path, moved: bool = False,
               f"(x {dx:+.4f} m, y {dy:+.4f} m; z {dz:+.4f} m)")
     if not (isinstance(tensions, dict) and tensions):
         return
+    speeds, powers = summary.get("max_line_speed_m_s"), summary.get("max_power_W")
     if len(tensions) <= LISTED_CABLES:
+        if isinstance(speeds, dict) and isinstance(powers, dict):
+            # the peaks the law tracked at every step, as `design size` reads them
+            print(f"max system tension {summary['max_system_tension_N']} N; per cable, peak "
+                  "tension [N], motor line speed [m/s] and power [W]:")
+            for name, value in tensions.items():
+                print(f"  {name:<16} {value:8.3f} {speeds.get(name, 0.0):8.4f} "
+                      f"{powers.get(name, 0.0):9.3f}")
+            return
         print(f"max system tension {summary['max_system_tension_N']} N; per cable [N]:")
         for name, value in tensions.items():
             print(f"  {name:<16} {value:8.3f}")

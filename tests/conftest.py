@@ -1,0 +1,25 @@
+"""Suite-wide checks. With ``TENSIM_REQUIRE_COMPILED=1`` (CI sets it) a compiled cable law or
+CPG that is missing or stale (built from older sources, or for another MuJoCo) fails the run
+at its start: otherwise the tests of the compiled paths skip, and a stale build would pass
+unseen."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    if os.environ.get("TENSIM_REQUIRE_COMPILED") != "1":
+        return
+    from tensim.control import cpg
+    from tensim.sim import _law
+
+    missing = [name for name, ok in (("cable law", _law.compiled_available()),
+                                     ("CPG", cpg.compiled_available())) if not ok]
+    if missing:
+        raise pytest.UsageError(
+            f"TENSIM_REQUIRE_COMPILED=1 but the compiled {' and '.join(missing)} did not load "
+            "(not built, or built from older sources): rebuild with "
+            "`python setup.py build_ext --inplace` or reinstall with pip")
