@@ -2,11 +2,12 @@
 
 Random and mutated versions of valid inputs must either load or raise tensim's own error type
 (:class:`tensim.InputError` and its subclasses), never another exception, and never hang:
-each example runs under a wall-clock alarm. Mutations are of two kinds: on the text (cut,
-insert YAML/CSV punctuation or stray bytes, delete, duplicate a line) and on the parsed data
-(replace, delete or add a value anywhere in the tree with a hostile one). The runs are
-derandomized, so CI sees the same examples every time; ``TENSIM_FUZZ_SCALE=20 pytest
-tests/test_fuzz_inputs.py`` hunts longer with fresh random examples.
+each example runs under a CPU-time alarm (and a generous wall-clock one for a blocked hang).
+Mutations are of two kinds: on the text (cut, insert YAML/CSV punctuation or stray bytes,
+delete, duplicate a line) and on the parsed data (replace, delete or add a value anywhere in
+the tree with a hostile one). The runs are derandomized, so CI sees the same examples every
+time; ``TENSIM_FUZZ_SCALE=20 pytest tests/test_fuzz_inputs.py`` hunts longer with fresh
+random examples.
 """
 
 from __future__ import annotations
@@ -41,7 +42,9 @@ from tensim.structure import load_structure
 from tensim.terrain import KINDS, parse_terrain
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
-LIMIT_S = 10.0  # per example: far above the milliseconds a load takes, far below a hang
+LIMIT_S = 10.0  # CPU seconds per example: far above the milliseconds a load takes, far below a
+# hang; CPU time, so a loaded machine cannot make an example fail
+HANG_S = 600.0  # wall seconds per example: a hang guard only (a load blocked without using CPU)
 
 
 SCALE = int(os.environ.get("TENSIM_FUZZ_SCALE", "1"))  # > 1: that many times the examples, new
@@ -56,17 +59,23 @@ def fuzz(examples: int) -> Any:
 
 @contextlib.contextmanager
 def bounded(seconds: float = LIMIT_S) -> Iterator[None]:
-    """Fails the example (rather than hanging the suite) if it runs longer than ``seconds``."""
-    def expire(*_: object) -> None:
-        raise TimeoutError(f"an example ran longer than {seconds} s")
+    """Fails the example (rather than hanging the suite) if it takes more than ``seconds`` of
+    this process's CPU time (not wall time: other load on the machine does not count), or
+    ``HANG_S`` wall seconds."""
+    def expire(signum: int, _: object) -> None:
+        raise TimeoutError(f"an example ran longer than {seconds} s of CPU time"
+                           if signum == signal.SIGPROF else f"an example hung for {HANG_S} s")
 
-    previous = signal.signal(signal.SIGALRM, expire)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    previous = signal.signal(signal.SIGPROF, expire), signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_PROF, seconds)
+    signal.setitimer(signal.ITIMER_REAL, HANG_S)
     try:
         yield
     finally:
+        signal.setitimer(signal.ITIMER_PROF, 0)
         signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
+        signal.signal(signal.SIGPROF, previous[0])
+        signal.signal(signal.SIGALRM, previous[1])
 
 
 def loads_or_refuses(load: Any, *args: Any) -> Any:

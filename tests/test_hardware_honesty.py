@@ -24,6 +24,7 @@ from tensim.hardware import (
     SensorModel,
     SysidSettings,
     compare_tensions,
+    errors_at,
     identify,
     load_log,
     read_log,
@@ -410,43 +411,59 @@ def _stand_in_log(robot, impedance, period, noise):
                          rng=np.random.default_rng(1), world=world, feedback_period=period)
 
 
+def _impedance_log(robot, impedance, noise, seed):
+    """docs/hardware.md's 8 s impedance log: stiffer cables and less friction than nominal,
+    read every 10 ms through a 0.5 N offset, a 30 ms delay and ``noise`` [N] of sensor noise."""
+    return simulated_log(robot, impedance, 8.0, parameters={"stiffness": 252.076,
+                                                           "friction": 0.1},
+                         sensor=SensorModel(offset=0.5, noise=noise, delay=0.03),
+                         rng=np.random.default_rng(seed), feedback_period=0.01)
+
+
+IMPEDANCE_TRUTH = {"stiffness": 252.076, "friction": 0.1, "offset": 0.5, "delay": 0.03}
+
+
 def test_intervals_do_not_depend_on_the_logging_rate(robot, impedance):
     """One motion of the stand-in (its model error dominates the residuals) logged every
-    200 ms and every 10 ms: the residuals' correlation time is a property of the motion in
-    seconds, so the effective sample size and the intervals stay within 30 % (measured:
-    0.92, 0.96 and 0.89 of the 200 ms log's). On main a correlation factor counted in samples
-    multiplied an error that already counted correlation: the offset's interval doubled."""
+    200 ms, 50 ms and 10 ms: the residuals' correlation time is a property of the motion in
+    seconds and the long-run sums run over the motion's window in seconds, so the effective
+    sample size and the intervals stay within 30 % (measured: 0.97, 0.96 and 0.91 of the
+    200 ms log's at 50 ms; 0.92, 0.96 and 0.89 at 10 ms). On main a correlation factor counted
+    in samples multiplied an error that already counted correlation: the offset's interval
+    doubled."""
     intervals, taus = [], []
-    for period in (0.2, 0.01):
+    for period in (0.2, 0.05, 0.01):
         result = identify([_stand_in_log(robot, impedance, period, 0.1)], robot, impedance,
                           ["stiffness", "offset", "delay"],
                           settings=SysidSettings(fit_window=(1.0, 6.99), max_simulations=12))
         intervals.append([p["ci95"] for p in result.parameters().values()])
         taus.append(result.uncertainty["correlation_time_s"][0])
-    ratio = np.array(intervals[1]) / np.array(intervals[0])
-    assert ((ratio > 0.7) & (ratio < 1.3)).all(), ratio
-    assert 0.7 < taus[1] / taus[0] < 1.3, taus  # the same correlation time in seconds
+    for k in (1, 2):
+        ratio = np.array(intervals[k]) / np.array(intervals[0])
+        assert ((ratio > 0.7) & (ratio < 1.3)).all(), ratio
+        assert 0.7 < taus[k] / taus[0] < 1.3, taus  # the same correlation time in seconds
 
 
-def test_sensor_noise_does_not_narrow_the_stiffness_interval(robot, impedance, tmp_path):
-    """A clean 10 ms log of the impedance gait on stiffer, rougher hardware, and the same with
-    0.2 N of sensor noise: noise is no information, so the stiffness interval must not
-    narrow (measured 0.91 of the clean log's; on main 0.30: the clean log's correlated
-    residuals inflated a factor that noise then removed). Other noise draws give 0.52-0.94:
-    the fit point moves with the draw, and the interval with the misfit it leaves (the clean
-    fit stops 2.8 N/m off, the noisy ones 0.5-2.0 N/m; docs/hardware.md)."""
+def test_sensor_noise_does_not_narrow_the_impedance_logs_intervals(robot, impedance):
+    """The 8 s impedance log clean and through 0.2 N of sensor noise, each fitted: noise is no
+    information, so the intervals must not narrow (measured 0.99, 0.99 and 2.63 of the clean
+    log's for the stiffness, friction and offset; 0.99-1.18, 0.99-1.27 and 2.6-3.1 over six
+    draws; on main 0.91, 0.82 and 1.84, and 0.52-0.94 for the stiffness over four draws). Asked:
+    at least 0.97, since the fit point moves with the draw (a few percent here). The delay's
+    interval follows its fit point more than the noise: the clean fit stops 1.5 ms off (its
+    residual 0.069 N RMS, where the truth leaves 0.051 N), the noisy ones 0.1-1.0 ms off, and
+    the delay's interval is 0.58-1.19 of the clean one's over six draws (0.72 in this one); at
+    one fit point every interval widens with the noise
+    (:func:`test_noise_widens_every_interval_of_the_impedance_log_at_one_fit_point`)."""
     intervals = []
     for noise in (0.0, 0.2):
-        log = simulated_log(robot, impedance, 8.0, parameters={"stiffness": 252.076,
-                                                               "friction": 0.1},
-                            sensor=SensorModel(offset=0.5, noise=noise, delay=0.03),
-                            rng=np.random.default_rng(1), feedback_period=0.01)
-        result = identify([log], robot, impedance, ["stiffness", "friction", "offset", "delay"],
+        result = identify([_impedance_log(robot, impedance, noise, 1)], robot, impedance,
+                          list(IMPEDANCE_TRUTH),
                           settings=SysidSettings(fit_window=(0.0, 5.0),
                                                  validate_window=(5.0, 8.0)))
-        intervals.append(result.parameters()["stiffness"]["ci95"])
-    # 0.9: the fit point itself moves with the noise draw (a few percent here)
-    assert intervals[1] >= 0.9 * intervals[0], intervals
+        intervals.append([p["ci95"] for p in result.parameters().values()])
+    ratio = np.array(intervals[1]) / np.array(intervals[0])
+    assert (ratio[:3] >= 0.97).all(), ratio
 
 
 def test_correlation_time_is_a_property_of_the_signal_in_seconds():
@@ -502,10 +519,11 @@ def _closed_form_fit(seed):
 def test_white_noise_on_the_same_fit_does_not_narrow_the_intervals():
     """The same fit (Jacobian and model error) with sensor noise of up to twice the model
     error's RMS (0.02-0.03 N) added to its residuals: noise adds variance and removes none of
-    the model error's, so no interval may narrow (asked: at least 0.85 of the noise-free one;
-    measured at least 0.90). Before each parameter's own score set its correlation and the
-    window ignored the white part, the delay's fell to 0.48: the residuals' correlation time,
-    shortened by the noise, scaled an error the model error dominates."""
+    the model error's, so no interval may narrow (asked: at least 0.97 of the noise-free one,
+    the chance correlations of the noise; measured at least 0.989). Before each parameter's own
+    score set its correlation and the window ignored the white part, the delay's fell to 0.48:
+    the residuals' correlation time, shortened by the noise, scaled an error the model error
+    dominates; with a window taken from the residuals, 0.85 was the bound."""
     from tensim.hardware.uncertainty import fit_stderr
 
     for seed in range(3):
@@ -515,15 +533,15 @@ def test_white_noise_on_the_same_fit_does_not_narrow_the_intervals():
             noisy = fit_stderr(jac, at_solution(residual + rng.normal(scale=noise,
                                                                       size=residual.size)),
                                rows, cables, np.array([0.01])).stderr
-            assert (noisy >= 0.85 * clean).all(), (seed, noise, noisy / clean)
+            assert (noisy >= 0.97 * clean).all(), (seed, noise, noisy / clean)
 
 
 def test_ten_times_the_noise_keeps_the_stand_ins_intervals(robot, impedance):
     """The stand-in logged every 10 ms through 0.1 N and through 1 N of sensor noise: its
     model error (damping, contact, step) correlates over about a second and dominates, so the
-    intervals must stay (asked: at least 0.85 of the 0.1 N log's; measured 0.98, 0.99 and
-    1.00). Before, the noise shortened the residuals' correlation window from 3 s to 0.27 s
-    and the intervals fell to 0.33, 0.35 and 0.30."""
+    intervals must stay (asked: at least 0.85 of the 0.1 N log's; measured 0.94, 0.99 and
+    0.97, two fits at different points). Before, the noise shortened the residuals'
+    correlation window from 3 s to 0.27 s and the intervals fell to 0.33, 0.35 and 0.30."""
     intervals = []
     for noise in (0.1, 1.0):
         result = identify([_stand_in_log(robot, impedance, 0.01, noise)], robot, impedance,
@@ -532,3 +550,23 @@ def test_ten_times_the_noise_keeps_the_stand_ins_intervals(robot, impedance):
         intervals.append([p["ci95"] for p in result.parameters().values()])
     ratio = np.array(intervals[1]) / np.array(intervals[0])
     assert (ratio >= 0.85).all(), ratio
+
+
+def test_noise_widens_every_interval_of_the_impedance_log_at_one_fit_point(robot, impedance):
+    """The impedance log clean and through 0.2 N of sensor noise in four draws, each judged
+    at one fit point (the truth; its clean residual is the replay's own error, 0.05 N RMS,
+    correlated over the gait): noise adds variance and removes none of the model error's, so
+    every parameter's interval must widen (measured 1.18-3.85 of the clean one). Before, a
+    window taken from the residuals' own correlation shrank with the noise: 0.68 (the delay's)
+    to 2.62."""
+    settings = SysidSettings(fit_window=(0.0, 5.0), validate_window=(5.0, 8.0))
+
+    def stderr(noise: float, seed: int) -> np.ndarray:
+        errors, _, _ = errors_at([_impedance_log(robot, impedance, noise, seed)], robot,
+                                 impedance, IMPEDANCE_TRUTH, settings=settings)
+        return np.array(list(errors.values()))
+
+    reference = stderr(0.0, 1)
+    for seed in range(1, 5):
+        ratio = stderr(0.2, seed) / reference
+        assert (ratio >= 1.0).all(), (seed, ratio)

@@ -141,14 +141,15 @@ def test_a_killed_worker_is_retried_and_only_the_trial_that_kills_it_is_lost(tmp
 
 @dataclasses.dataclass(frozen=True)
 class _SlowOnceSphere(SphereProblem):
-    """Writes ``marker`` and takes 30 s in its first trial (the node is killed meanwhile)."""
+    """Writes ``marker`` and takes 600 s in its first trial (the node is killed meanwhile, so
+    the trial never ends by itself: a slow kill cannot let it finish)."""
 
     marker: str = ""
 
     def evaluate(self, unit: np.ndarray) -> Outcome:
         if not os.path.exists(self.marker):
             Path(self.marker).touch()
-            time.sleep(30.0)
+            time.sleep(600.0)
         return super().evaluate(unit)
 
 

@@ -7,9 +7,11 @@ import numpy as np
 from tensim.sim import TimeSeries
 from tensim.viz.plots import (
     PANEL_PIXELS,
+    InView,
     _commanded,
     _held,
     cable_panels,
+    new_figure,
     plot_cable_tensions,
     plot_lengths,
     thin,
@@ -124,3 +126,22 @@ def test_a_figure_of_hundreds_of_cables_stays_a_few_rows_high(tmp_path):
             # 10 panels of 40 cables on 4 rows of at most 2.4 in at 120 dpi, plus the margins
             # (one panel per cable: 134 rows, over 38,000 pixels)
             assert image.height <= 4 * 2.4 * 120 + 150
+
+
+def test_panel_axes_make_only_the_ticks_they_draw():
+    """A panel's locator gives MaxNLocator's ticks inside the view, so the figure draws the
+    same ticks and matplotlib makes no tick artists for locations past the ends."""
+    from matplotlib.ticker import MaxNLocator
+
+    fig = new_figure((4.2, 2.4))
+    ax = fig.subplots()
+    ax.plot([0.0, 60.0], [3.07, 20.8])
+    full = MaxNLocator(4)
+    full.set_axis(ax.yaxis)
+    ax.yaxis.set_major_locator(InView(4))
+    fig.canvas.draw()
+    low, high = ax.get_ylim()
+    drawn = [t for t in full() if low <= t <= high]
+    assert list(ax.yaxis.get_majorticklocs()) == drawn
+    assert len(full()) > len(drawn)  # MaxNLocator alone gives ticks beyond the view
+    assert len(ax.yaxis.majorTicks) == len(drawn)  # and no tick artists were made for them

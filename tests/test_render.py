@@ -216,20 +216,29 @@ def test_renderer_needs_no_model_change_but_its_buffer() -> None:
 
 def test_the_painting_process_draws_what_this_process_draws() -> None:
     """frame.png is painted by a child (the backend's trial, kept): the same scene, cables and
-    legend as the in-process renderer, pixel for pixel; a model with cables and a ground."""
+    legend as the in-process renderer, pixel for pixel, with MuJoCo's multisampled buffer and
+    without (the run folder's frame); a model with cables and a ground."""
     from tensim.models import preset
     from tensim.viz.render import FrameScene
+    from tensim.viz.report import FRAME_SAMPLES
 
     _backend()
     compiled = compile_structure(preset("prism3").build())
-    with Simulation(compiled) as sim:
+    painted = {}
+    with Simulation(compiled) as sim, _gl.start_server() as server:
         sim.step(300)
         tension, rest = sim.drive.tension.copy(), sim.drive.rest.copy()
-        with OffscreenRenderer(compiled, 200, 150) as renderer:
-            here = renderer.render(sim.data, tension, rest, "t = 0.30 s")
-        job = FrameScene(compiled, 200, 150).job(sim.data, tension, rest, "t = 0.30 s")
-    assert len(job["geoms"]) > 6  # the grid and every cable were sent, not only MuJoCo's own
-    with _gl.start_server() as server:
-        there = server.paint(job)
-    assert there.shape == (150, 200, 3)
-    assert np.array_equal(here, there)
+        for samples in (None, FRAME_SAMPLES):
+            with OffscreenRenderer(compiled, 200, 150, samples=samples) as renderer:
+                here = renderer.render(sim.data, tension, rest, "t = 0.30 s")
+            job = FrameScene(compiled, 200, 150, samples=samples).job(sim.data, tension, rest,
+                                                                      "t = 0.30 s")
+            assert len(job["geoms"]) > 6  # the grid and every cable were sent, not only MuJoCo's
+            there = painted[samples] = server.paint(job)
+            assert there.shape == (150, 200, 3)
+            assert np.array_equal(here, there)
+    assert compiled.model.vis.quality.offsamples == 4  # the model is left as it was
+    # without the multisampled buffer the edges differ (the option reaches the painter)
+    assert not np.array_equal(painted[None], painted[FRAME_SAMPLES])
+    with pytest.raises(ValueError, match="samples must be 0 or more"):
+        FrameScene(compiled, samples=-1)

@@ -221,6 +221,10 @@ def self_stress(structure: Structure, *, min_tension: float | None = None,
 def _maximin(basis: np.ndarray, rods: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, float]:
     """x maximising min_c (N x)_c subject to row . N x = 1 and rods . N x <= 0.
 
+    The scale constraint alone bounds the level tau: ``row`` is non-negative with a positive
+    entry (ones, one cable, or 1 / lengths) and tau <= every tension, so tau sum(row) <=
+    row . N x = 1; tau needs no bound of its own.
+
     Returns x and the largest smallest tension (<= 0 when no all-tension state exists).
     """
     n, s = basis.shape
@@ -228,7 +232,7 @@ def _maximin(basis: np.ndarray, rods: np.ndarray, row: np.ndarray) -> tuple[np.n
     upper = np.block([[-basis, np.ones((n, 1))], [rods @ basis, np.zeros((len(rods), 1))]])
     result = linprog(cost, A_ub=upper, b_ub=np.zeros(len(upper)),
                      A_eq=np.r_[row @ basis, 0.0][None, :], b_eq=[1.0],
-                     bounds=[(None, None)] * s + [(None, 1.0)], method="highs")
+                     bounds=[(None, None)] * (s + 1), method="highs")
     if not result.success:
         return np.zeros(s), 0.0
     return result.x[:s], float(result.x[-1])

@@ -32,7 +32,7 @@ from tensim.hardware.parameters import DEFINITIONS, SysidSpace, apply_physical
 from tensim.hardware.replay import replay, replay_config
 from tensim.hardware.sensor import SensorModel
 from tensim.hardware.synthetic import node_positions, simulated_log
-from tensim.hardware.sysid import SysidError, SysidResult, SysidSettings, identify
+from tensim.hardware.sysid import SysidError, SysidResult, SysidSettings, errors_at, identify
 
 __all__ = [
     "DEFINITIONS",
@@ -55,6 +55,7 @@ __all__ = [
     "apply_physical",
     "compare_tensions",
     "convert_log",
+    "errors_at",
     "estimate_offset",
     "fit_loadcell",
     "identify",

@@ -45,7 +45,7 @@ from tensim.hardware.parameters import (
 )
 from tensim.hardware.replay import replay_config
 from tensim.hardware.sensor import SensorModel
-from tensim.hardware.uncertainty import LOG_STRIDE, fit_stderr, interval_factor
+from tensim.hardware.uncertainty import LOG_STRIDE, FitErrors, fit_stderr, interval_factor
 from tensim.model import WorldOptions, compile_structure
 from tensim.sim import SimulationError, TimeSeries, Trial, run_batch
 from tensim.structure import Structure
@@ -437,6 +437,35 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
                        apply_measurement(problem.sensor, named), named.get("vstar_scale", 1.0),
                        problem.simulations, fit, validation, kept, apply_world(world, named),
                        uncertainty)
+
+
+def errors_at(logs: Sequence[HardwareLog], structure: Structure, config: ControllerConfig,
+              values: Mapping[str, float], *, sensor: SensorModel | None = None,
+              world: WorldOptions | None = None, settings: SysidSettings | None = None
+              ) -> tuple[dict[str, float], FitErrors, float]:
+    """The standard errors :func:`identify` would report for a fit that ended at ``values``
+    (no fit is run): the Jacobian and the residuals at that point, on the fit samples.
+
+    Args:
+        logs, structure, config, sensor, world, settings: as :func:`identify`.
+        values: parameter name -> value (the names are the parameters).
+
+    Returns:
+        Name -> standard error [the parameter's unit] (inf: not determined), the estimate's
+        parts in unit coordinates, and the RMS of the residuals there [N].
+    """
+    for log in logs:
+        validate_log(log)
+    settings = _windows(settings or SysidSettings(), logs)
+    space = SysidSpace.build(structure, list(values), start=values, world=world)
+    problem = _Problem(space, logs, config, sensor or SensorModel(), world, settings, None)
+    unit = space.to_unit(space.snap(space.start))
+    jac, residual = problem.jacobian(unit), problem.residuals(unit)
+    errors = fit_stderr(jac, residual, *problem.sample_cells(unit), problem.periods())
+    scale = space.high - space.low
+    return ({p.name: float(v * s) for p, v, s in
+             zip(space.parameters, errors.stderr, scale, strict=True)}, errors,
+            float(np.sqrt(np.mean(residual**2))))
 
 
 def _windows(settings: SysidSettings, logs: Sequence[HardwareLog]) -> SysidSettings:

@@ -23,18 +23,16 @@ and the reported error is the larger of the two. Magnitudes |rho_l|, since a per
 error correlates negatively at half the gait's period and positively at the period, and which
 of them a parameter's score follows is not known.
 
-The sums run to Sokal's self-consistent window: the first lag of at least 5 tau (at most half
-the samples). Sensor noise is white: it adds to the lag-0 variance only, so it shrinks every
-rho_l and with them tau, and a window taken from tau alone would stop before the model
-error's correlation does and drop it. So when a series' lag-1 correlation stands out of chance
-(2 / sqrt(cells)), its correlated share q = max(rho_1, 2 rho_1 - rho_2) (at most 1, the rest
-white) sets a second window from the correlation of that share alone, (|rho_l| - chance) / q,
-and the sums run to the longer of the two. Past it, up to the window of the motion (the
-Jacobian's columns, which hold no noise: :func:`motion_window`), the signed sum of rho_l is
-added where it stands out of chance. Noise then adds its own variance and cuts off less of the
-model error's; where the correlated part drowns in noise a window still falls short, so this is
-a lower bound on the long-run variance, not an exact one (tests: sensor noise of up to twice a
-model error's RMS on one fit keeps every interval within 0.85 of the noise-free one).
+The sums run over one window per log, fixed by the motion and not by the residuals: the
+longest of Sokal's self-consistent windows (the first lag of at least 5 tau, at most half the
+samples) of the Jacobian's columns (:func:`motion_window`), which hold no sensor noise and
+change little with the fit point. A window taken from the residuals' own correlation would
+shrink when white noise is added (noise adds to the lag-0 variance only, so it shrinks every
+rho_l) and drop the model error's correlation with it. Over a fixed window, white noise adds
+its variance at lag 0 and only chance terms at the other lags, so on one fit noise widens
+every interval (tests: sensor noise on one fit, at a fixed fit point on a simulated log). A
+noise-free series (:func:`correlation_time` without a Jacobian) uses Sokal's window of its own
+|rho_l|.
 
 The same motion logged at another rate has the same correlation time in seconds, so the same
 n_eff and about the same interval. A model error that the fitted model cannot represent
@@ -134,54 +132,47 @@ def _autocorrelation(series: np.ndarray) -> tuple[np.ndarray, int]:
     return rho, cells
 
 
-def long_run_ratio(series: np.ndarray, motion: int = 0) -> float:
+def long_run_ratio(series: np.ndarray, window: int | None = None) -> float:
     """The long-run variance of a centred series over its lag-0 variance, 1 + 2 sum |rho_l|
-    (2 tau / dt), over Sokal's window, or the window of its correlated share where a white
-    part (sensor noise) would cut that short; past that window, up to ``motion`` lags, the
-    signed sum of rho_l where it stands out of chance (see the module's notes).
+    (2 tau / dt), over lags 1..``window`` (None: Sokal's window of its own |rho_l|).
 
     Args:
         series: (samples,) or (samples, columns) centred series (NaN: no sample); the
             columns' lag products are pooled.
-        motion: the window of the motion that shapes the series [lags] (0: none).
+        window: the window of the motion that shapes the series [lags]
+            (:func:`motion_window`).
     """
-    rho, cells = _autocorrelation(series)
+    rho, _ = _autocorrelation(series)
     if rho.size == 0:
         return 1.0
-    window = _sokal_window(np.abs(rho))
-    chance = 2.0 / np.sqrt(cells)
-    if rho.size >= 2 and rho[0] > chance:
-        share = min(1.0, max(float(rho[0]), 2.0 * float(rho[0]) - float(rho[1])))
-        excess = np.maximum(np.abs(rho) - chance, 0.0) / share
-        window = max(window, _sokal_window(excess))
-    total = float(np.abs(rho[:window]).sum())
-    further = min(motion, rho.size) - window
-    if further > 0:
-        tail = float(rho[window:window + further].sum())
-        if tail > 2.0 * np.sqrt(further / cells):
-            total += tail
-    return 1.0 + 2.0 * total
+    if window is None:
+        window = _sokal_window(np.abs(rho))
+    return 1.0 + 2.0 * float(np.abs(rho[:window]).sum())
 
 
 def motion_window(jac: np.ndarray, rows: np.ndarray, cables: np.ndarray) -> int:
     """The window [lags] of the motion that shapes the residuals of one log: the longest
     Sokal window of the Jacobian's columns (each simulated reading's sensitivity to a
-    parameter, per cable less its mean), which hold no sensor noise.
+    parameter, per cable less its mean), which hold no sensor noise. A column that is the same
+    at every sample of a cable (an offset's) has no motion and no say.
 
     Args:
         jac: (m, n) Jacobian rows of one log.
         rows, cables: as :func:`correlation_time`.
     """
-    windows = [0]
+    windows = [1]
     for column in jac.T:
-        rho, _ = _autocorrelation(_grid(column, rows, cables))
+        grid = _grid(column, rows, cables)
+        if np.nansum(grid**2) <= 1e-12 * float(column @ column):
+            continue  # constant per cable: rounding noise only
+        rho, _ = _autocorrelation(grid)
         if rho.size:
             windows.append(_sokal_window(np.abs(rho)))
     return max(windows)
 
 
 def correlation_time(residual: np.ndarray, rows: np.ndarray, cables: np.ndarray,
-                     period: float, motion: int = 0) -> float:
+                     period: float, window: int | None = None) -> float:
     """The residuals' integrated autocorrelation time [s] in one log sampled every ``period``.
 
     Per cable the residuals (less their mean) form a series over the sample rows; for each
@@ -194,9 +185,10 @@ def correlation_time(residual: np.ndarray, rows: np.ndarray, cables: np.ndarray,
         rows: (m,) their sample-row labels (:func:`row_stderr`).
         cables: (m,) index of each residual's cable.
         period: time between the log's sample rows [s].
-        motion: :func:`motion_window` [lags] (0: none).
+        window: :func:`motion_window` [lags] (None: Sokal's window of the residuals' own
+            |rho_l|).
     """
-    return 0.5 * period * long_run_ratio(_grid(residual, rows, cables), motion)
+    return 0.5 * period * long_run_ratio(_grid(residual, rows, cables), window)
 
 
 def effective_samples(residual: np.ndarray, rows: np.ndarray, cables: np.ndarray,
@@ -214,9 +206,9 @@ def effective_samples(residual: np.ndarray, rows: np.ndarray, cables: np.ndarray
     for log in np.unique(rows // LOG_STRIDE):
         own = rows // LOG_STRIDE == log
         count = np.unique(rows[own]).size
-        motion = 0 if jac is None else motion_window(jac[own], rows[own], cables[own])
+        window = None if jac is None else motion_window(jac[own], rows[own], cables[own])
         tau = correlation_time(residual[own], rows[own], cables[own], float(periods[log]),
-                               motion)
+                               window)
         samples += count
         effective += min(count * periods[log] / (2.0 * tau), count)
         taus.append(tau)
@@ -246,8 +238,8 @@ def score_stderr(jac: np.ndarray, residual: np.ndarray, rows: np.ndarray,
                  cables: np.ndarray) -> np.ndarray:
     """Per parameter, the long-run standard error of its score: the influence
     (J^T J)^-1 J_t^T r_t of each sample row t (all its cables), its lag-0 sum times
-    :func:`long_run_ratio` of that parameter's influence series (with the window of its
-    Jacobian column, :func:`motion_window`), per log, summed over the logs (the small-sample
+    :func:`long_run_ratio` of that parameter's influence series (over the log's
+    :func:`motion_window`), per log, summed over the logs (the small-sample
     factor T / (T - n) as :func:`row_stderr`).
 
     Args:
@@ -267,10 +259,10 @@ def score_stderr(jac: np.ndarray, residual: np.ndarray, rows: np.ndarray,
     for log in np.unique(labels // LOG_STRIDE):
         own = influence[labels // LOG_STRIDE == log]
         cells = rows // LOG_STRIDE == log
+        window = motion_window(jac[cells], rows[cells], cables[cells])
         for k in range(n):
-            motion = motion_window(jac[cells, k:k + 1], rows[cells], cables[cells])
             series = own[:, k] - own[:, k].mean()
-            variance[k] += float(own[:, k] @ own[:, k]) * long_run_ratio(series, motion)
+            variance[k] += float(own[:, k] @ own[:, k]) * long_run_ratio(series, window)
     return np.sqrt(variance * len(scores) / (len(scores) - n))
 
 

@@ -63,7 +63,9 @@ def trial(backend: str, width: int = 640, height: int = 480) -> Any:
     ctx = context(backend, width, height)
     try:
         model = mujoco.MjModel.from_xml_string(_EMPTY)
-        model.vis.quality.shadowsize = 0  # no 4096 x 4096 shadow map for a trial
+        # no 4096 x 4096 shadow map, no multisampled 640 x 480 buffer for a trial
+        model.vis.quality.shadowsize = model.vis.quality.offsamples = 0
+        model.vis.global_.offwidth = model.vis.global_.offheight = 16
         mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100).free()
     except BaseException:
         ctx.free()
@@ -71,17 +73,23 @@ def trial(backend: str, width: int = 640, height: int = 480) -> Any:
     return ctx
 
 
-def rendering_context(model: mujoco.MjModel, shadows: bool) -> mujoco.MjrContext:
+def rendering_context(model: mujoco.MjModel, shadows: bool, samples: int | None = None
+                      ) -> mujoco.MjrContext:
     """MuJoCo's rendering context for ``model`` in the current OpenGL context, drawing into
     its offscreen buffer; without ``shadows``, with no shadow map (MuJoCo's default is
-    4096 x 4096: 64 MiB that a software driver keeps in memory)."""
-    size = model.vis.quality.shadowsize
+    4096 x 4096: 64 MiB that a software driver keeps in memory); ``samples``: the offscreen
+    buffer's multisample anti-aliasing samples per pixel (None: the model's, MuJoCo's default
+    4; 0: none, which with Mesa's software driver saves 17 MiB and half the painting time)."""
+    quality = model.vis.quality
+    size, offsamples = quality.shadowsize, quality.offsamples
     if not shadows:
-        model.vis.quality.shadowsize = 0
+        quality.shadowsize = 0
+    if samples is not None:
+        quality.offsamples = samples
     try:
         mjr = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100)
     finally:
-        model.vis.quality.shadowsize = size
+        quality.shadowsize, quality.offsamples = size, offsamples
     mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, mjr)
     return mjr
 
@@ -121,7 +129,7 @@ def paint_job(job: dict[str, Any]) -> np.ndarray:
     data (as where the job was made); the geoms added there (cables, grid) are appended.
     """
     model, data = job["model"], job["data"]
-    mjr = rendering_context(model, job["shadows"])
+    mjr = rendering_context(model, job["shadows"], job["samples"])
     try:
         scene = mujoco.MjvScene(model, job["maxgeom"])
         scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = job["shadows"]

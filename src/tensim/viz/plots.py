@@ -9,7 +9,7 @@ import gc
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, ParamSpec, TypeVar
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 import matplotlib
 import numpy as np
@@ -191,8 +191,8 @@ def _grid(kind: str, panels: tuple[Panel, ...], columns: int, title: str) -> Pan
     for ax, (name, _) in zip(axes.flat, panels, strict=False):
         ax.set_title(name, fontsize=9, pad=3, y=1.0)  # a fixed y skips a costly layout pass
         ax.tick_params(labelsize=7)
-        ax.xaxis.set_major_locator(MaxNLocator(5))  # few ticks: each is a costly artist
-        ax.yaxis.set_major_locator(MaxNLocator(4))
+        ax.xaxis.set_major_locator(InView(5))  # few ticks: each is a costly artist
+        ax.yaxis.set_major_locator(InView(4))
         ax.grid(alpha=0.3)
     for ax in axes.flat[len(panels):]:
         ax.set_visible(False)
@@ -201,6 +201,23 @@ def _grid(kind: str, panels: tuple[Panel, ...], columns: int, title: str) -> Pan
     for ax in axes[-1]:
         ax.set_xlabel("time [s]", fontsize=8)
     return _label(PanelGrid(kind, panels, columns, title, fig), rows)
+
+
+class InView(MaxNLocator):
+    """matplotlib's :class:`~matplotlib.ticker.MaxNLocator`, its ticks outside the view left out.
+
+    matplotlib makes a tick (two marks, a grid line, two labels: five artists) for every
+    location a locator gives, drawn or not, and MaxNLocator gives one beyond each end of the
+    view: a panel made 13 ticks to draw 9. The ticks drawn are the same.
+    """
+
+    def __call__(self) -> Any:
+        locs = super().__call__()
+        if self.axis is None:
+            return locs
+        low, high = sorted(self.axis.get_view_interval())
+        slack = 1e-10 * (high - low)  # as matplotlib's test of which ticks it draws
+        return locs[(locs >= low - slack) & (locs <= high + slack)]
 
 
 def _size(kind: str, rows: int, columns: int, title: str) -> tuple[float, float]:

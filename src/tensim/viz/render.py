@@ -81,17 +81,23 @@ class FrameScene:
         view: the camera.
         colors: tension colour map (default: scaled to the strongest motor).
         shadows: draw shadows and reflections (slow with software OpenGL).
+        samples: multisample anti-aliasing samples per pixel (None: the model's, MuJoCo's
+            default 4; 0: none, edges a little jagged, for half the painting time and 17 MiB
+            less memory with a software OpenGL driver).
     """
 
     def __init__(self, compiled: CompiledModel, width: int = 640, height: int = 480,
                  view: CameraView | None = None, colors: TensionColors | None = None,
-                 shadows: bool = False):
+                 shadows: bool = False, samples: int | None = None):
+        if samples is not None and samples < 0:
+            raise ValueError(f"samples must be 0 or more, got {samples}")
         if width < 16 or height < 16:
             raise ValueError(f"image size must be at least 16 x 16 px, got {width} x {height}")
         model = compiled.model
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
         self.model, self.width, self.height, self.shadows = model, width, height, shadows
+        self.samples = samples
         self.view = view or CameraView()
         self.artist = CableArtist(compiled, colors)
         self._ground = ground_height(model)  # the grid is drawn on the ground plane, if any
@@ -142,6 +148,7 @@ class FrameScene:
         own = self.update(data, tension, rest_length)
         return {"model": self.model, "data": data, "option": _glserver.fields(self.option),
                 "camera": camera, "maxgeom": self.scene.maxgeom, "shadows": self.shadows,
+                "samples": self.samples,
                 "geoms": [_glserver.fields(self.scene.geoms[i])
                           for i in range(own, self.scene.ngeom)],
                 "width": self.width, "height": self.height, "legend": self.legend(label)}
@@ -156,6 +163,7 @@ class OffscreenRenderer:
         view: the camera.
         colors: tension colour map (default: scaled to the strongest motor).
         shadows: draw shadows and reflections (slow with software OpenGL).
+        samples: multisample anti-aliasing samples per pixel (:class:`FrameScene`).
 
     Raises:
         OffscreenUnavailable: no offscreen OpenGL backend works here.
@@ -163,12 +171,12 @@ class OffscreenRenderer:
 
     def __init__(self, compiled: CompiledModel, width: int = 640, height: int = 480,
                  view: CameraView | None = None, colors: TensionColors | None = None,
-                 shadows: bool = False):
-        self.frame = FrameScene(compiled, width, height, view, colors, shadows)
+                 shadows: bool = False, samples: int | None = None):
+        self.frame = FrameScene(compiled, width, height, view, colors, shadows, samples)
         self.model, self.width, self.height = self.frame.model, width, height
         self.artist, self.scene = self.frame.artist, self.frame.scene
         self._context, self.backend = _gl.gl_context(width, height)
-        self._mjr = _glserver.rendering_context(self.model, shadows)
+        self._mjr = _glserver.rendering_context(self.model, shadows, samples)
 
     def render(self, data: mujoco.MjData, tension: np.ndarray, rest_length: np.ndarray,
                label: str = "") -> np.ndarray:
