@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from tensim.benchmarks._machine import core_share, machine_note
 from tensim.benchmarks.batch import bench_batch, format_batch
 from tensim.benchmarks.engine import Timing, bench_model
@@ -112,6 +114,39 @@ def test_bad_robot_counts_are_refused_by_option():
     for text in ("0,16", "x", ""):
         with pytest.raises(InputError, match="--envs: expected batch sizes such as 16,64"):
             _worlds(text, "--envs", "16,64")
+
+
+def test_the_plain_env_of_the_rl_bench_observes_what_the_rolling_observation_holds(tmp_path):
+    import mujoco
+    import pytest
+
+    pytest.importorskip("gymnasium", reason="the rl extra is not installed")
+    from tensim.benchmarks.rl import plain_env
+    from tensim.io._mjcf_motors import NODE_SITE
+    from tensim.io.mjcf import save_mjcf
+    from tensim.model import compile_structure
+    from tensim.rl._robot import Robot, load_robot
+    from tensim.rl.train import TrainSettings
+
+    config = TrainSettings("three_bar", task="roll").env_config()
+    robot, structure = Robot(config), load_robot("three_bar")
+    mjcf = save_mjcf(compile_structure(structure, config.world), tmp_path / "robot.xml")
+    start = mujoco.MjData(robot.model)
+    mujoco.mj_setState(robot.model, start, robot.initial_state,
+                       mujoco.mjtState.mjSTATE_INTEGRATION)
+    ends = [(f"{NODE_SITE}{a}", f"{NODE_SITE}{b}") for a, b in (r.nodes for r in structure.rods)]
+    env = plain_env(mjcf, config.control_steps, robot.motors, start.qpos.copy(), ends)
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == env.observation_space.shape == robot.observation_space.shape
+    for _ in range(25):  # settle onto the ground, the motors at their middle tension
+        obs, *_ = env.step(np.zeros(robot.motors.size))
+    part = {k: obs[a:b] for k, (a, b) in robot.layout.items()}
+    np.testing.assert_allclose(part["cable_length"], env.data.ten_length)
+    np.testing.assert_allclose(np.linalg.norm(part["rod_axis"].reshape(-1, 3), axis=1), 1.0)
+    np.testing.assert_allclose(part["task"], [1.0, 0.0], atol=1e-12)  # the heading, own frame
+    tips = env.data.site_xpos[env.ends]
+    flagged = part["end_contact"] == 1.0
+    assert flagged.any() and (tips[flagged, 2] < 0.1).all()  # end caps on the ground: 25 mm
 
 
 def test_the_cable_law_bench_shows_what_the_implicit_step_couples():

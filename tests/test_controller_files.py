@@ -47,6 +47,19 @@ def test_shipped_controllers_round_trip(name, suffix, robot, tmp_path) -> None:
     assert not list(tmp_path.glob(".*.tmp"))
 
 
+@pytest.mark.parametrize("name", ["tetraspine3_impedance", "tetraspine3_sine",
+                                  "tetraspine3_cpg"])
+def test_saved_text_is_pyyamls_safe_dump(name, robot, tmp_path) -> None:
+    # the writer uses libyaml's emitter where it exists; the file must be the text the
+    # pure-Python emitter writes, byte for byte (a learning run's files are fingerprinted)
+    from tensim.control.files import _COMMENT, controller_to_dict
+
+    config = load_controller(name, robot)
+    path = save_controller(config, tmp_path / "copy.yaml")
+    expected = yaml.safe_dump(controller_to_dict(config, path), sort_keys=False, width=100)
+    assert path.read_text() == _COMMENT + expected
+
+
 def test_shipped_cpg_has_the_116_parameter_layout(robot) -> None:
     config = load_controller("tetraspine3_cpg", robot)
     assert config.gait.layout.size == 116

@@ -105,6 +105,7 @@ def test_rolling_episodes_with_and_without_the_contact_sensors_are_the_same(monk
                       randomization=Randomization.standard())
     fast = _episode(config)
     monkeypatch.setattr(_robot, "with_contact_sensors", lambda compiled: compiled)
+    monkeypatch.setattr(_robot, "with_bar_sensors", lambda compiled: compiled)
     slow = _episode(config)
     assert len(fast) == len(slow)
     np.testing.assert_array_equal(fast[0], slow[0])

@@ -51,9 +51,12 @@ def _slow_contact(w, ids):
 def test_contact_flags_and_bar_contacts_equal_the_per_robot_loop(tmp_path):
     path = tmp_path / "three_bar.yaml"
     path.write_text(three_bar())
+    # (the bar-bar contact cost adds the pair sensors bar_contacts reads)
     config = EnvConfig(model=str(path), control_dt=0.02, observation=ROLLING_OBSERVATION,
-                       randomization=Randomization(yaw=True, pose_noise_m=0.15))
+                       randomization=Randomization(yaw=True, pose_noise_m=0.15),
+                       bar_contact_cost=1.0)
     env = TensegrityVectorEnv(6, config, autoreset_mode="same_step")
+    assert env.worlds._bar_rows is not None
     env.reset(seed=3)
     w, rng = env.worlds, np.random.default_rng(4)
     seen = np.zeros(3)

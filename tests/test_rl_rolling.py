@@ -441,3 +441,50 @@ def test_rendered_cable_colours_use_each_robots_randomised_stiffness(robot_file)
     length, rest = obs[:n], obs[n:2 * n]
     want = np.where(length > rest, 2.0 * 3000.0 * (length - rest), 0.0)
     np.testing.assert_allclose(seen[0], want, rtol=1e-6)
+
+
+def test_a_ppo_run_starts_from_an_exported_policy(robot_file, tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    import json
+
+    from tensim.cli import main
+    from tensim.rl import policy as numpy_policy
+    from tensim.rl.export import _layers, export, load_learner
+    from tensim.rl.train import VALUE_WARMUP
+
+    first, second = tmp_path / "first", tmp_path / "second"
+    assert _train(robot_file, first, "ppo", 64) == 0
+    export(first)
+    source = numpy_policy.load(first / "policy.json")
+
+    def init(*extra):
+        return main(["--quiet", "rl", "train", robot_file, "--envs", "2", "--episode", "1",
+                     "--init", str(first / "policy.json"), *extra])
+
+    assert init("--steps", "64", "--out", str(second)) == 0
+    progress = json.loads((second / "progress.json").read_text())
+    assert progress["init"] == {"policy": "policy.json", "env_steps": 64,
+                                "cpu_s": pytest.approx(source.meta["training"]["cpu_s"])}
+
+    def actor(folder):
+        return [layer.weight.detach().numpy().copy()
+                for layer in _layers(load_learner(folder))[0]]
+
+    # an update within the value function's warm-up leaves the copied actor as it was
+    for got, want in zip(actor(second), source.weights, strict=True):
+        np.testing.assert_array_equal(got, want.astype(np.float32))
+    # past it (one update of 64 env steps each), the actor learns too
+    budget = str(64 * (VALUE_WARMUP + 1))
+    assert main(["--quiet", "rl", "train", robot_file, "--envs", "2", "--episode", "1",
+                 "--steps", budget, "--out", str(second), "--resume"]) == 0
+    assert not all(np.array_equal(got, want.astype(np.float32))
+                   for got, want in zip(actor(second), source.weights, strict=True))
+    assert export(second)["training"]["init"]["env_steps"] == 64
+    # a trained run, another task or SAC: refused, naming why
+    capsys.readouterr()
+    assert init("--steps", budget, "--out", str(second), "--resume") == 2
+    assert "--init starts a new run only" in capsys.readouterr().err
+    assert init("--task", "turn", "--steps", "64", "--out", str(tmp_path / "turn")) == 2
+    assert "differ: task" in capsys.readouterr().err
+    assert init("--algo", "sac", "--steps", "64", "--out", str(tmp_path / "sac")) == 2
+    assert "differ: algo" in capsys.readouterr().err

@@ -93,3 +93,36 @@ def test_simulate_prints_the_peaks_the_law_tracked_beside_each_tension(capsys, t
     del summary["max_line_speed_m_s"], summary["max_power_W"]
     print_summary(summary, tmp_path)
     assert capsys.readouterr().out.splitlines()[3].split() == ["a", "10.000"]
+
+
+def _model_bytes(model) -> bytes:
+    import mujoco
+    import numpy as np
+
+    buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return buffer.tobytes()
+
+
+def test_the_report_frames_the_model_simulate_ran_which_the_folder_rebuilds(tmp_path,
+                                                                             monkeypatch):
+    # simulate hands its compiled robot to the report's frame instead of compiling the
+    # folder's structure file again: that model must be the one a replay of the folder builds,
+    # byte for byte (a controller and a terrain on, so the world and the run both count)
+    from tensim.viz import replay
+
+    handed = []
+    real = replay.recorded_run
+
+    def spy(folder, summary, series, compiled=None):
+        handed.append(compiled)
+        return real(folder, summary, series, compiled)
+
+    monkeypatch.setattr(replay, "recorded_run", spy)
+    out = tmp_path / "run"
+    assert main(["--quiet", "simulate", "tetraspine3", "--controller", "tetraspine3_sine",
+                 "--terrain", "slope:angle=2", "--duration", "0.05", "--out", str(out)]) == 0
+    if not handed:  # no offscreen OpenGL here: the report drew no frame
+        return
+    assert handed[0] is not None
+    assert _model_bytes(handed[0].model) == _model_bytes(load_run(out).compiled.model)

@@ -47,7 +47,7 @@ from tensim.viz.report import figure_names, write_report
 
 if TYPE_CHECKING:
     from tensim.control import ControllerConfig
-    from tensim.model import WorldOptions
+    from tensim.model import CompiledModel, WorldOptions
     from tensim.structure import Structure
     from tensim.viz.drawing import FigureDrawer
 
@@ -125,17 +125,19 @@ def prepare_outputs() -> None:
 
 
 def finish_run(out: Path, summary: dict[str, Any], series: TimeSeries | None = None,
-               drawer: FigureDrawer | None = None) -> Path:
+               drawer: FigureDrawer | None = None, compiled: CompiledModel | None = None
+               ) -> Path:
     """Writes ``tensim.log``, ``report.html`` and then ``summary.json`` into ``out``.
 
     Call it last, after the folder's figures and data files are written (or handed to
     ``drawer``, which the report waits for); ``series`` is the run's trajectory if it has one
-    (else the report reads trajectory.parquet, if any).
+    (else the report reads trajectory.parquet, if any); ``compiled`` the robot it simulated,
+    for the report's frame (else compiled again from the folder).
     """
     out.mkdir(parents=True, exist_ok=True)
     summary = {**summary, "tensim_version": __version__}
     RUN_LOG.write(out / "tensim.log")
-    write_report(out, summary, series=series, drawer=drawer)
+    write_report(out, summary, series=series, drawer=drawer, compiled=compiled)
     summary["figures"] = figure_names(out, summary)  # with those the report added
     write_json(out / "summary.json", summary)
     return out
@@ -159,7 +161,8 @@ def world_record(world: WorldOptions) -> dict[str, Any]:
 def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
               structure: Structure | None = None,
               controller: ControllerConfig | None = None,
-              drawer: FigureDrawer | None = None) -> Path:
+              drawer: FigureDrawer | None = None,
+              compiled: CompiledModel | None = None) -> Path:
     """Writes ``trajectory.parquet``, the run's robot and controller, then finishes the folder
     (:func:`finish_run`).
 
@@ -174,6 +177,8 @@ def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
             summary's ``model`` names, if it names one).
         controller: the controller it ran under, written as ``controller.yaml``.
         drawer: still drawing some of the folder's figures (see :func:`finish_run`).
+        compiled: the model the run simulated (``structure`` compiled in the summary's
+            world), for the report's frame (None: compiled again from the folder).
     """
     from tensim.control import save_controller
     from tensim.models import PRESETS
@@ -192,7 +197,7 @@ def write_run(out: Path, result: SimulationResult, summary: dict[str, Any], *,
     if files:
         summary = {**summary, "files": list(dict.fromkeys(files))}
     result.trajectory.to_parquet(out / "trajectory.parquet")
-    return finish_run(out, summary, result.trajectory, drawer)
+    return finish_run(out, summary, result.trajectory, drawer, compiled)
 
 
 MARKER = RUN_MARKER  # every folder written through replace_folder holds it

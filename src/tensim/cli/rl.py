@@ -46,6 +46,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--checkpoint", type=count, default=10_000, metavar="STEPS",
                    help="env steps between checkpoints (default 10000)")
     t.add_argument("--resume", action="store_true", help="continue the run in --out")
+    t.add_argument("--init", default=None, metavar="POLICY",
+                   help="start a new PPO run from an exported policy.json of the same robot "
+                   "and task (its actor and observation normaliser; the value function "
+                   "learns afresh)")
     t.add_argument("--out", default="runs/rl", help="run folder")
     t.set_defaults(run=train)
 
@@ -104,7 +108,8 @@ def train(args: argparse.Namespace) -> int:
     bar = Progress(f"rl train {args.algo}", args.quiet, unit="env steps",
                    rate_label="env steps/s")
     state = run_training(settings, Path(args.out), resume=args.resume,
-                         checkpoint_steps=args.checkpoint, progress=bar)
+                         checkpoint_steps=args.checkpoint, progress=bar,
+                         init=None if args.init is None else Path(args.init))
     curve = state["curve"]
     last = [r for _, r in curve[-max(1, len(curve) // 10):]] if curve else []
     mean = sum(last) / len(last) if last else 0.0
@@ -147,8 +152,11 @@ def evaluate(args: argparse.Namespace) -> int:
 def _trained(summary: dict) -> None:
     """Prints the training's budget where the policy records it."""
     if summary["training"]:
+        init = summary["training"].get("init")
+        before = f", started from a policy of {init['env_steps']} env steps in " \
+            f"{init['cpu_s']:.0f} CPU s" if init else ""
         print(f"trained {summary['training']['env_steps']} env steps in "
-              f"{summary['training']['cpu_s']:.0f} CPU s")
+              f"{summary['training']['cpu_s']:.0f} CPU s{before}")
 
 
 def export(args: argparse.Namespace) -> int:

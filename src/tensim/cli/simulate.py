@@ -116,7 +116,8 @@ def run(args: argparse.Namespace) -> int:
                 drawer.draw(plan.file, result.trajectory, stage)
             write_run(stage, result, {**summary, "figures": [p.file for p in plans
                                                              if drawer.enabled]},
-                      structure=structure, controller=config, drawer=drawer)
+                      structure=structure, controller=config, drawer=drawer,
+                      compiled=compiled)
     print_summary(summary, out, moved=True, figures=not args.no_figures)
     return 0
 

@@ -662,8 +662,14 @@ def save_controller(config: ControllerConfig, path: str | os.PathLike[str]) -> P
     if path.suffix == ".json":
         write_text(path, json.dumps(data, indent=2) + "\n")
     else:
-        write_text(path, _COMMENT + yaml.safe_dump(data, sort_keys=False, width=100))
+        write_text(path, _COMMENT + yaml.dump(data, Dumper=_SafeDumper, sort_keys=False,
+                                              width=100))
     return path
+
+
+# libyaml's emitter where PyYAML has it: the same text as yaml.safe_dump, 5x faster (a learning
+# run writes its best controller each time the best improves)
+_SafeDumper: type[yaml.SafeDumper] = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
 
 
 # -- shipped controller files -------------------------------------------------------------------

@@ -292,11 +292,66 @@ def _flip_step(stiff: np.ndarray, damp: np.ndarray, integrator: str,
     else:
         implicit = damp if integrator == "implicitfast" else np.zeros_like(damp)
     n = len(stiff)
-    companion = np.block([[np.zeros((n, n)), np.eye(n)], [stiff, damp - 2 * implicit]])
+    rate = damp - 2 * implicit
+    root = _monotone_root(stiff, rate)
+    if root is not None:
+        return 2 / root
+    companion = np.block([[np.zeros((n, n)), np.eye(n)], [stiff, rate]])
     roots = np.linalg.eigvals(companion)
     size = np.abs(roots).max()
     real = roots.real[(np.abs(roots.imag) <= 1e-9 * size) & (roots.real > 1e-9 * size)]
     return 2 / float(real.max()) if real.size else np.inf
+
+
+def _monotone_root(stiff: np.ndarray, rate: np.ndarray) -> float | None:
+    """The largest real r with Q(r) x = (r^2 I - r B - K) x = 0 (``stiff`` K, ``rate`` B, both
+    symmetric), where it lies above b/2 (b the largest eigenvalue of B, or 0); None elsewhere.
+
+    For s > r >= b/2, Q(s) - Q(r) = (s - r) ((s + r) I - B) is positive definite: there the
+    smallest eigenvalue of Q(r) strictly increases with r, so where it is negative at b/2 it
+    has one zero above, the largest root, which a Newton iteration kept inside a shrinking
+    bracket finds (the derivative is x^T (2 r I - B) x, x its unit eigenvector). Where Q(b/2)
+    is already positive definite the root, if any, lies below, where Q(r) need not be
+    monotone: the caller then takes the companion matrix's eigenvalues. That cannot happen
+    with K >= 0 (as here: K holds the modes' omega^2): with x B's top eigenvector, x^T Q(b/2) x
+    = -b^2/4 - x^T K x < 0 unless b = 0 and K x = 0. One symmetric
+    eigenvalue per iteration against the nonsymmetric eigenvalues of a matrix twice the size.
+    """
+    n = len(stiff)
+    if not n:
+        return None
+    low = max(float(eigh(rate, eigvals_only=True, subset_by_index=[n - 1, n - 1])[0]), 0.0) / 2
+    top = max(float(np.abs(np.linalg.eigvalsh(stiff)).max()), 0.0) if np.any(
+        stiff - np.diag(np.diag(stiff))) else float(np.abs(np.diag(stiff)).max())
+    high = 1.01 * (low + np.sqrt(low**2 + top)) + 1e-300  # r^2 - 2 low r - top > 0 above it
+
+    def smallest(r: float) -> tuple[float, float]:  # Q(r)'s smallest eigenvalue and slope
+        values, vectors = eigh(r * r * np.eye(n) - r * rate - stiff, subset_by_index=[0, 0])
+        x = vectors[:, 0]
+        return float(values[0]), float(2 * r - x @ rate @ x)
+
+    value, _ = smallest(low)
+    if value >= 0:
+        return None
+    r, (value, slope) = high, smallest(high)
+    if value <= 0:
+        return None
+    for _ in range(200):
+        if value > 0:
+            high = r
+        else:
+            low = r
+        step = value / slope if slope > 0 else np.inf
+        guess = r - step
+        if not low < guess < high:  # outside the bracket: bisect
+            guess = (low + high) / 2
+        if abs(guess - r) <= 1e-15 * r or high - low <= 1e-15 * high:
+            return guess
+        r = guess
+        value, slope = smallest(r)
+        if value == 0:
+            return r
+    return None
 
 
 def _spectrum(stiff: np.ndarray, damp: np.ndarray, dt: float, integrator: str,

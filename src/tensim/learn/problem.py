@@ -400,8 +400,10 @@ class Evaluation:
     metrics: dict[str, float] = dataclasses.field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
-        """A JSON-ready mapping (floats round-trip exactly)."""
-        return dataclasses.asdict(self)
+        """A JSON-ready mapping (floats round-trip exactly): ``dataclasses.asdict``'s, without
+        its deep copy of every number."""
+        return {**{f.name: getattr(self, f.name) for f in dataclasses.fields(self)},
+                "metrics": dict(self.metrics)}
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> Evaluation:

@@ -19,6 +19,8 @@ from tensim.model._compile import _compile_spec
 SLOTS = 4  # contacts each sensor reports (a capsule on a plane makes at most 2)
 _FOUND, _POS = 1, 16  # mjtConDataField bits: the number of matches, the contact position
 _NAME = "tensim_ground_contact_"
+_PAIR = "tensim_bar_contact_"
+any_true = np.logical_or.reduce  # a bool array's .any(), without its Python wrapper
 
 
 def with_contact_sensors(compiled: CompiledModel) -> CompiledModel:
@@ -32,9 +34,39 @@ def with_contact_sensors(compiled: CompiledModel) -> CompiledModel:
                         objtype=mujoco.mjtObj.mjOBJ_BODY, objname=body,
                         reftype=mujoco.mjtObj.mjOBJ_BODY, refname="world",
                         intprm=[_FOUND | _POS, 0, SLOTS])
+    return _recompiled(compiled, spec)
+
+
+def with_bar_sensors(compiled: CompiledModel) -> CompiledModel:
+    """``compiled`` with a contact sensor on each pair of rigid bodies, counting their contacts
+    (``data="found"``); unchanged without its ``MjSpec``."""
+    if compiled.spec is None:
+        return compiled
+    spec = compiled.spec.copy()
+    bodies = compiled.index.bodies
+    for i, a in enumerate(bodies):
+        for b in bodies[i + 1:]:
+            spec.add_sensor(name=f"{_PAIR}{a}_{b}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                            objtype=mujoco.mjtObj.mjOBJ_BODY, objname=a,
+                            reftype=mujoco.mjtObj.mjOBJ_BODY, refname=b,
+                            intprm=[_FOUND, 0, 1])
+    return _recompiled(compiled, spec)
+
+
+def _recompiled(compiled: CompiledModel, spec: mujoco.MjSpec) -> CompiledModel:
     model = _compile_spec(spec)
     model.key_ctrl[:] = compiled.model.key_ctrl  # (edited after compiling, as the spec's)
     return dataclasses.replace(compiled, model=model, spec=spec)
+
+
+def bar_sensor_rows(model: mujoco.MjModel, bodies: list[str]) -> np.ndarray | None:
+    """The ``sensordata`` rows of :func:`with_bar_sensors`' counts, or None where the model
+    has not every pair's sensor."""
+    ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"{_PAIR}{a}_{b}")
+           for i, a in enumerate(bodies) for b in bodies[i + 1:]]
+    if not ids or min(ids) < 0:
+        return None
+    return model.sensor_adr[ids]
 
 
 class GroundContacts:
@@ -54,6 +86,10 @@ class GroundContacts:
         adr = model.sensor_adr[ids] if self.ready else np.zeros(0, dtype=int)
         # (n_bodies, SLOTS, 4) indices into a robot's sensordata: found, x, y, z per slot
         self.index = adr[:, None, None] + np.arange(SLOTS * 4).reshape(SLOTS, 4)
+        flat = self.index.ravel()  # (where the sensors lie one after another: a slice, a view)
+        self._rows: np.ndarray | slice = self.index
+        if flat.size and (np.diff(flat) == 1).all():
+            self._rows = slice(int(flat[0]), int(flat[-1]) + 1)
         # each body's rod ends, in order, padded to (n_bodies, most ends on a body); the
         # padding is never the nearest end (its distance is inf)
         own = [np.flatnonzero(end_body == b) for b in bodies]
@@ -70,10 +106,10 @@ class GroundContacts:
         1 at the nearest end of its body to each contact (``ends``: (k, n_ends, 3) rod end
         positions [m], or None for no ends), and (k,) robots with more contacts on a body
         than the sensors hold (their flags must come from the contact list)."""
-        data = sensordata[:, self.index]  # (k, n_bodies, SLOTS, 4)
+        data = sensordata[:, self._rows].reshape(-1, *self.index.shape)  # (k, n_bodies, SLOTS, 4)
         found = data[:, :, 0, 0]
         touch = (found > 0).astype(float)
-        over = np.asarray((found > SLOTS).any(axis=1))
+        over = any_true(found > SLOTS, axis=1)
         out = np.zeros((data.shape[0], self.n_ends))
         if ends is None or not self.ends.size:
             return touch, out, over
@@ -82,9 +118,13 @@ class GroundContacts:
             return touch, out, over
         # (c, most) each contact's distance to each end of its body: np.linalg.norm without
         # its overhead (the same sum)
-        gap = ends[robot[:, None], self.ends[body]] - data[robot, body, slot, 1:][:, None]
+        own = self.ends[body]
+        gap = ends[robot[:, None], own] - data[robot, body, slot, 1:][:, None]
         far = np.sqrt(np.add.reduce(gap * gap, axis=2)) + self.pad[body]
-        nearest = np.argmin(far, axis=1)  # (the first of equals: the lowest end, as before)
-        hit = far[np.arange(far.shape[0]), nearest] < np.inf
-        out[robot[hit], self.ends[body[hit], nearest[hit]]] = 1.0
+        nearest = far.argmin(axis=1)  # (the first of equals: the lowest end, as before)
+        hit = np.minimum.reduce(far, axis=1) < np.inf  # (its distance is the least)
+        if np.logical_and.reduce(hit):  # (the common case: every body touching has an end)
+            out[robot, own[np.arange(own.shape[0]), nearest]] = 1.0
+        else:
+            out[robot[hit], own[hit, nearest[hit]]] = 1.0
         return touch, out, over

@@ -13,7 +13,7 @@ from tensim.control import default_impedance
 from tensim.design.check import Finding, check_structure
 from tensim.model import CompiledModel, compile_structure
 from tensim.models import PRESETS, load_model, preset
-from tensim.rl._contacts import with_contact_sensors
+from tensim.rl._contacts import with_bar_sensors, with_contact_sensors
 from tensim.rl.config import EnvConfig
 from tensim.sim import MODE_IMPEDANCE, MODE_PD, MODE_REST, CableDrive, Controller, Simulation
 from tensim.structure import Structure
@@ -81,6 +81,8 @@ class Robot:
         self.compiled: CompiledModel = compile_structure(structure, config.world)
         if {"contact", "end_contact"} & set(config.observation):  # read for all robots at once
             self.compiled = with_contact_sensors(self.compiled)
+        if config.bar_contact_cost:  # the bar-bar contacts counted for all robots at once
+            self.compiled = with_bar_sensors(self.compiled)
         controller = default_controller(config.model, structure)
         self.action = config.action
         pd = np.array([c.motor.pd for c in structure.cables], dtype=bool)
@@ -137,6 +139,7 @@ class Robot:
         self._outside = (self._box[0] - 1e-6, self._box[1] + 1e-6)  # beyond these: clipped
         self._rest_low, self._rest_high = self.low, self.high
         self._rest0_motors = rest0[self.motors]
+        self._hold = self.hold[None]  # (1, n_cables), repeated for each robot's commands
 
     def command(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray, Any]:
         """(n_robots, n_motors) actions -> the (n_robots, n_cables) ``ctrl`` commands in SI
@@ -152,12 +155,13 @@ class Robot:
         if action.ndim != 2 or action.shape[1] != m:
             raise InputError(f"actions must have shape (n_robots, {m}) (one per motorised "
                              f"cable), got {action.shape}")
-        if not np.isfinite(action).all():
+        if not np.logical_and.reduce(np.isfinite(action), axis=None):  # (.all(), unwrapped)
             bad = ~np.isfinite(action).all(axis=1)
             raise InputError(f"robot {int(np.argmax(bad))}: action holds NaN or infinite "
                              f"values: {action[int(np.argmax(bad))]}")
         low, high = self._box
-        out = ((action < self._outside[0]) | (action > self._outside[1])).any(axis=1)
+        out = np.logical_or.reduce((action < self._outside[0]) | (action > self._outside[1]),
+                                   axis=1)
         if not self.config.clip_actions and out.any():
             i = int(np.argmax(out))
             raise InputError(f"robot {i}: action outside the box [{low.min()}, {high.max()}]"
@@ -170,8 +174,7 @@ class Robot:
             command = np.minimum(np.maximum(
                 self._rest0_motors * (1.0 + applied * self.config.rest_span), self._rest_low),
                 self._rest_high)
-        commands = np.empty((action.shape[0], self.n))
-        commands[:] = self.hold
+        commands = self._hold.repeat(action.shape[0], axis=0)
         commands[:, self.motors] = command
         return commands, applied, out
 

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjbatch
 
-from tensim.rl._contacts import GroundContacts
+from tensim.rl._contacts import GroundContacts, bar_sensor_rows
 from tensim.rl._robot import Robot
 from tensim.sim import MODE_PD, PhysicsScale, StabilityLimits, Trial, load_cell_reading
 from tensim.sim._batch import setup_trial
@@ -25,6 +25,8 @@ from tensim.sim._loop import (
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 any_true = np.logical_or.reduce  # a bool array's .any(), without its Python wrapper
+_BADQACC = int(mujoco.mjtWarning.mjWARN_BADQACC)
+_VEL, _NONE = int(mujoco.mjtStage.mjSTAGE_VEL), int(mujoco.mjtStage.mjSTAGE_NONE)
 _SCALED = ("friction", "stiffness", "damping", "mass", "motor_speed")
 _FIELDS = ("ten_length", "xpos", "xmat", "xipos", "xquat", "subtree_com", "cvel", "qvel",
            "actuator_force", "act", "ctrl", "ncon")
@@ -48,7 +50,8 @@ class Worlds:
         self._scratch_contacts = mujoco.MjData(robot.model)  # a robot's data, for its contacts
         idx = robot.compiled.index
         self._body = idx.body
-        self._root = robot.model.body_rootid[idx.body]
+        self._bodies = _as_slice(idx.body)  # (a slice where the ids run on: views, no copies)
+        self._root = _as_slice(robot.model.body_rootid[idx.body])  # (free bodies: themselves)
         mass = robot.model.body_mass[idx.body]
         self._mass = mass / mass.sum()
         free = robot.model.jnt_type == mujoco.mjtJoint.mjJNT_FREE
@@ -64,6 +67,9 @@ class Worlds:
         self.start_xipos = np.zeros((n, len(idx.body), 3))
         self.target = np.zeros((n, 2))  # a unit direction or a goal position, world frame
         self.heading = np.zeros((n, 2))  # the start's direction, world frame (unit)
+        # a frame that turns only at a reset (the heading's): its yaw, cosine and sine then
+        self._fixed_frame = c.frame != "robot" and c.task != "goal"
+        self._yaw, self._cos, self._sin = np.zeros(n), np.ones((n, 1)), np.zeros((n, 1))
         base = robot.layout.get("history", (0, 0))[0]
         self.past = np.zeros((n, c.history, base))
         self.limits = StabilityLimits()
@@ -80,8 +86,20 @@ class Worlds:
         self._end_body = robot.rods["body"].ravel()
         self._end_local = robot.rods["local"].reshape(-1, 3)
         self._ground = GroundContacts(robot.model, idx.body, self._end_body)
-        self._sigma = np.zeros(0)  # the observation noise's std, set by the first observation
-        self._noise = False  # (whether any is above 0)
+        self._bar_rows = bar_sensor_rows(robot.model, list(idx.bodies))
+        layout = robot.layout
+        self._terms = tuple(t for t in layout if t != "history")
+        # the world vectors an observation turns into its frame, (start, stop) rows of a buffer
+        rows = {"velocity": 1 + 2 * idx.body.size, "rod_axis": len(robot.rods["body"]),
+                "task": 1 if c.task in ("direction", "goal") else 0}
+        self._world: dict[str, tuple[int, int]] = {}
+        for name in ("velocity", "rod_axis", "task"):
+            if rows["task"] if name == "task" else name in layout:
+                start = max((b for _, b in self._world.values()), default=0)
+                self._world[name] = (start, start + rows[name])
+        self._sigma = self._noise_sigma(layout["history"][0] if "history" in layout
+                                        else max(b for _, b in layout.values()))
+        self._noise = bool(self._sigma.any())  # (whether any is above 0)
 
     def _open_batch(self, models: list[mujoco.MjModel]) -> None:
         """The batch engine over ``models`` (one per robot) and its field views."""
@@ -138,6 +156,9 @@ class Worlds:
                 self.target[i] = self.heading[i]
             else:
                 self.target[i] = turn @ np.asarray(c.goal_m)
+        if self._fixed_frame:  # (as _frame_yaw computes it)
+            self._yaw[ids] = np.arctan2(self.heading[ids, 1], self.heading[ids, 0])
+            self._cos[ids, 0], self._sin[ids, 0] = np.cos(self._yaw[ids]), np.sin(self._yaw[ids])
         self.batch.forward(ids)
         if c.task != "direction":
             self.target[ids] += self.f["subtree_com"][ids, 0, :2]
@@ -222,29 +243,36 @@ class Worlds:
         self._calls += 1  # every RING_EVERY-th period, its last steps' forces tell ringing
         checked = self._calls % RING_EVERY == 0
         calls = split_steps(c.control_steps) if checked else [(c.control_steps, False)]
+        rows = None if isinstance(r, slice) else ids
+        stage = _NONE
         try:
-            for count, push in calls:
-                self.batch.step(None if isinstance(r, slice) else ids, nstep=count,
-                                stage=mujoco.mjtStage.mjSTAGE_VEL)
+            for j, (count, push) in enumerate(calls):
+                # the stages at the new state after the last call only (the observation's):
+                # the forces pushed are each step's own, from its actuation
+                stage = _VEL if j == len(calls) - 1 else _NONE
+                self.batch.step(rows, nstep=count, stage=stage)
                 if push:
                     self.forces.push(r, self.f["actuator_force"][r, :n])
         except mjbatch.SimulationError as err:
             failed = np.isin(ids, err.ids)
+            if stage == _NONE and not failed.all():  # the others' stages, as after the last
+                self.batch.forward(ids[~failed], stage=_VEL)
         self.steps[r] += 1
         self.previous[r] = applied
-        f = self.f
-        # (.max and .min without their Python wrappers: NaN propagates alike)
-        speed = np.maximum.reduce(np.abs(f["qvel"][r]), axis=1)
-        force = -np.minimum.reduce(f["actuator_force"][r, :n], axis=1)
-        bad = self.batch.warning[r, mujoco.mjtWarning.mjWARN_BADQACC, 1] > 0
-        # (no forces pushed since the last test: nothing rings)
-        ringing = self.forces.ringing(r).any(axis=1) if self.forces.fresh else False
-        energy: np.ndarray | bool = False
+        f, limits = self.f, self.limits
+        # every speed and pull below its bound (.max and .min without their Python wrappers;
+        # NaN fails both), no bad acceleration
+        unstable = ~((np.maximum.reduce(np.abs(f["qvel"][r]), axis=1) < limits.max_speed)
+                     & (np.minimum.reduce(f["actuator_force"][r, :n], axis=1)
+                        > -limits.max_tension))
+        unstable |= self.batch.warning[r, _BADQACC, 1] > 0
+        if failed is not False:
+            unstable |= failed
+        if self.forces.fresh:  # (no forces pushed since the last test: nothing rings)
+            unstable |= any_true(self.forces.ringing(r), axis=1)
         if checked:  # the energy on the ringing check's schedule
-            energy = self.energies.push(r, self.energy.total(
+            unstable |= self.energies.push(r, self.energy.total(
                 f["qvel"][r], f["xpos"][r], f["ten_length"][r], f["act"][r]))
-        unstable = ~(speed < self.limits.max_speed) | ~(force < self.limits.max_tension) | \
-            bad | failed | ringing | energy
         after = f["subtree_com"][r, 0, :2]
         progress, reached = self._progress(ids, before, after, bodies_before)
         # np.mean(applied ** 2, axis=1), without its overhead (the same sum and division)
@@ -280,65 +308,76 @@ class Worlds:
 
     # -- observing -------------------------------------------------------------------------
 
-    def observe(self, ids: np.ndarray) -> np.ndarray:
-        """(k, size) observations of robots ``ids``, with their sensor noise."""
-        robot, f, r = self.robot, self.f, self._rows(ids)
+    def observe(self, ids: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """(k, size) observations of robots ``ids``, with their sensor noise (written into
+        ``out`` where given, a (k, size) array)."""
+        robot, f, r, k = self.robot, self.f, self._rows(ids), ids.size
+        layout, c = robot.layout, robot.config
         com = f["subtree_com"][r, 0]
-        xipos = f["xipos"][r][:, self._body]
-        yaw = self._frame_yaw(ids, com, xipos)
-        turn = np.cos(yaw)[:, None], np.sin(yaw)[:, None]  # (for every vector turned)
+        xipos = f["xipos"][r][:, self._bodies]
+        if self._fixed_frame:
+            yaw, turn = self._yaw[r], (self._cos[r], self._sin[r])
+        else:
+            yaw = self._frame_yaw(ids, com, xipos)
+            turn = np.cos(yaw)[:, None], np.sin(yaw)[:, None]  # (for every vector turned)
         terms: dict[str, np.ndarray] = {"height": com[:, 2:3]}
-        if "pose" in robot.layout:
+        if "pose" in layout:
             rel = _rotate(xipos - com[:, None], turn)
-            quat = _quat_to_frame(f["xquat"][r][:, self._body], yaw)
-            terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(ids.size, -1)
-        layout = robot.layout
-        # world vectors, turned into the frame together: (k, m, 3) each
-        world: dict[str, np.ndarray] = {}
-        if "velocity" in layout:
-            world["velocity"] = self._velocity(ids, xipos)
+            quat = _quat_to_frame(f["xquat"][r][:, self._bodies], yaw)
+            terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(k, -1)
+        # world vectors, written into one buffer and turned into the frame together
+        world = np.empty((k, max((b for _, b in self._world.values()), default=0), 3))
+        part = {name: world[:, a:b] for name, (a, b) in self._world.items()}
+        if "velocity" in part:
+            self._velocity(ids, xipos, part["velocity"])
         if "cable_length" in layout or "tension" in layout:
             terms["cable_length"] = f["ten_length"][r][:, robot.compiled.index.tendon]
         if "rest_length" in layout or "tension" in layout:
             terms["rest_length"] = robot.compiled.index.cable_act(f["act"][r])
-        if "tension" in layout:  # the load cells, with each robot's own law parameters
-            laws = [robot.compiled.law(self.models[i]) for i in ids]
-
-            def each(name: str) -> np.ndarray:
-                return np.stack([getattr(law, name) for law in laws])
-            n = robot.compiled.n_cables
-            terms["tension"] = load_cell_reading(
-                terms["cable_length"], terms["rest_length"], each("stiffness"),
-                each("mode") == MODE_PD, f["ctrl"][r][:, :n], each("pd_stiffness"),
-                each("max_tension"))
+        if "tension" in layout:
+            terms["tension"] = self._tension(ids, terms)
         ends = None
         if "rod_axis" in layout or "end_contact" in layout:
             ends = self._end_positions(ids)
-        if "rod_axis" in layout and ends is not None:
-            world["rod_axis"] = _rod_axes(ends)
-        if robot.config.task in ("direction", "goal"):  # (x, y, 0): turned with the others
-            world["task"] = np.zeros((ids.size, 1, 3))
-            world["task"][:, 0, :2] = self.target[r] if robot.config.task == "direction" \
+        if "rod_axis" in part and ends is not None:
+            _rod_axes(ends, part["rod_axis"])
+        if "task" in part:  # (x, y, 0): turned with the others
+            part["task"][:, 0, :2] = self.target[r] if c.task == "direction" \
                 else self.target[r] - com[:, :2]
-        if world:
-            turned = _rotate(np.concatenate(list(world.values()), axis=1), turn)
-            start = 0
-            for name, vectors in world.items():
-                stop = start + vectors.shape[1]
-                terms[name] = turned[:, start:stop].reshape(ids.size, -1)
-                start = stop
-        terms["task"] = terms["task"][:, :2] if "task" in world else np.zeros((ids.size, 2))
+            part["task"][:, 0, 2] = 0.0
+        _turn(world, turn)
+        for name, vectors in part.items():
+            terms[name] = vectors.reshape(k, -1)
+        terms["task"] = terms["task"][:, :2] if "task" in part else np.zeros((k, 2))
         if "contact" in layout or "end_contact" in layout:
             terms["contact"], terms["end_contact"] = self._contact(ids, ends)
         terms["previous_action"] = self.previous[r]
         terms["position"] = com[:, :2]
-        obs = self._noisy(ids, np.concatenate([terms[t].reshape(ids.size, -1)
-                                               for t in robot.layout if t != "history"], axis=1))
-        if not robot.config.history:
-            return obs
-        out = np.concatenate([obs, self.past[r].reshape(ids.size, -1)], axis=1)
+        parts = [terms[t].reshape(k, -1) for t in self._terms]
+        if not (self._noise or c.history):
+            return np.concatenate(parts, axis=1, out=out)
+        obs = self._noisy(ids, np.concatenate(parts, axis=1))
+        if not c.history:
+            if out is None:
+                return obs
+            out[...] = obs
+            return out
+        full = np.concatenate([obs, self.past[r].reshape(k, -1)], axis=1, out=out)
         self.past[r] = np.concatenate([obs[:, None], self.past[r][:, :-1]], axis=1)
-        return out
+        return full
+
+    def _tension(self, ids: np.ndarray, terms: dict[str, np.ndarray]) -> np.ndarray:
+        """(k, n_cables) the load cells, with each robot's own law parameters [N]."""
+        robot, r = self.robot, self._rows(ids)
+        laws = [robot.compiled.law(self.models[i]) for i in ids]
+
+        def each(name: str) -> np.ndarray:
+            return np.stack([getattr(law, name) for law in laws])
+        n = robot.compiled.n_cables
+        return load_cell_reading(
+            terms["cable_length"], terms["rest_length"], each("stiffness"),
+            each("mode") == MODE_PD, self.f["ctrl"][r][:, :n], each("pd_stiffness"),
+            each("max_tension"))
 
     def _frame_yaw(self, ids: np.ndarray, com: np.ndarray, xipos: np.ndarray) -> np.ndarray:
         """(k,) the observation frame's heading about the vertical [rad]."""
@@ -351,15 +390,16 @@ class Worlds:
             ahead = self.heading[r]
         return np.arctan2(ahead[:, 1], ahead[:, 0])
 
-    def _velocity(self, ids: np.ndarray, xipos: np.ndarray) -> np.ndarray:
-        """(k, 1 + 2 n_bodies, 3) the velocities observed, in the world frame: the centre of
-        mass's, then each body's linear and angular velocity."""
-        r = self._rows(ids)
-        cvel = self.f["cvel"][r][:, self._body]  # (rotation, translation) at the root's com
+    def _velocity(self, ids: np.ndarray, xipos: np.ndarray, out: np.ndarray) -> None:
+        """Writes into ``out`` (k, 1 + 2 n_bodies, 3) the velocities observed, in the world
+        frame: the centre of mass's, then each body's linear and angular velocity."""
+        r, nb = self._rows(ids), self._body.size
+        cvel = self.f["cvel"][r][:, self._bodies]  # (rotation, translation) at the root's com
         root_com = self.f["subtree_com"][r][:, self._root]
-        linear = cvel[..., 3:] + _cross(cvel[..., :3], xipos - root_com)
-        com_velocity = np.einsum("b,kbj->kj", self._mass, linear)
-        return np.concatenate([com_velocity[:, None], linear, cvel[..., :3]], axis=1)
+        linear = np.add(cvel[..., 3:], _cross(cvel[..., :3], xipos - root_com),
+                        out=out[:, 1:1 + nb])
+        np.einsum("b,kbj->kj", self._mass, linear, out=out[:, 0])
+        out[:, 1 + nb:] = cvel[..., :3]
 
     def _contacts(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """MuJoCo's contact lists of robots ``ids``, stacked: the (c,) row in ``ids`` of each
@@ -429,15 +469,15 @@ class Worlds:
         return self.f["xipos"][self._rows(ids)][:, self._body].copy()
 
     def bar_contacts(self, ids: np.ndarray) -> np.ndarray:
-        """(k,) contacts between two of the robot's rigid bodies, per robot."""
+        """(k,) contacts between two of the robot's rigid bodies, per robot: the sum of the
+        pair sensors' counts where the model has them, else from the contact lists."""
+        if self._bar_rows is not None:
+            return np.add.reduce(self.f["sensordata"][self._rows(ids)][:, self._bar_rows], axis=1)
         at, bodies, _ = self._contacts(ids)
         both = self._robot_body[bodies].all(axis=1) & (bodies[:, 0] != bodies[:, 1])
         return np.bincount(at[both], minlength=ids.size).astype(float)
 
     def _noisy(self, ids: np.ndarray, obs: np.ndarray) -> np.ndarray:
-        if self._sigma.size != obs.shape[1]:  # once: it depends on the configuration only
-            self._sigma = self._noise_sigma(obs.shape[1])
-            self._noise = bool(self._sigma.any())
         if not self._noise:
             return obs
         return obs + np.stack([self.rngs[i].normal(0.0, 1.0, obs.shape[1])
@@ -467,22 +507,30 @@ class Worlds:
         return self.batch.get_data(i)
 
 
-def _rod_axes(ends: np.ndarray) -> np.ndarray:
-    """(k, n_rods, 3) unit vectors from each rod's first end to its second (world), from the
-    (k, 2 n_rods, 3) rod ends."""
+def _rod_axes(ends: np.ndarray, out: np.ndarray) -> None:
+    """Writes into ``out`` (k, n_rods, 3) unit vectors from each rod's first end to its second
+    (world), from the (k, 2 n_rods, 3) rod ends."""
     ends = ends.reshape(ends.shape[0], -1, 2, 3)
     axis = ends[:, :, 1] - ends[:, :, 0]
     # np.linalg.norm(axis, axis=2, keepdims=True), without its overhead (the same sum)
-    return axis / np.sqrt(np.add.reduce(axis * axis, axis=2, keepdims=True))
+    np.divide(axis, np.sqrt(np.add.reduce(axis * axis, axis=2, keepdims=True)), out=out)
+
+
+_NEXT, _AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])  # each component's next two
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b over the last axis (np.cross's result, without its per-call overhead)."""
-    out = np.empty(a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
+    """a x b over the last axis (np.cross's result, component by component, without its
+    per-call overhead)."""
+    return a[..., _NEXT] * b[..., _AFTER] - a[..., _AFTER] * b[..., _NEXT]
+
+
+def _as_slice(ids: np.ndarray) -> np.ndarray | slice:
+    """``ids`` as a slice where they run on by one (indexing with it makes views), else
+    themselves."""
+    if ids.size and (np.diff(ids) == 1).all():
+        return slice(int(ids[0]), int(ids[-1]) + 1)
+    return ids
 
 
 def _yaw_change(before: np.ndarray, after: np.ndarray) -> np.ndarray:
@@ -508,6 +556,14 @@ def _rotate(v: np.ndarray, turn: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     out[..., 0] = c * v[..., 0] + s * v[..., 1]
     out[..., 1] = -s * v[..., 0] + c * v[..., 1]
     return out
+
+
+def _turn(v: np.ndarray, turn: tuple[np.ndarray, np.ndarray]) -> None:
+    """:func:`_rotate` in place."""
+    c, s = turn
+    x, y = v[..., 0], v[..., 1]
+    first, second = c * x + s * y, -s * x + c * y
+    v[..., 0], v[..., 1] = first, second
 
 
 def _quat_to_frame(q: np.ndarray, yaw: np.ndarray) -> np.ndarray:

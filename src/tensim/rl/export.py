@@ -83,7 +83,8 @@ def policy_record(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         "format": "tensim-policy", "version": 1, "model": settings.model,
         "settings": trained,
         "training": {"env_steps": int(progress["steps_done"]),
-                     "cpu_s": round(float(progress.get("cpu_s", 0.0)), 1)},
+                     "cpu_s": round(float(progress.get("cpu_s", 0.0)), 1)}
+        | ({"init": progress["init"]} if "init" in progress else {}),
         "algo": settings.algo, "task": settings.task, "heading_deg": settings.heading_deg,
         "control_dt_s": config.control_dt, "physics_step_s": config.world.timestep,
         "cable_law": config.world.cable_law,

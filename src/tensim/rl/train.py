@@ -34,6 +34,7 @@ CLIP_OBS = 10.0  # the observation normaliser's clip (SB3's VecNormalize default
 EPSILON = 1e-8  # its variance floor
 ROLLOUT_STEPS = 4096  # env steps per PPO update, all robots together
 MIN_ROLLOUT = 16  # the shortest PPO rollout per robot
+VALUE_WARMUP = 10  # PPO updates in which a warm-started run's value function learns alone
 
 
 @dataclasses.dataclass(frozen=True)
@@ -156,7 +157,7 @@ def load_settings(folder: Path) -> TrainSettings:
 
 
 def train(settings: TrainSettings, out: Path, *, resume: bool = False,
-          checkpoint_steps: int = 10_000,
+          checkpoint_steps: int = 10_000, init: Path | None = None,
           progress: Callable[[float, float], None] | None = None) -> dict[str, Any]:
     """Trains (or resumes training) and returns the progress record.
 
@@ -166,23 +167,37 @@ def train(settings: TrainSettings, out: Path, *, resume: bool = False,
         resume: continue the run in ``out`` (its settings and robot file must be the same,
             ``steps`` may grow).
         checkpoint_steps: env steps between checkpoints.
+        init: a new PPO run starts from this exported policy (``policy.json`` of ``tensim rl
+            export``) rather than from random weights: its actor and observation normaliser
+            (the value function learns afresh, alone for its first :data:`VALUE_WARMUP`
+            updates); the progress record keeps its budget under ``init``.
         progress: called with (env steps done, steps in all).
 
     Raises:
-        InputError: ``out`` already holds a run and ``resume`` is False, or a resumed run's
-            settings or robot file changed.
+        InputError: ``out`` already holds a run and ``resume`` is False, a resumed run's
+            settings or robot file changed, or ``init`` does not fit the run.
     """
     out = Path(out)
+    start_policy = _start_policy(settings, init) if init is not None else None
     state = _open(settings, out, resume)
+    if start_policy is not None and state["steps_done"]:
+        raise InputError(f"--init {init}: --out {out} has trained already; --init starts a "
+                         "new run only")
     learner, env = _learner(settings, out, state)
+    if start_policy is not None:
+        state["init"] = _warm_start(learner, env, start_policy, Path(init or ""))
     done = int(state["steps_done"])
     start = time.process_time() - float(state.get("cpu_s", 0.0))
     curve = _Curve(state["curve"])
     # PPO collects whole rollouts, SAC one env step of every robot at a time: the run stops
     # at the last whole one within ``steps``, so it never trains past its budget
     whole = learner.n_steps * settings.envs if settings.algo == "ppo" else settings.envs
+    warmup = VALUE_WARMUP * whole if "init" in state else 0
     while settings.steps - done >= whole:
         chunk = max(whole, min(checkpoint_steps, settings.steps - done) // whole * whole)
+        if done < warmup:  # the actor waits while the new value function learns
+            chunk = min(chunk, warmup - done)
+        _train_actor(learner, done >= warmup)
         learner.learn(chunk, reset_num_timesteps=False, callback=curve.callback())
         done = int(learner.num_timesteps)
         state.update(steps_done=done, curve=curve.points, cpu_s=time.process_time() - start)
@@ -192,6 +207,76 @@ def train(settings: TrainSettings, out: Path, *, resume: bool = False,
     env.close()
     _draw_curve(out, state["curve"], settings)
     return state
+
+
+def _start_policy(settings: TrainSettings, source: Path) -> Any:
+    """The exported policy ``source`` a new run of ``settings`` starts from.
+
+    Raises:
+        InputError: not an exported policy, not PPO's, or trained on another robot, task,
+            observation or action.
+    """
+    from tensim.rl._robot import Robot
+    from tensim.rl.policy import load
+
+    try:
+        policy = load(source)
+    except (ValueError, KeyError, OSError) as err:
+        raise InputError(f"--init {source}: not an exported policy ({err})") from err
+    robot = Robot(settings.env_config())
+    # (a robot file is known by its observation and actions: its copies go by other names)
+    preset = {settings.model, policy.meta.get("model")} & set(PRESETS)
+    mine = {"algo": settings.algo, "model": settings.model if preset else "a file",
+            "task": settings.task, "observation": int(robot.observation_space.shape[0]),
+            "actions": int(robot.action_space.shape[0])}
+    theirs = {"algo": policy.meta.get("algo"), "model": policy.meta.get("model")
+              if preset else "a file", "task": policy.meta.get("task"),
+              "observation": policy.meta["observation"]["size"],
+              "actions": len(policy.meta["action"]["cables"])}
+    differ = [k for k in mine if mine[k] != theirs[k]]
+    if settings.algo != "ppo" or differ:
+        raise InputError(f"--init {source}: a PPO run starts only from a PPO policy of the "
+                         f"same robot, task, observation and actions (differ: "
+                         f"{', '.join(differ) or 'algo'}; this run {mine}, the policy {theirs})")
+    return policy
+
+
+def _warm_start(learner: Any, env: Any, policy: Any, source: Path) -> dict[str, Any]:
+    """Copies the exported ``policy``'s actor layers and observation normaliser into a new
+    PPO ``learner`` and its ``env``; returns the record of where it came from.
+
+    Raises:
+        InputError: the network's layers differ.
+    """
+    import torch
+
+    from tensim.rl.export import _layers
+
+    linears, activations, _ = _layers(learner)
+    shapes = [list(layer.weight.shape) for layer in linears]
+    if shapes != policy.meta["network"]["layers"] or activations != policy.activations:
+        raise InputError(f"--init {source}: its network ({policy.meta['network']['layers']}, "
+                         f"{policy.activations}) is not this run's ({shapes}, {activations})")
+    with torch.no_grad():
+        for layer, w, b in zip(linears, policy.weights, policy.biases, strict=True):
+            layer.weight.copy_(torch.as_tensor(w, dtype=layer.weight.dtype))
+            layer.bias.copy_(torch.as_tensor(b, dtype=layer.bias.dtype))
+    trained = policy.meta.get("training") or {}
+    env.obs_rms.mean, env.obs_rms.var = policy.mean.copy(), policy.var.copy()
+    env.obs_rms.count = float(max(1, trained.get("env_steps", 1)))
+    return {"policy": source.name, "env_steps": int(trained.get("env_steps", 0)),
+            "cpu_s": float(trained.get("cpu_s", 0.0))}
+
+
+def _train_actor(learner: Any, on: bool) -> None:
+    """Lets PPO's optimiser change the actor (its layers and action noise) or not."""
+    if not hasattr(learner.policy, "action_net"):  # SAC: nothing held back
+        return
+    policy = learner.policy
+    actor = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters(),
+             policy.log_std]
+    for parameter in actor:
+        parameter.requires_grad_(on)
 
 
 def _open(settings: TrainSettings, out: Path, resume: bool) -> dict[str, Any]:

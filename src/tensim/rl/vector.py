@@ -123,7 +123,7 @@ class TensegrityVectorEnv(VectorEnv):
         if not any_true(self._autoreset):  # (the common case: every robot steps, no copies)
             reward, terminated, terms = self.worlds.step(self._all, commands, applied)
             truncated = (self.worlds.steps >= self.robot.config.max_steps) & ~terminated
-            self._obs[:] = self.worlds.observe(self._all)
+            self.worlds.observe(self._all, out=self._obs)
             info = _step_info(n, self._all, terms, clipped)
         else:
             reward, terminated, truncated = np.zeros(n), np.zeros(n, bool), np.zeros(n, bool)
@@ -174,9 +174,11 @@ class TensegrityVectorEnv(VectorEnv):
 def _step_info(n: int, live: np.ndarray, terms: dict[str, np.ndarray], clipped: np.ndarray
                ) -> dict[str, Any]:
     """Gymnasium's vector info: each key with its ``_key`` mask of the robots that have it."""
-    mask = np.zeros(n, dtype=bool)
-    mask[live] = True
     every = live.size == n  # every robot stepped: the (new) term arrays are the columns
+    mask = np.ones(n, dtype=bool)
+    if not every:
+        mask[:] = False
+        mask[live] = True
     info: dict[str, Any] = {}
     for key, values in (("reward_progress", terms["progress"]),
                         ("reward_control", terms["control"]),

@@ -113,8 +113,17 @@ def load_run(folder: Path) -> RecordedRun:
     return recorded_run(folder, summary, series)
 
 
-def recorded_run(folder: Path, summary: dict[str, Any], series: TimeSeries) -> RecordedRun:
+def recorded_run(folder: Path, summary: dict[str, Any], series: TimeSeries,
+                 compiled: CompiledModel | None = None) -> RecordedRun:
     """A run from its summary and trajectory (as read from, or about to be written to, folder).
+
+    Args:
+        folder: the run folder.
+        summary: its summary.
+        series: its trajectory.
+        compiled: the robot the run simulated, where the caller still holds it (the command
+            that just ran it); None compiles it again from the folder's structure file (or the
+            preset the summary names) in the summary's world.
 
     Raises:
         RunFolderError: the summary names no model, or the trajectory lacks a body's pose.
@@ -123,9 +132,11 @@ def recorded_run(folder: Path, summary: dict[str, Any], series: TimeSeries) -> R
     if not isinstance(name, str):
         raise RunFolderError(f"{folder / 'summary.json'}: field 'model' (the preset or structure "
                              "file the run used) is missing")
-    recorded = folder / STRUCTURE_FILE
-    structure = load_structure(recorded) if recorded.is_file() else model_structure(name, folder)
-    compiled = compile_structure(structure, _world(summary, folder))
+    if compiled is None:
+        recorded = folder / STRUCTURE_FILE
+        structure = load_structure(recorded) if recorded.is_file() \
+            else model_structure(name, folder)
+        compiled = compile_structure(structure, _world(summary, folder))
     missing = [f"{q}/{body}" for body in compiled.index.bodies for q in _POSE
                if f"{q}/{body}" not in series.channels]
     if missing:

@@ -23,6 +23,7 @@ from tensim._files import atomic_path, run_folder_name, write_text
 from tensim.sim import TimeSeries
 
 if TYPE_CHECKING:
+    from tensim.model import CompiledModel
     from tensim.viz._gl import GLServer
     from tensim.viz.drawing import FigureDrawer
 
@@ -54,7 +55,8 @@ overflow-x: auto; font-size: 0.8em; } .note { color: #8a5a00; }
 
 def write_report(out: Path, summary: dict[str, Any] | None = None, *,
                  series: TimeSeries | None = None, frame: bool = True,
-                 drawer: FigureDrawer | None = None) -> Path:
+                 drawer: FigureDrawer | None = None, compiled: CompiledModel | None = None
+                 ) -> Path:
     """Writes ``out/report.html`` (atomically) and any figures it needs.
 
     Args:
@@ -66,6 +68,8 @@ def write_report(out: Path, summary: dict[str, Any] | None = None, *,
         drawer: draws some of the folder's figures meanwhile (its pending ones are not drawn
             here); the page is written once it has finished. A disabled drawer (a run without
             figures) means no figures and no frame here either.
+        compiled: the robot the run simulated, for the frame (None: compiled again from the
+            folder, :func:`tensim.viz.replay.recorded_run`).
 
     Returns:
         The report's path.
@@ -86,7 +90,7 @@ def write_report(out: Path, summary: dict[str, Any] | None = None, *,
         backend = pool.submit(_gl.take_server) if frame and series is not None else None
         if drawer is None or drawer.enabled:
             _figures(out, series, drawer.pending if drawer is not None else frozenset())
-        note = _frame(out, summary, series, backend) \
+        note = _frame(out, summary, series, backend, compiled) \
             if backend is not None and series is not None else None
     if drawer is not None:
         drawer.wait()
@@ -141,7 +145,8 @@ FRAME_SAMPLES = 0
 
 
 def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
-           server: concurrent.futures.Future[GLServer]) -> str | None:
+           server: concurrent.futures.Future[GLServer],
+           compiled: CompiledModel | None = None) -> str | None:
     """Renders ``frame.png`` at the last recorded sample (painted by the OpenGL child of
     :class:`tensim.viz._gl.GLServer`, :data:`FRAME_SAMPLES`); a note for the page if it
     cannot."""
@@ -154,7 +159,7 @@ def _frame(out: Path, summary: dict[str, Any], series: TimeSeries,
 
     try:
         with server.result() as painter:
-            replay = PoseReplay(recorded_run(out, summary, series))
+            replay = PoseReplay(recorded_run(out, summary, series, compiled))
             k = replay.time.size - 1
             scene = FrameScene(replay.compiled, colors=TensionColors.for_run(replay.tension),
                                samples=FRAME_SAMPLES)
