@@ -450,9 +450,9 @@ def test_sensor_noise_does_not_narrow_the_impedance_logs_intervals(robot, impeda
     for the stiffness, friction, offset and delay; 1.2-3.8 over four draws (2.5-3.3, 1.4-1.7,
     2.9-3.2, 1.2-1.4). Before, the delay's Jacobian column was a 20 ms forward secant: 0.58-1.19
     for the delay; with only that fixed, the physical columns' one-sided 5 % steps left the
-    friction's at 0.90 in one draw. The fits stop in a plateau of residuals made rough by the contacts
-    (0.048-0.076 N RMS within 0.1 N/m of stiffness or 1e-4 of friction around the truth), so
-    the fit point moves with the draw, by up to 2.5 N/m and 1.2 ms here."""
+    friction's at 0.90 in one draw. The fits stop in a plateau of residuals made rough by the
+    contacts (0.048-0.076 N RMS within 0.1 N/m of stiffness or 1e-4 of friction around the
+    truth), so the fit point moves with the draw, by up to 2.5 N/m and 1.2 ms here."""
     intervals = []
     for noise in (0.0, 0.2):
         result = identify([_impedance_log(robot, impedance, noise, 1)], robot, impedance,

@@ -10,8 +10,9 @@ log's. ``one point``: the 8 s impedance log (stiffer cables and less friction th
 a 0.5 N offset and a 30 ms delay, logged every 10 ms) through 0.2 N of sensor noise, judged
 at the truth, over the clean log judged there, per noise draw. ``fitted``: the same logs
 fitted (the fit point moves with the draw). ``rough``: the clean log's residual at the truth
-with the stiffness or the friction moved a hair (the plateau the fits stop on). ``white``: the intervals at the truth through 2 N
-of noise (nearly white residuals) over the independent-sample ones, mean of four draws.
+with the stiffness or the friction moved a hair (the plateau the fits stop on). ``white``: the
+intervals at the truth through 2 N of noise (nearly white residuals) over the
+independent-sample ones, mean of four draws.
 """
 
 from __future__ import annotations
