@@ -446,15 +446,13 @@ def test_intervals_do_not_depend_on_the_logging_rate(robot, impedance):
 
 def test_sensor_noise_does_not_narrow_the_impedance_logs_intervals(robot, impedance):
     """The 8 s impedance log clean and through 0.2 N of sensor noise, each fitted: noise is no
-    information, so the intervals must not narrow (measured 0.99, 0.99 and 2.63 of the clean
-    log's for the stiffness, friction and offset; 0.99-1.18, 0.99-1.27 and 2.6-3.1 over six
-    draws; on main 0.91, 0.82 and 1.84, and 0.52-0.94 for the stiffness over four draws). Asked:
-    at least 0.97, since the fit point moves with the draw (a few percent here). The delay's
-    interval follows its fit point more than the noise: the clean fit stops 1.5 ms off (its
-    residual 0.069 N RMS, where the truth leaves 0.051 N), the noisy ones 0.1-1.0 ms off, and
-    the delay's interval is 0.58-1.19 of the clean one's over six draws (0.72 in this one); at
-    one fit point every interval widens with the noise
-    (:func:`test_noise_widens_every_interval_of_the_impedance_log_at_one_fit_point`)."""
+    information, so no interval may narrow. Measured 3.8, 1.6, 3.2 and 1.2 of the clean log's
+    for the stiffness, friction, offset and delay; 1.2-3.8 over four draws (2.5-3.3, 1.4-1.7,
+    2.9-3.2, 1.2-1.4). Before, the delay's Jacobian column was a 20 ms forward secant: 0.58-1.19
+    for the delay; with only that fixed, the physical columns' one-sided 5 % steps left the
+    friction's at 0.90 in one draw. The fits stop in a plateau of residuals made rough by the
+    contacts (0.048-0.076 N RMS within 0.1 N/m of stiffness or 1e-4 of friction around the
+    truth), so the fit point moves with the draw, by up to 2.5 N/m and 1.2 ms here."""
     intervals = []
     for noise in (0.0, 0.2):
         result = identify([_impedance_log(robot, impedance, noise, 1)], robot, impedance,
@@ -463,7 +461,7 @@ def test_sensor_noise_does_not_narrow_the_impedance_logs_intervals(robot, impeda
                                                  validate_window=(5.0, 8.0)))
         intervals.append([p["ci95"] for p in result.parameters().values()])
     ratio = np.array(intervals[1]) / np.array(intervals[0])
-    assert (ratio[:3] >= 0.97).all(), ratio
+    assert (ratio >= 1.0).all(), ratio
 
 
 def test_correlation_time_is_a_property_of_the_signal_in_seconds():
@@ -556,7 +554,7 @@ def test_noise_widens_every_interval_of_the_impedance_log_at_one_fit_point(robot
     """The impedance log clean and through 0.2 N of sensor noise in four draws, each judged
     at one fit point (the truth; its clean residual is the replay's own error, 0.05 N RMS,
     correlated over the gait): noise adds variance and removes none of the model error's, so
-    every parameter's interval must widen (measured 1.18-3.85 of the clean one). Before, a
+    every parameter's interval must widen (measured 1.77-4.12 of the clean one). Before, a
     window taken from the residuals' own correlation shrank with the noise: 0.68 (the delay's)
     to 2.62."""
     settings = SysidSettings(fit_window=(0.0, 5.0), validate_window=(5.0, 8.0))

@@ -9,8 +9,10 @@ read through 0.1 N of noise) logged every 200, 50 and 10 ms; each interval over 
 log's. ``one point``: the 8 s impedance log (stiffer cables and less friction than nominal,
 a 0.5 N offset and a 30 ms delay, logged every 10 ms) through 0.2 N of sensor noise, judged
 at the truth, over the clean log judged there, per noise draw. ``fitted``: the same logs
-fitted (the fit point moves with the draw). ``white``: the intervals at the truth through 2 N
-of noise (nearly white residuals) over the independent-sample ones, mean of four draws.
+fitted (the fit point moves with the draw). ``rough``: the clean log's residual at the truth
+with the stiffness or the friction moved a hair (the plateau the fits stop on). ``white``: the
+intervals at the truth through 2 N of noise (nearly white residuals) over the
+independent-sample ones, mean of four draws.
 """
 
 from __future__ import annotations
@@ -75,6 +77,19 @@ def noise(robot, impedance, draws: int) -> None:
                   f"{_figures(point)}; fitted {_figures(intervals[draw] / intervals[0])}")
 
 
+def rough(robot, impedance) -> None:
+    """The clean log's residual around the truth: contacts make it change irregularly under
+    tiny parameter changes, so the truth's own residual is one value of a rough plateau."""
+    log = impedance_log(robot, impedance, 0.0, 1)
+    values = []
+    for name, step in (("stiffness", -0.1), ("stiffness", 0.1), ("friction", -1e-4),
+                       ("friction", 1e-4)):
+        moved = {**TRUTH, name: TRUTH[name] + step}
+        values.append(errors_at([log], robot, impedance, moved, settings=SETTINGS)[2])
+    print(f"rough: clean residual at the truth with the stiffness -/+0.1 N/m, the friction "
+          f"-/+1e-4: {', '.join(f'{v:.3f}' for v in values)} N RMS")
+
+
 def white(robot, impedance) -> None:
     """The estimate where sensor noise makes nearly all the residual: 2 N of it, 40 times the
     replay's own error, judged at the truth."""
@@ -93,6 +108,7 @@ def main() -> None:
     impedance = load_controller("tetraspine3_impedance", robot)
     rates(robot, impedance)
     noise(robot, impedance, draws)
+    rough(robot, impedance)
     white(robot, impedance)
 
 

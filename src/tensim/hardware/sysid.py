@@ -52,6 +52,8 @@ from tensim.structure import Structure
 
 _CACHE_SIZE = 16
 DEFAULT_PARAMS = ("stiffness", "friction", "offset", "delay")
+MEASUREMENT_STEP = 1e-3
+"""Finite-difference step of a measurement parameter, as a fraction of its bound range."""
 
 
 class SysidError(ValueError):
@@ -64,7 +66,8 @@ class SysidSettings:
 
     Attributes:
         max_simulations: stop after about this many simulations of the log set.
-        diff_step: finite-difference step, as a fraction of each parameter's bound range.
+        diff_step: finite-difference step of a physical parameter, as a fraction of its bound
+            range (measurement parameters take :data:`MEASUREMENT_STEP`).
         max_offset: largest time offset the cross-correlation tries [s].
         margin: simulated time past each log's end [s].
         skip: leave each log's first seconds out of the residual [s].
@@ -333,25 +336,38 @@ class _Problem:
         times = [log.samples("tension")[0] for log in self.logs]
         return np.array([float(np.median(np.diff(t))) if t.size > 1 else 1.0 for t in times])
 
-    def jacobian(self, unit: np.ndarray) -> np.ndarray:
-        """Forward differences with a fixed step of ``diff_step`` of each bound range.
+    def jacobian(self, unit: np.ndarray, central: bool = False) -> np.ndarray:
+        """Finite differences in unit coordinates.
 
-        A fixed, fairly large step steps over the small irregular changes that contacts and
-        motor limits make in a simulated tension; measurement columns reuse the cached run.
+        A physical column takes a fixed, fairly large step of ``diff_step`` of its bound
+        range, which steps over the small irregular changes that contacts and motor limits
+        make in a simulated tension: forward while fitting, central (two more simulations
+        per physical parameter) with ``central``, for the uncertainty at the solution, where a
+        one-sided step of that size would tilt each column by the residuals' curvature. A
+        measurement column reshapes the cached run, so it costs no simulation and has no
+        contact noise: a central difference over :data:`MEASUREMENT_STEP` of its range (a
+        large step would take the delay's slope over 20 ms of a 10 ms-sampled log).
         """
-        steps, points = [], []
+        steps, points, backs = [], [], []
         for k in range(unit.size):
-            step = self.settings.diff_step if unit[k] + self.settings.diff_step <= 1.0 \
-                else -self.settings.diff_step
-            moved = unit.copy()
+            physical = bool(self.space.physical[k])
+            step = self.settings.diff_step if physical else MEASUREMENT_STEP
+            if unit[k] + step > 1.0:
+                step = -step
+            moved, back = unit.copy(), unit.copy()
             moved[k] += step
+            back[k] -= step
+            two_sided = (central or not physical) and 0.0 <= back[k] <= 1.0
             steps.append(step)
             points.append(moved)
+            backs.append(back if two_sided else None)
         # every perturbed model at once, one batch per log
-        self.simulate_many([self.space.from_unit(u) for u in [unit, *points]])
+        self.simulate_many([self.space.from_unit(u) for u in
+                            [unit, *points, *(b for b in backs if b is not None)]])
         base = self.residuals(unit)
-        columns = [(self.residuals(moved) - base) / step
-                   for moved, step in zip(points, steps, strict=True)]
+        columns = [(self.residuals(moved) - base) / step if back is None
+                   else (self.residuals(moved) - self.residuals(back)) / (2.0 * step)
+                   for moved, step, back in zip(points, steps, backs, strict=True)]
         jac = np.stack(columns, axis=1)
         flat = [p.name for p, col in zip(self.space.parameters, jac.T, strict=True)
                 if not np.any(col)]
@@ -415,7 +431,7 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
         problem.residuals, space.to_unit(space.start), jac=problem.jacobian, bounds=(0.0, 1.0),
         method="trf", x_scale=1.0, max_nfev=max(3, settings.max_simulations // (physical + 1)))
     fitted = space.snap(space.from_unit(fit.x))  # the values the last runs simulated
-    jac = problem.jacobian(space.to_unit(fitted))
+    jac = problem.jacobian(space.to_unit(fitted), central=True)
     residual = problem.residuals(space.to_unit(fitted))
     scale = space.high - space.low
     rows, cables = problem.sample_cells(space.to_unit(fitted))
@@ -460,7 +476,7 @@ def errors_at(logs: Sequence[HardwareLog], structure: Structure, config: Control
     space = SysidSpace.build(structure, list(values), start=values, world=world)
     problem = _Problem(space, logs, config, sensor or SensorModel(), world, settings, None)
     unit = space.to_unit(space.snap(space.start))
-    jac, residual = problem.jacobian(unit), problem.residuals(unit)
+    jac, residual = problem.jacobian(unit, central=True), problem.residuals(unit)
     errors = fit_stderr(jac, residual, *problem.sample_cells(unit), problem.periods())
     scale = space.high - space.low
     return ({p.name: float(v * s) for p, v, s in
