@@ -265,7 +265,10 @@ def _register_sysid(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-sims", type=count, default=60,
                    help="budget of simulations per log (each one replays the whole log)")
     p.add_argument("--diff-step", type=positive, default=0.05,
-                   help="finite-difference step as a fraction of each bound range")
+                   help="finite-difference step of the physical parameters while fitting, as a "
+                        "fraction of each bound range (the measurement parameters take central "
+                        "differences of 0.1 %%, and the error bars central differences of this "
+                        "step)")
     p.add_argument("--max-offset", type=nonnegative, default=0.5,
                    help="largest time offset the nominal model's alignment tries while "
                         "'delay' is not fitted [s] (0: the log's clock is the simulation's)")
