@@ -336,6 +336,12 @@ class _Problem:
         times = [log.samples("tension")[0] for log in self.logs]
         return np.array([float(np.median(np.diff(t))) if t.size > 1 else 1.0 for t in times])
 
+    def errors(self, unit: np.ndarray) -> tuple[FitErrors, np.ndarray]:
+        """The standard errors of a fit ending at ``unit`` (unit coordinates), from the
+        central-difference Jacobian and the residuals there; and those residuals [N]."""
+        jac, residual = self.jacobian(unit, central=True), self.residuals(unit)
+        return fit_stderr(jac, residual, *self.sample_cells(unit), self.periods()), residual
+
     def jacobian(self, unit: np.ndarray, central: bool = False) -> np.ndarray:
         """Finite differences in unit coordinates.
 
@@ -431,11 +437,8 @@ def identify(logs: Sequence[HardwareLog], structure: Structure, config: Controll
         problem.residuals, space.to_unit(space.start), jac=problem.jacobian, bounds=(0.0, 1.0),
         method="trf", x_scale=1.0, max_nfev=max(3, settings.max_simulations // (physical + 1)))
     fitted = space.snap(space.from_unit(fit.x))  # the values the last runs simulated
-    jac = problem.jacobian(space.to_unit(fitted), central=True)
-    residual = problem.residuals(space.to_unit(fitted))
+    errors, _ = problem.errors(space.to_unit(fitted))
     scale = space.high - space.low
-    rows, cables = problem.sample_cells(space.to_unit(fitted))
-    errors = fit_stderr(jac, residual, rows, cables, problem.periods())
     stderr, naive = errors.stderr * scale, errors.naive * scale
     uncertainty = {
         "samples": int(errors.samples), "effective_samples": round(errors.effective, 3),
@@ -475,9 +478,7 @@ def errors_at(logs: Sequence[HardwareLog], structure: Structure, config: Control
     settings = _windows(settings or SysidSettings(), logs)
     space = SysidSpace.build(structure, list(values), start=values, world=world)
     problem = _Problem(space, logs, config, sensor or SensorModel(), world, settings, None)
-    unit = space.to_unit(space.snap(space.start))
-    jac, residual = problem.jacobian(unit, central=True), problem.residuals(unit)
-    errors = fit_stderr(jac, residual, *problem.sample_cells(unit), problem.periods())
+    errors, residual = problem.errors(space.to_unit(space.snap(space.start)))
     scale = space.high - space.low
     return ({p.name: float(v * s) for p, v, s in
              zip(space.parameters, errors.stderr, scale, strict=True)}, errors,
