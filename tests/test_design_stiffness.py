@@ -198,3 +198,54 @@ def test_the_flip_step_by_the_monotone_root_equals_the_companion_matrix_eigenval
             _companion_flip(stiff, damp), rel=1e-9)
         assert _flip_step(stiff, damp, "implicitfast", (stiff, damp, blocks)) == pytest.approx(
             _companion_flip(stiff, damp - 2 * blocks), rel=1e-9)
+
+
+def test_no_euler_step_grows_below_the_flip_root() -> None:
+    """The Euler bound's proof (_proven_euler_bound): with K > 0 diagonal and C >= 0, an
+    eigenvalue of the step matrix leaves the unit disc first through -1, so just below the flip
+    root every eigenvalue has modulus <= 1 and just above one exceeds 1 + GROWTH_TOLERANCE. On
+    random mode sets, some with undamped modes (C x = 0) and some with a damping of rank 1."""
+    from tensim.design.stiffness import (
+        GROWTH_TOLERANCE,
+        STEP_RESOLUTION,
+        _flip_step,
+        step_matrix,
+    )
+
+    rng = np.random.default_rng(7)
+    for n in (1, 4, 30):
+        for rank in (n, 1, max(n - 2, 1)):
+            stiff = np.diag(rng.uniform(1.0, 1e4, n))
+            half = rng.standard_normal((n, rank)) * rng.uniform(0.1, 300)
+            damp = half @ half.T / rank
+            limit = _flip_step(stiff, damp, "euler")
+            for factor, grows in ((1 - STEP_RESOLUTION, False), (1 + STEP_RESOLUTION, True)):
+                values = np.linalg.eigvals(step_matrix(stiff, damp, np.eye(n), limit * factor))
+                # GROWTH_TOLERANCE: the step bound's own threshold, far above round-off
+                assert (np.abs(values).max() > 1 + GROWTH_TOLERANCE) == grows
+
+
+@pytest.mark.parametrize("name", ["tetraspine3", "six_bar", "superball", "octahedral_complex"])
+def test_the_proven_euler_bound_equals_the_step_matrix_eigenvalues(name: str) -> None:
+    """The Euler bound without the step matrix's eigenvalues gives the bound those give: the
+    same step bit for bit, and the same mode's frequency and damping ratio (to round-off: a
+    symmetric robot's copies of one mode tie, and either may be named)."""
+    import importlib
+    from unittest import mock
+
+    from tensim.models import preset
+
+    module = importlib.import_module("tensim.design.stiffness")  # the package's function shadows it
+
+    result = stiffness(preset(name).build(), count=False)
+    fast = module.step_bound(result, "euler")
+    with mock.patch.object(module, "_proven_euler_bound", return_value=None):
+        full = module.step_bound(result, "euler")
+    values, modes = module.eigh(result.matrix, result.mass)
+    keep = values > 1e-9 * values.max()
+    damp = (modes.T @ result.damping @ modes)[np.ix_(keep, keep)]
+    assert module._proven_euler_bound(np.diag(values[keep]), damp) is not None  # proof path
+    assert fast.limit == full.limit
+    # 1e-12: tied copies of a mode differ in the last digits of their damping
+    assert fast.frequency == pytest.approx(full.frequency, rel=1e-12)
+    assert fast.damping_ratio == pytest.approx(full.damping_ratio, rel=1e-12)

@@ -252,6 +252,10 @@ def _step_bound(result: Stiffness, integrator: str) -> StepBound:
         blocks = modes.T @ body_blocks(result) @ modes
         implicit = _reduced_implicit(blocks, keep)
         full = (np.diag(values), damping, blocks)
+    if integrator == "euler":
+        proven = _proven_euler_bound(stiff, damp)
+        if proven is not None:
+            return proven
     limit = _flip_step(stiff, damp, integrator, full)
     # the step matrix just above the root and its eigenvalues, kept for _growing
     above = _spectrum(stiff, damp, limit * (1 + STEP_RESOLUTION), integrator, implicit) \
@@ -263,6 +267,44 @@ def _step_bound(result: Stiffness, integrator: str) -> StepBound:
     if not np.isfinite(limit):
         return StepBound(np.inf, 0.0, 0.0, integrator)
     return _growing(stiff, damp, limit, integrator, implicit, above)
+
+
+def _proven_euler_bound(stiff: np.ndarray, damp: np.ndarray) -> StepBound | None:
+    """The Euler bound where a proof stands in for the step matrix's eigenvalues (None
+    elsewhere: the caller computes them).
+
+    With K > 0 (diagonal, mass-normalised modes) and C >= 0 symmetric, an eigenvalue lambda
+    of the step matrix with eigenvector (x, v) solves P(lambda) x = 0,
+    P(lambda) = (lambda - 1)^2 I + dt (lambda - 1) C + dt^2 lambda K. On the unit circle,
+    lambda = e^(i phi), x^H P(lambda) x / lambda = (2 cos phi - 2) |x|^2 + dt (1 - e^(-i phi))
+    x^H C x + dt^2 x^H K x, whose imaginary part dt sin(phi) x^H C x vanishes only for
+    lambda = +-1 or C x = 0: lambda = 1 needs K x = 0 (none), and the undamped modes (C x = 0,
+    an invariant subspace) keep |lambda| = 1 until dt omega = 2, where lambda = -1. So as dt
+    grows from 0 (every |lambda| <= 1) an eigenvalue leaves the unit disc first through -1:
+    at the flip root, and nothing grows below it (the bisection's check there). Just above it,
+    P(-1 - GROWTH_TOLERANCE) with a negative eigenvalue proves a real eigenvalue below
+    -1 - GROWTH_TOLERANCE (P(lambda) / lambda^2 -> I as lambda -> -inf): it grows (the check
+    above). That eigenvector's x names the mode, as :func:`_growing` does from the step
+    matrix's. Two symmetric eigenproblems of n against two nonsymmetric ones of 2 n.
+    """
+    n = len(stiff)
+    if not n or not np.all(np.diag(stiff) > 0) or np.any(stiff - np.diag(np.diag(stiff))):
+        return None
+    scale = max(float(np.abs(damp).max()), 1e-300)
+    try:  # C >= 0 (to round-off): sum_c b_c g_c g_c^T with b_c >= 0 is, by construction
+        np.linalg.cholesky(damp + 1e-12 * scale * np.eye(n))
+    except np.linalg.LinAlgError:
+        return None
+    root = _monotone_root(stiff, damp)
+    if root is None:
+        return None
+    limit = 2 / root
+    dt, value = limit * (1 + STEP_RESOLUTION), -(1 + GROWTH_TOLERANCE)
+    pencil = (value - 1) ** 2 * np.eye(n) + dt * (value - 1) * damp + dt**2 * value * stiff
+    lowest, vectors = eigh(pencil, subset_by_index=[0, 0])
+    if lowest[0] >= 0:  # not proven to grow just above the root: the step matrix decides
+        return None
+    return _mode(stiff, damp, limit, vectors[:, 0], "euler")
 
 
 def _reduced_implicit(blocks: np.ndarray, keep: np.ndarray) -> ImplicitDamping:
@@ -403,6 +445,13 @@ def _growing(stiff: np.ndarray, damp: np.ndarray, limit: float, integrator: str,
     matrix, values = above if above is not None else \
         _spectrum(stiff, damp, dt, integrator, implicit)
     shape = _eigenvector(matrix, values[int(np.argmax(np.abs(values)))])[:len(stiff)]
+    return _mode(stiff, damp, limit, shape, integrator)
+
+
+def _mode(stiff: np.ndarray, damp: np.ndarray, limit: float, shape: np.ndarray,
+          integrator: str) -> StepBound:
+    """The bound with the vibration mode that dominates ``shape`` (the growing eigenvector's
+    displacements, in the kept modes' coordinates)."""
     k = int(np.argmax(np.abs(shape) ** 2 * (np.diag(stiff) + np.diag(damp) ** 2)))
     omega = float(np.sqrt(stiff[k, k]))
     zeta = float(damp[k, k] / (2 * omega)) if omega > 0 else np.inf
