@@ -11,10 +11,13 @@ the file and line. Every error of a bad input is an :class:`InputError`.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import numbers
 import os
+import pickle
 import re
+from collections import OrderedDict
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -158,8 +161,18 @@ class _Refused(Exception):
         self.line = node.start_mark.line + 1
 
 
+# documents read, by their text's digest, as pickles (each reader gets a fresh copy): a run
+# reads its structure file more than once (the structure, the check's passive cables), and
+# unpickling an imported robot's 460 kB file costs a tenth of parsing it
+_PARSED: OrderedDict[bytes, bytes] = OrderedDict()
+PARSED_KEPT = 8  # documents kept
+
+
 def load_yaml(text: str, source: str) -> Any:
     """The data of a YAML (or JSON) document, read strictly (see the module's docstring).
+
+    A document read before (the same text) is not parsed again: the reader gets a fresh copy
+    of its data.
 
     Args:
         text: the document.
@@ -169,6 +182,19 @@ def load_yaml(text: str, source: str) -> Any:
         InputError: not valid YAML, a duplicate key, too deep or too large; naming ``source``
             and the line.
     """
+    key = hashlib.blake2b(text.encode("utf-8", "surrogatepass"), digest_size=20).digest()
+    if key in _PARSED:
+        _PARSED.move_to_end(key)
+        return pickle.loads(_PARSED[key])
+    data = _parse_yaml(text, source)
+    _PARSED[key] = pickle.dumps(data, protocol=pickle.HIGHEST_PROTOCOL)
+    if len(_PARSED) > PARSED_KEPT:
+        _PARSED.popitem(last=False)
+    return data
+
+
+def _parse_yaml(text: str, source: str) -> Any:
+    """:func:`load_yaml` without the memory of documents read."""
     try:
         loader = _Loader(text)
     except yaml.YAMLError as err:  # a character YAML does not allow
