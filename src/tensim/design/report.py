@@ -54,7 +54,8 @@ def modes_figure(structure: Structure, result: Stiffness, count: int = 4) -> Fig
     fig = Figure(figsize=(3.2 * max(len(chosen), 1), 3.4))
     size = float(np.ptp([n.position for n in structure.nodes], axis=0).max())
     for i, k in enumerate(chosen):
-        ax = fig.add_subplot(1, len(chosen), i + 1, projection="3d")
+        # the mode (red) drawn over the build pose (grey), in that order
+        ax = fig.add_subplot(1, len(chosen), i + 1, projection="3d", computed_zorder=False)
         moved = _moved(structure, result.modes[:, k], 0.15 * size)
         for pose, colour, width in ((None, "0.7", 1.0), (moved, "tab:red", 1.6)):
             _draw(ax, structure, pose, colour, width)
@@ -66,15 +67,24 @@ def modes_figure(structure: Structure, result: Stiffness, count: int = 4) -> Fig
 
 def _draw(ax: object, structure: Structure, pose: dict[str, np.ndarray] | None, colour: str,
           width: float) -> None:
+    """The rods and the cables at ``pose`` (None: the build pose), each kind one line
+    collection (a line per member costs seconds on a robot of hundreds of cables), painted
+    as lines are (projecting caps, round joins)."""
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
     def at(name: str) -> np.ndarray:
         return pose[name] if pose is not None else structure.position(name)
 
-    for rod in structure.rods:
-        a, b = at(rod.nodes[0]), at(rod.nodes[1])
-        ax.plot(*zip(a, b, strict=True), color=colour, lw=2.5 * width)  # type: ignore[attr-defined]
-    for cable in structure.cables:
-        points = np.array([at(n) for n in cable.path])
-        ax.plot(*points.T, color=colour, lw=0.6 * width)  # type: ignore[attr-defined]
+    for members, lw in (([rod.nodes for rod in structure.rods], 2.5 * width),
+                        ([cable.path for cable in structure.cables], 0.6 * width)):
+        if not members:
+            continue
+        lines = [np.array([at(n) for n in names]) for names in members]
+        had_data = ax.has_data()  # type: ignore[attr-defined]
+        ax.add_collection3d(Line3DCollection(  # type: ignore[attr-defined]
+            lines, colors=colour, linewidths=lw, capstyle="projecting", joinstyle="round"))
+        points = np.concatenate(lines)
+        ax.auto_scale_xyz(*points.T, had_data=had_data)  # type: ignore[attr-defined]
 
 
 def sizing_figure(duties: Sequence[CableDuty], catalogue: Sequence[DriveMotor],
