@@ -70,7 +70,7 @@ def _draw(ax: object, structure: Structure, pose: dict[str, np.ndarray] | None, 
     """The rods and the cables at ``pose`` (None: the build pose), each kind one line
     collection (a line per member costs seconds on a robot of hundreds of cables), painted
     as lines are (projecting caps, round joins)."""
-    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection  # type: ignore[import-untyped]
 
     def at(name: str) -> np.ndarray:
         return pose[name] if pose is not None else structure.position(name)
