@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+
 from tensim.cli import main
 from tensim.control import load_controller
 from tensim.models import preset
@@ -126,3 +128,19 @@ def test_the_report_frames_the_model_simulate_ran_which_the_folder_rebuilds(tmp_
         return
     assert handed[0] is not None
     assert _model_bytes(handed[0].model) == _model_bytes(load_run(out).compiled.model)
+
+
+def test_a_trajectory_file_reads_back_bit_for_bit(tmp_path) -> None:
+    """Parquet without dictionary pages still stores every sample exactly: constant, repeated,
+    signed-zero, NaN and infinite values, in the channels' order."""
+    from tensim.sim import TimeSeries
+
+    time = np.arange(7) * 0.01
+    channels = {"tension/a": np.array([0.0, -0.0, 1.5, 1.5, np.nan, np.inf, 1e-300]),
+                "length/a": np.full(7, 0.1), "rest_length/a": np.random.default_rng(1).random(7)}
+    TimeSeries(time, channels).to_parquet(tmp_path / "t.parquet")
+    back = TimeSeries.from_parquet(tmp_path / "t.parquet")
+    assert back.time.tobytes() == time.tobytes()
+    assert list(back.channels) == list(channels)
+    for name, values in channels.items():
+        assert back[name].tobytes() == values.tobytes()

@@ -61,7 +61,9 @@ class TimeSeries:
 
         table = pa.table({"time": self.time, **self.channels})
         with atomic_path(Path(path)) as tmp:
-            pq.write_table(table, tmp)
+            # no dictionary pages: sampled floats rarely repeat, and trying costs a wide
+            # table (796 cables: 5,648 columns) 40 % of its write and 12 % of its size
+            pq.write_table(table, tmp, use_dictionary=False)
 
     @classmethod
     def from_parquet(cls, path: str | os.PathLike[str]) -> TimeSeries:
