@@ -227,3 +227,25 @@ def test_mass_properties_of_an_l_shape_match_closed_form():
     assert props.mass == pytest.approx(total, rel=1e-14)  # rounding only
     np.testing.assert_allclose(props.com, com, rtol=0, atol=1e-15)  # rounding only
     np.testing.assert_allclose(props.inertia, expected, rtol=0, atol=1e-14)  # rounding only
+
+
+def test_a_remembered_cable_length_equals_a_computed_one_and_follows_its_structure() -> None:
+    """cable_length is computed once per cable of a structure: every cable's remembered value
+    equals the computation, bit for bit; a structure with moved nodes (a new structure) and an
+    equal cable built again get their own."""
+    import dataclasses
+
+    from tensim.models import preset
+
+    for name in ("tetraspine3", "six_bar"):
+        structure = preset(name).build()
+        for cable in structure.cables:
+            assert structure.cable_length(cable) == structure._cable_length(cable)
+            assert structure.cable_length(dataclasses.replace(cable)) == \
+                structure._cable_length(cable)
+        moved = dataclasses.replace(structure, nodes=tuple(
+            dataclasses.replace(n, position=tuple(2.0 * np.asarray(n.position)))
+            for n in structure.nodes))
+        cable = structure.cables[0]
+        assert moved.cable_length(cable) == moved._cable_length(cable)
+        assert moved.cable_length(cable) != structure.cable_length(cable)

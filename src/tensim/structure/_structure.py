@@ -274,7 +274,25 @@ class Structure:
         """Anchor-to-anchor length along the path in the build pose [m] (x in paper eq. 2).
 
         -1 when the anchor offsets leave no length (they pass the next point of the path).
+        Computed once per cable (the checks, the compiler and the writers each ask for
+        every cable's length; the structure and its records are frozen).
         """
+        lengths = self._cable_lengths
+        try:
+            length = lengths.get(cable)
+        except TypeError:  # a cable built with an unhashable field: not remembered
+            return self._cable_length(cable)
+        if length is None:
+            length = lengths[cable] = self._cable_length(cable)
+        return length
+
+    @functools.cached_property
+    def _cable_lengths(self) -> dict[Cable, float]:
+        """Cable -> :meth:`cable_length`, filled as they are asked for."""
+        return {}
+
+    def _cable_length(self, cable: Cable) -> float:
+        """:meth:`cable_length`, computed."""
         ends = (cable.path[:2], cable.path[-2:])
         spans = [self.distance(a, b) for a, b in ends]
         room = 2 * cable.anchor_offset if not cable.via else cable.anchor_offset
