@@ -80,8 +80,13 @@ class CableDrive(LawParameters):
         """
         rows = np.floor(steps * dt / self.table_dt + _ROW_SLACK).astype(np.int64)
         np.clip(rows, 0, self.target_velocity.shape[0] - 1, out=rows)
-        return np.where(self.mode == MODE_IMPEDANCE, self.target_velocity[rows],
-                        self.rest_command)
+        if not rows.size:
+            return np.empty((0, self.stiffness.size))
+        # the commands of each V* row these steps read, once; then a row per step
+        low, high = int(rows.min()), int(rows.max())
+        table = np.where(self.mode == MODE_IMPEDANCE, self.target_velocity[low:high + 1],
+                         self.rest_command)
+        return table[rows - low]
 
     # -- outputs, from the data ---------------------------------------------------------------
 

@@ -39,7 +39,16 @@ from tensim.sim._loop import (
 from tensim.sim._samples import COM, SampleRows, sample_channels
 from tensim.sim._timeseries import TimeSeries
 
-_BLOCK_STEPS = 20_000  # physics steps of inputs computed at once
+_BLOCK_STEPS = 20_000  # physics steps of inputs computed at once, at most
+# ctrl values computed at once, at most (16 MB): 20,000 steps of a 796-cable robot's inputs
+# were 127 MB, and writing them cost more than stepping in shorter blocks
+_BLOCK_VALUES = 2_000_000
+
+
+def _block_steps(nu: int) -> int:
+    """Physics steps of inputs computed at once for ``nu`` inputs (any split of the steps
+    gives the same run: the block's runs of equal rows end at its edge)."""
+    return max(1, min(_BLOCK_STEPS, _BLOCK_VALUES // max(nu, 1)))
 
 
 class SimulationError(RuntimeError):
@@ -190,8 +199,9 @@ class Simulation:
 
     def _advance(self, nstep: int) -> None:
         plan = self.inputs()
-        for first in range(0, nstep, _BLOCK_STEPS):
-            count = min(_BLOCK_STEPS, nstep - first)
+        block = _block_steps(plan.nu)
+        for first in range(0, nstep, block):
+            count = min(block, nstep - first)
             _Segments(plan.control(self._next_step(), count)).run(self, 0, count)
 
     def push_forces(self) -> None:
@@ -328,7 +338,8 @@ class _SingleRun:
     def __init__(self, sim: Simulation, n_samples: int):
         self.sim, self.n_samples = sim, n_samples
         self.recorder = _Recorder(sim, n_samples + 1)
-        self.plan, self.per_block = sim.inputs(), max(1, _BLOCK_STEPS // sim.record_steps)
+        self.plan = sim.inputs()
+        self.per_block = max(1, _block_steps(self.plan.nu) // sim.record_steps)
         self.segments, self.done = _Segments(np.zeros((0, 0))), 0
 
     def advance(self, k: int, nstep: int) -> bool:
