@@ -144,3 +144,21 @@ def test_a_trajectory_file_reads_back_bit_for_bit(tmp_path) -> None:
     assert list(back.channels) == list(channels)
     for name, values in channels.items():
         assert back[name].tobytes() == values.tobytes()
+
+
+def test_simulate_timings_print_each_stage_and_add_up_to_the_whole_command(tmp_path, capsys):
+    """--timings prints the CPU seconds of every stage of the command, the start-up, the rest
+    and the child processes, which add up to the whole command's (to the printed rounding)."""
+    out = tmp_path / "run"
+    assert main(["--quiet", "simulate", "prism3", "--duration", "0.05", "--no-figures",
+                 "--timings", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    table = text[text.index("CPU time by stage [s]:"):].splitlines()[1:]
+    rows = {line[:-8].strip(): float(line[-8:]) for line in table}
+    for stage in ("Python start-up and the command line's imports", "load the structure",
+                  "pre-run check (tensim check)", "compile", "simulate",
+                  "trajectory.parquet, structure.yaml, report, frame.png",
+                  "the rest of the command", "child processes (drawing, the OpenGL frame)"):
+        assert rows[stage] >= 0, stage
+    whole = rows.pop("whole command")
+    assert abs(sum(rows.values()) - whole) <= 0.005 * len(rows) + 1e-9  # each row rounded

@@ -41,33 +41,40 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--record-dt", type=positive, default=0.01, help="recording period [s]")
     output_option(p, "--out", "folder", default="runs/simulate", help="output folder")
     add_figures_option(p)
+    p.add_argument("--timings", action="store_true",
+                   help="print the CPU time of each stage of the command at its end")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from tensim.control import load_velocity_table
-    from tensim.control.files import check_table_columns
-    from tensim.control.velocity_table import VelocityFileError
-    from tensim.design.check import warn_findings
-    from tensim.limits import check_run
-    from tensim.loads import check_loads, load_loads, loads_to_dict, parse_push, save_loads
-    from tensim.model import compile_structure
-    from tensim.models import resolve_controller
-    from tensim.runs import (
-        check_run_folder,
-        prepare_outputs,
-        replace_folder,
-        world_record,
-        write_run,
-    )
-    from tensim.sim import simulate
-    from tensim.viz.drawing import FigureDrawer, FigurePlan, background_pays
+    from tensim.cli._stages import StageClock
 
+    clock = StageClock()
+    with clock.stage("imports of the command's modules"):
+        from tensim.control import load_velocity_table
+        from tensim.control.files import check_table_columns
+        from tensim.control.velocity_table import VelocityFileError
+        from tensim.design.check import warn_findings
+        from tensim.limits import check_run
+        from tensim.loads import check_loads, load_loads, loads_to_dict, parse_push, save_loads
+        from tensim.model import compile_structure
+        from tensim.models import resolve_controller
+        from tensim.runs import (
+            check_run_folder,
+            prepare_outputs,
+            replace_folder,
+            world_record,
+            write_run,
+        )
+        from tensim.sim import simulate
+        from tensim.viz.drawing import FigureDrawer, FigurePlan, background_pays
     if not args.no_figures:
         prepare_outputs()  # the GL trial for frame.png runs while the simulation does
-    structure = load_model(args.model)
-    warn_findings(structure, args.dt, args.model,  # tensim check's findings, as warnings
-                  getattr(args, "cable_law", None) or "explicit")
+    with clock.stage("load the structure"):
+        structure = load_model(args.model)
+    with clock.stage("pre-run check (tensim check)"):
+        warn_findings(structure, args.dt, args.model,  # tensim check's findings, as warnings
+                      getattr(args, "cable_law", None) or "explicit")
     config = resolve_controller(args.model, structure, args.controller)
     if args.velocity_input:
         if config is None:
@@ -87,7 +94,8 @@ def run(args: argparse.Namespace) -> int:
     loads = [*(load_loads(args.loads) if args.loads else []), *map(parse_push, args.load)]
     for note in check_loads(loads, structure, duration):
         print(f"tensim: note: {note}", file=sys.stderr)
-    compiled = compile_structure(structure, world_from_args(args))
+    with clock.stage("compile"):
+        compiled = compile_structure(structure, world_from_args(args))
     controller = config.build(compiled.model.opt.timestep) if config else None
     cables = list(compiled.index.cables)
     plans = [FigurePlan("path.png", "path", {"items": list(compiled.index.bodies)})]
@@ -101,8 +109,10 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     with FigureDrawer(plans, background=background_pays(steps),
                       enabled=not args.no_figures) as drawer:
-        result = simulate(compiled, duration, controller=controller, loads=loads,
-                          record_dt=args.record_dt, progress=Progress(args.model, args.quiet))
+        with clock.stage("simulate"):
+            result = simulate(compiled, duration, controller=controller, loads=loads,
+                              record_dt=args.record_dt,
+                              progress=Progress(args.model, args.quiet))
         summary = {"model": args.model, "controller": _controller_label(args, config),
                    "motors": motor_summary(structure),
                    "gains": gains_summary(structure, config), **result.summary(),
@@ -112,13 +122,17 @@ def run(args: argparse.Namespace) -> int:
         with replace_folder(out) as stage:
             if loads:
                 save_loads(loads, stage / "loads.yaml")
-            for plan in plans:
-                drawer.draw(plan.file, result.trajectory, stage)
-            write_run(stage, result, {**summary, "figures": [p.file for p in plans
-                                                             if drawer.enabled]},
-                      structure=structure, controller=config, drawer=drawer,
-                      compiled=compiled)
+            with clock.stage("figures (in this process)"):
+                for plan in plans:
+                    drawer.draw(plan.file, result.trajectory, stage)
+            with clock.stage("trajectory.parquet, structure.yaml, report, frame.png"):
+                write_run(stage, result, {**summary, "figures": [p.file for p in plans
+                                                                 if drawer.enabled]},
+                          structure=structure, controller=config, drawer=drawer,
+                          compiled=compiled)
     print_summary(summary, out, moved=True, figures=not args.no_figures)
+    if args.timings:
+        print("\n".join(clock.lines()))
     return 0
 
 
