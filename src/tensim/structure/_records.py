@@ -35,9 +35,10 @@ def _real(record: object, item: str, field: str, unit: str, optional: bool = Fal
 
 
 def _name(value: object, item: str, field: str = "name") -> str:
-    _check(isinstance(value, str) and bool(value), item,
-           f"{field} must be a non-empty string, got {describe(value)}")
-    return value  # type: ignore[return-value]
+    if not (isinstance(value, str) and value):  # the message only when it is needed
+        raise StructureError(f"{field} must be a non-empty string, got {describe(value)}",
+                             item=item)
+    return value
 
 
 def _names(value: object, item: str, field: str) -> tuple[str, ...]:

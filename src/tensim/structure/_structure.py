@@ -115,7 +115,7 @@ class Structure:
 
     def _check_cable(self, cable: Cable) -> None:
         item = f"cable {cable.name!r}"
-        rods = {r.name: r for r in self.rods}
+        rods = {r.name: r for r in self.rods} if cable.wrap else {}
         for name in cable.wrap:
             if name not in rods:
                 raise StructureError(f"wraps around unknown rod {name!r}; rods: {sorted(rods)}",
