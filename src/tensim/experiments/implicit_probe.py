@@ -16,8 +16,9 @@ implicit step, with nothing handed to MuJoCo's metric, would give
   cables, the tension ``T`` solves ``(I + theta h C A) T = T_exp + theta k h xdot + theta h C J
   a_other``, where ``a_other = a_prev + M^-1 J^T T_prev`` is the last step's acceleration less
   the cables' share: the other forces (gravity, contacts, loads), lagged one step.
-  ``coupled`` solves the whole system, ``own`` keeps the diagonal of ``A`` (each cable with its
-  own effective mass), ``rowsum`` replaces it by the row sums of ``|A|`` (diagonally dominant).
+  ``coupled`` solves the whole system; ``own`` anticipates only each cable's own change (the
+  diagonal of ``A``, its own effective mass) and takes the others' tensions from the last
+  step; ``rowsum`` does the same with the row sums of ``|A|`` (diagonally dominant).
   Without the lagged term the update would soften a static stretch; with it a static state
   keeps the law's force exactly.
 """
@@ -102,29 +103,36 @@ def probes() -> dict[str, Probe]:
             "three_bar": Probe(three_bar(), 4.0, wound=(("bottom_0", 0.75), ("vertical_1", 0.75)))}
 
 
-def _tension(mode: str, theta: float, dt: float, m: mujoco.MjModel, d: mujoco.MjData,
-             tendons: np.ndarray, explicit: np.ndarray, k: np.ndarray, b: np.ndarray,
-             taut: np.ndarray, last: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    """This step's tensions [N] under ``mode`` (see the module's docstring)."""
+def cable_tensions(mode: str, theta: float, dt: float, m: mujoco.MjModel, d: mujoco.MjData,
+                   tendons: np.ndarray, explicit: np.ndarray, k: np.ndarray, b: np.ndarray,
+                   taut: np.ndarray, last: tuple[np.ndarray, np.ndarray]
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """This step's tensions [N] under ``mode`` (see the module's docstring), and the
+    acceleration they give, M^-1 J^T T (to add to the step's ``qacc`` for the next step's
+    ``a_other``). ``last``: (a_other, the last step's tensions)."""
     if mode == "explicit" or not taut.any():
-        return explicit
+        return explicit, np.zeros(m.nv)
     jac, metric = cable_metric(m, d, tendons)
     c = theta * dt * np.where(taut, k * dt + b, 0.0)
-    a_prev, t_prev = last
+    a_other, t_prev = last
     rhs = explicit + theta * dt * np.where(taut, k, 0.0) * d.ten_velocity[tendons]
     if mode == "coupled":
-        lagged = jac @ a_prev + metric @ t_prev
-        tension = np.linalg.solve(np.eye(len(k)) + c[:, None] * metric, rhs + c * lagged)
-    else:
+        tension = np.linalg.solve(np.eye(len(k)) + c[:, None] * metric, rhs + c * (jac @ a_other))
+    else:  # the others' tensions lagged, each cable's own anticipated with ``own``
         own = np.diag(metric) if mode == "own" else np.abs(metric[:, taut]).sum(axis=1)
-        tension = (rhs + c * (jac @ a_prev + own * t_prev)) / (1.0 + c * own)
-    return np.where(taut, np.maximum(tension, 0.0), 0.0)
+        lagged = jac @ a_other - metric @ t_prev + own * t_prev
+        tension = (rhs + c * lagged) / (1.0 + c * own)
+    tension = np.where(taut, np.maximum(tension, 0.0), 0.0)
+    solved = np.zeros_like(jac)
+    mujoco.mj_solveM(m, d, solved, jac)
+    return tension, solved.T @ tension
 
 
 def own_solve(probe: Probe, dt: float, mode: str = "explicit", theta: float = 0.5,
-              contact: bool = True) -> dict[str, np.ndarray] | None:
-    """One run of ``probe`` at step ``dt`` [s] under ``mode`` (``MODES``); ``contact`` False
-    turns contacts and gravity off. Returns the peak load-cell tension of each cable [N] and
+              contact: bool = True, discrete: bool = False) -> dict[str, np.ndarray] | None:
+    """One run of ``probe`` at step ``dt`` [s] under ``mode`` (``MODES``) on MuJoCo's Euler step
+    (``discrete``: its ``discrete`` step, with no cable in its metric); ``contact`` False turns
+    contacts and gravity off. Returns the peak load-cell tension of each cable [N] and
     the centre of mass every ``RECORD_S`` (``time``, ``com``), or None where it blew up."""
     s = probe.structure
     compiled = compile_structure(s, WorldOptions(timestep=dt), tuple(p.node for p in probe.loads))
@@ -135,7 +143,8 @@ def own_solve(probe: Probe, dt: float, mode: str = "explicit", theta: float = 0.
     n = compiled.n_cables
     rest = start.act[compiled.model.actuator_actadr[:n] + A_REST].copy()
     m = compile_spec(without_cable_law(compiled))
-    m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE if discrete else \
+        mujoco.mjtIntegrator.mjINT_EULER
     if not contact:
         m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
         m.opt.gravity[:] = 0.0
@@ -146,7 +155,8 @@ def own_solve(probe: Probe, dt: float, mode: str = "explicit", theta: float = 0.
     names = [c.name for c in s.cables]
     wound = {names.index(w): share * rest[names.index(w)] for w, share in probe.wound}
     tendons = m.actuator_trnid[:n, 0]
-    last = (np.zeros(m.nv), np.zeros(n))
+    mujoco.mj_forward(m, d)  # the other forces' acceleration, for the first step's lagged term
+    last = (d.qacc.copy(), np.zeros(n))
     peak, times, com = np.zeros(n), [], []
     every = round(RECORD_S / dt)
     for step in range(round(probe.duration / dt)):
@@ -162,13 +172,14 @@ def own_solve(probe: Probe, dt: float, mode: str = "explicit", theta: float = 0.
         spring = np.where(taut, k * stretch, 0.0)
         peak = np.maximum(peak, spring)
         explicit = np.where(taut, np.maximum(spring + b * d.ten_velocity[tendons], 0.0), 0.0)
-        tension = _tension(mode, theta, dt, m, d, tendons, explicit, k, b, taut, last)
+        tension, pull = cable_tensions(mode, theta, dt, m, d, tendons, explicit, k, b, taut,
+                                       last)
         d.ctrl[:n] = -tension
         for j, load in enumerate(probe.loads):
             d.ctrl[n + 3 * j:n + 3 * j + 3] = [np.interp(d.time, load.times, load.forces[:, a])
                                                for a in range(3)]
         mujoco.mj_step(m, d)
-        last = (d.qacc.copy(), tension)
+        last = (d.qacc + pull, tension)
         if not np.isfinite(d.qvel).all() or np.abs(d.qvel).max() > 200.0:
             return None
     return {"peak": peak, "time": np.array(times), "com": np.array(com)}
@@ -188,20 +199,22 @@ def compare(run: dict[str, np.ndarray], reference: dict[str, np.ndarray]) -> tup
 
 def own_solve_study(case: str, modes: Sequence[str] = ("coupled",), theta: float = 0.5,
                     contact: bool = True, steps_ms: Sequence[float] = STEPS_MS,
+                    steps: Sequence[str] = ("euler",),
                     announce: Callable[[str], None] | None = None) -> list[str]:
-    """Lines: ``case``'s 0.05 ms explicit reference, then per mode and step its errors."""
+    """Lines: ``case``'s 0.05 ms explicit reference (Euler), then per MuJoCo step (``euler``,
+    ``discrete``), mode and step its errors."""
     probe = probes()[case]
     reference = own_solve(probe, 5e-5, contact=contact)
     if reference is None:
         raise RuntimeError(f"{case}: the reference blew up")
     lines = [f"{case}{'' if contact else ' (no contact, no gravity)'}: reference 0.05 ms "
              f"explicit, max tension {reference['peak'].max():.1f} N"]
-    for mode in modes:
+    for integrator, mode in ((i, m) for i in steps for m in modes):
         for ms in steps_ms:
             if announce:
-                announce(f"{case}: {mode} at {ms:g} ms")
-            run = own_solve(probe, ms / 1e3, mode, theta, contact)
-            head = f"  {mode:<8} {ms:>4g} ms:"
+                announce(f"{case}: {mode} on {integrator} at {ms:g} ms")
+            run = own_solve(probe, ms / 1e3, mode, theta, contact, integrator == "discrete")
+            head = f"  {mode:<8} {integrator:<8} {ms:>4g} ms:"
             if run is None:
                 lines.append(f"{head} blew up")
                 continue
@@ -258,6 +271,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     own.add_argument("--modes", default="coupled")
     own.add_argument("--theta", type=float, default=0.5)
     own.add_argument("--no-contact", action="store_true")
+    own.add_argument("--steps", default="euler", help="MuJoCo's steps: euler,discrete")
     args = parser.parse_args(argv)
     if args.what == "loop-gain":
         print("tetraspine3: h rho(D J M^-1 J^T) of the cables' damping b, the impedance laws' "
@@ -276,7 +290,7 @@ def main(argv: Sequence[str] | None = None) -> None:
               f"(reference {r['reference_peak_over_hold_mean_percent']:.2f} %)")
     else:
         for line in own_solve_study(args.case, args.modes.split(","), args.theta,
-                                    not args.no_contact):
+                                    not args.no_contact, steps=args.steps.split(",")):
             print(line)
 
 
