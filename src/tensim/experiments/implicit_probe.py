@@ -14,8 +14,9 @@ implicit step, with nothing handed to MuJoCo's metric, would give
   ``tensim.model.without_cable_law``). With ``theta`` = 0 it is the explicit law (it reproduces
   tensim's explicit runs); otherwise, with ``A = J M^-1 J^T`` and ``c = k h + b`` on the taut
   cables, the tension ``T`` solves ``(I + theta h C A) T = T_exp + theta k h xdot + theta h C J
-  a_other``, where ``a_other = a_prev + M^-1 J^T T_prev`` is the last step's acceleration less
-  the cables' share: the other forces (gravity, contacts, loads), lagged one step.
+  a_other``, where ``a_other = a_prev + M^-1 J^T T_prev`` (at the last step's state) is the last
+  step's acceleration less the cables' share: the other forces (gravity, contacts, loads),
+  lagged one step.
   ``coupled`` solves the whole system; ``own`` anticipates only each cable's own change (the
   diagonal of ``A``, its own effective mass) and takes the others' tensions from the last
   step; ``rowsum`` does the same with the row sums of ``|A|`` (diagonally dominant).
@@ -65,7 +66,8 @@ def cable_metric(m: mujoco.MjModel, d: mujoco.MjData, tendons: np.ndarray
 def loop_gain(name: str = "tetraspine3", steps_ms: Sequence[float] = (1.0, 2.0, 4.0),
               settle_s: float = 2.0) -> dict[str, dict[str, float]]:
     """Per step [ms]: ``h rho(diag(D) A)`` for D = the cables' damping b, the impedance laws'
-    B, and B + b, on preset ``name`` settled under its controller at 1 ms."""
+    B, and B + b, and the largest ``h B_i A_ii`` (a cable's B on its own effective mass), on
+    preset ``name`` settled under its controller at 1 ms."""
     from tensim.models import preset
 
     model = preset(name)
@@ -77,8 +79,14 @@ def loop_gain(name: str = "tetraspine3", steps_ms: Sequence[float] = (1.0, 2.0, 
         gains = {"b": m.actuator_gainprm[:n, G_DAMPING].copy(),
                  "B": m.actuator_dynprm[:n, P_GAIN_B].copy()}
     gains["B+b"] = gains["B"] + gains["b"]
-    return {f"{ms:g}": {key: float(np.abs(np.linalg.eigvals(ms / 1e3 * g[:, None] * metric)).max())
-                        for key, g in gains.items()} for ms in steps_ms}
+    return {f"{ms:g}": _gains(ms / 1e3, gains, metric) for ms in steps_ms}
+
+
+def _gains(h: float, gains: dict[str, np.ndarray], metric: np.ndarray) -> dict[str, float]:
+    out = {key: float(np.abs(np.linalg.eigvals(h * g[:, None] * metric)).max())
+           for key, g in gains.items()}
+    out["B, one cable alone"] = float((h * gains["B"] * np.diag(metric)).max())
+    return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -275,7 +283,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if args.what == "loop-gain":
         print("tetraspine3: h rho(D J M^-1 J^T) of the cables' damping b, the impedance laws' "
-              "B and B + b (explicit velocity feedback rings above 2)")
+              "B and B + b (explicit velocity feedback rings above 2), and B on one cable alone")
         for ms, gains in loop_gain().items():
             print(f"  {ms:>3} ms: " + ", ".join(f"{k} {v:5.2f}" for k, v in gains.items()))
     elif args.what == "peak":
