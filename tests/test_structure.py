@@ -249,3 +249,16 @@ def test_a_remembered_cable_length_equals_a_computed_one_and_follows_its_structu
         cable = structure.cables[0]
         assert moved.cable_length(cable) == moved._cable_length(cable)
         assert moved.cable_length(cable) != structure.cable_length(cable)
+
+
+def test_rigid_groups_are_found_once_and_are_those_of_a_fresh_structure() -> None:
+    """rigid_groups is remembered per structure: a second call gives the same groups, equal
+    to those a newly built copy of the structure finds."""
+    import dataclasses
+
+    from tensim.models import preset
+
+    structure = preset("tetraspine3").build()
+    first = structure.rigid_groups()
+    assert structure.rigid_groups() is first
+    assert dataclasses.replace(structure).rigid_groups() == first

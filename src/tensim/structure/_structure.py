@@ -315,7 +315,13 @@ class Structure:
 
         A group is named after the first tag that all its rods carry and no other rod does,
         else ``rigid_<k>``; a lone point-mass node gives a group named after the node.
+        Found once per structure (the check, the analyses and the compiler each ask).
         """
+        return self._rigid_groups
+
+    @functools.cached_property
+    def _rigid_groups(self) -> tuple[RigidGroup, ...]:
+        """:meth:`rigid_groups`, found."""
         parent = {n.name: n.name for n in self.nodes}
 
         def find(x: str) -> str:
