@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from tensim.control import ControllerConfig
+from tensim.control.roll_plans import PlanCache
 from tensim.control.rolling import (
     RollSettings,
     TipPlan,
@@ -84,6 +85,7 @@ class _Gait:
     plan: TipPlan | None = None  # the tip commanded now
     com_before: np.ndarray | None = None  # (2,) the centre of mass a control period ago [m]
     released: bool = False  # pumping: the plan let go while the robot swings back
+    cache: PlanCache | None = None  # the plans made so far (None: plan every tip afresh)
 
     def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
         """Turning in place: the outward normal of the first edge of the sequence of rigid-hull
@@ -187,7 +189,9 @@ class _Gait:
             sim.drive.rest_command[self.motorised] = self.built[self.motorised]
             return
         try:
-            plan = plan_tip(pose, sim.drive.rest.copy(), self.built, heading, self.settings)
+            plan = (plan_tip(pose, sim.drive.rest.copy(), self.built, heading, self.settings)
+                    if self.cache is None else
+                    self.cache.plan(pose, sim.drive.rest.copy(), heading))
         except DesignError:
             return
         self.plans += 1
@@ -198,7 +202,7 @@ class _Gait:
 def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
          goal: tuple[float, float] | None = None, world: WorldOptions | None = None,
          settings: RollSettings | None = None, record_dt: float = 0.01,
-         turn_deg: float | None = None,
+         turn_deg: float | None = None, plans: PlanCache | None = None,
          progress: Callable[[float, float], None] | None = None
          ) -> tuple[SimulationResult, dict[str, Any]]:
     """Rolls ``structure`` for ``duration`` seconds toward a heading or a goal point, or turns
@@ -223,6 +227,8 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
         turn_deg: turn in place by this yaw, counter-clockwise [deg] (the heading and goal
             are then unused); the summary adds ``turn_deg``, ``yaw_deg`` and
             ``displacement_m`` (:func:`turn_summary`).
+        plans: the plan cache to use (one made for the same robot, built rest lengths and
+            settings, kept between runs); None: a new one (with ``settings.cache``).
         progress: called as progress(done_s, total_s).
 
     Returns:
@@ -238,6 +244,9 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
     gait = _Gait(compiled.structure, built, motorised, settings, heading_deg, goal,
                  sim.data.subtree_com[0][:2].copy(), body_length(structure))
+    if settings.cache:
+        gait.cache = plans or PlanCache(compiled.structure, built, settings,
+                                        -float(compiled.model.opt.gravity[2]))
     if turn_deg is not None:
         gait.turn = math.radians(turn_deg)
         gait.start = np.array(list(node_positions(sim).values()))
@@ -264,7 +273,10 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                "heading_deg": heading_deg if goal is None else None,
                "goal_xy_m": list(goal) if goal is not None else None,
                "faces_visited": len(set(gait.faces)), "rolls": max(0, len(gait.faces) - 1),
-               "plans": gait.plans, "rocks_back": rocks_back(gait.faces),
+               "plans": gait.plans,
+               "plans_made": gait.plans if gait.cache is None
+               else gait.cache.made + gait.cache.fresh,
+               "rocks_back": rocks_back(gait.faces),
                "first_roll_s": None if gait.first_roll_s is None
                else round(gait.first_roll_s, 6)}
     if turn_deg is not None:
