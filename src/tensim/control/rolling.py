@@ -54,8 +54,10 @@ class RollSettings:
             commanded again as it swings toward it, building up its rocking.
         cache: make each plan once per support face and edge of the build pose's hull, from
             the face's canonical pose with the built rest lengths, and share it between faces
-            the robot's symmetry relates (:mod:`tensim.control.roll_plans`); else plan every
-            tip from where the robot stands and the rest lengths it holds.
+            the robot's symmetry relates (:mod:`tensim.control.roll_plans`); a plan that has
+            not tipped the robot in ``push_s`` is followed by one made afresh. Else (or
+            without ``release``, whose plans start from the rest lengths held) plan every tip
+            from where the robot stands and the rest lengths it holds.
     """
 
     shorten: float = 0.5

@@ -86,6 +86,7 @@ class _Gait:
     com_before: np.ndarray | None = None  # (2,) the centre of mass a control period ago [m]
     released: bool = False  # pumping: the plan let go while the robot swings back
     cache: PlanCache | None = None  # the plans made so far (None: plan every tip afresh)
+    stuck: bool = False  # a plan on this face timed out: plan afresh from where it stands
 
     def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
         """Turning in place: the outward normal of the first edge of the sequence of rigid-hull
@@ -147,6 +148,7 @@ class _Gait:
         if face != self.face:
             if held or not self.faces:
                 self.face, self.since, self.pushing = face, sim.time, False
+                self.stuck = False
                 self.faces.append(face)
                 if len(self.faces) == 2:
                     self.first_roll_s = sim.time
@@ -159,6 +161,7 @@ class _Gait:
             self._push(sim, positions)
         elif self.pushing and waited >= self.settings.settle_s + self.settings.push_s:
             self.since, self.pushing = sim.time, False  # stuck: rest and plan again
+            self.stuck = True  # (afresh: the cached plan did not tip it)
             sim.drive.rest_command[self.motorised] = self.built[self.motorised]
         elif (self.settings.pump and self.pushing and self.plan is not None
               and self.plan.margin < self.settings.margin
@@ -190,11 +193,13 @@ class _Gait:
             return
         try:
             plan = (plan_tip(pose, sim.drive.rest.copy(), self.built, heading, self.settings)
-                    if self.cache is None else
+                    if self.cache is None or self.stuck else
                     self.cache.plan(pose, sim.drive.rest.copy(), heading))
         except DesignError:
             return
         self.plans += 1
+        if self.cache is not None and self.stuck:
+            self.cache.fresh += 1
         sim.drive.rest_command[self.motorised] = plan.rest_lengths[self.motorised]
         self.pushing, self.plan, self.released = True, plan, False
 
@@ -244,7 +249,7 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
     gait = _Gait(compiled.structure, built, motorised, settings, heading_deg, goal,
                  sim.data.subtree_com[0][:2].copy(), body_length(structure))
-    if settings.cache:
+    if settings.cache and settings.release:
         gait.cache = plans or PlanCache(compiled.structure, built, settings,
                                         -float(compiled.model.opt.gravity[2]))
     if turn_deg is not None:
