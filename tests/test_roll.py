@@ -56,6 +56,8 @@ def test_headings_0_and_180_roll_opposite_ways(runs):
     assert dx[0.0] > STRUT / 4 and dx[180.0] < -STRUT / 4
     for _, summary in runs.values():
         assert summary["rolls"] >= 1 and summary["faces_visited"] >= 2
+        # plans come from the cache: made once per face and edge, shared through symmetry
+        assert 1 <= summary["plans_made"] < summary["plans"]
 
 
 @pytest.mark.parametrize("heading", [0.0, 180.0])
@@ -155,7 +157,7 @@ def test_cli_writes_a_run_folder_with_the_rolling_fields(tmp_path):
     assert summary["distance_m"] == pytest.approx(dy, abs=1e-6)
     assert summary["body_lengths_per_s"] == pytest.approx(dy / STRUT / 1.0, abs=1e-6)
     for field in ("heading_error_deg", "faces_visited", "rolls", "body_length_m",
-                  "rocks_back", "first_roll_s"):
+                  "rocks_back", "first_roll_s", "plans", "plans_made"):
         assert field in summary
     assert 0 <= summary["rocks_back"] <= max(0, summary["rolls"] - 1)
     assert (out / "structure.yaml").is_file()

@@ -186,7 +186,9 @@ class PlanCache:
         best: TipPlan | None = None
         for edge in ahead_edges(np.array([positions[f][:2] for f in feet]), feet, heading):
             rest_lengths, margin = self.edge_plan(feet, _edge_nodes(edge, feet, positions))
-            plan = TipPlan(rest_lengths, feet, edge[:2].copy(), margin)
+            # as plan_tip's: the cables the plan does not move keep the rest lengths they hold
+            kept = np.where(np.abs(rest_lengths - self.built) > 1e-9, rest_lengths, rest)
+            plan = TipPlan(kept, feet, edge[:2].copy(), margin)
             if margin >= self.settings.margin:
                 return plan
             if best is None or margin > best.margin:

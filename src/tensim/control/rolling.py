@@ -87,8 +87,11 @@ class RollSettings:
 
 # A 3-bar's end cables carry its static centre of mass only a few centimetres past every other
 # edge (the prism flattens first): it tips dynamically instead, with a larger travel and no rest
-# between tips, so that the momentum of one tip carries into the next.
-PRISM_SETTINGS = RollSettings(shorten=0.7, lengthen=0.5, settle_s=0.0, push_s=1.0)
+# between tips, so that the momentum of one tip carries into the next. Its plans are made
+# afresh: with no rest the motors still hold much of the last tip's rest lengths when the next
+# plan starts, and a plan from there (cables it does not need keep what they hold) rolls it
+# further than a cached plan from the built rest lengths (docs/rolling.md).
+PRISM_SETTINGS = RollSettings(shorten=0.7, lengthen=0.5, settle_s=0.0, push_s=1.0, cache=False)
 
 
 def default_settings(structure: Structure) -> RollSettings:
