@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from test_roll_prism import _prism
 
 from tensim.control.roll_plans import PlanCache, face_down_pose, hull_faces, symmetries
 from tensim.control.rolling import PRISM_SETTINGS, heading_vector, plan_tip, support_face
+from test_roll_prism import _prism
 
 SETTINGS = dataclasses.replace(PRISM_SETTINGS, steps=6)  # fewer statics steps: a faster test
 
@@ -39,8 +39,8 @@ def test_the_prism_has_the_six_symmetries_of_a_twisted_prism():
         for c, cable in enumerate(robot.cables):
             assert set(robot.cables[s.cables[c]].nodes) == {s.nodes[n] for n in cable.nodes}
     # a stiffer cable breaks every symmetry that moves it
-    stiffer = dataclasses.replace(robot, cables=(dataclasses.replace(
-        robot.cables[0], stiffness=2e4),) + robot.cables[1:])
+    stiffer = dataclasses.replace(robot, cables=(
+        dataclasses.replace(robot.cables[0], stiffness=2e4), *robot.cables[1:]))
     assert len(symmetries(stiffer)) == 1  # every turn and half turn moves it
 
 
@@ -73,7 +73,7 @@ def test_a_moved_robot_gets_the_plan_of_its_face_turned_with_it():
     lying = face_down_pose(robot, cache.faces[feet])  # the canonical pose of its face
     turn = Rotation.from_euler("z", 70, degrees=True)
     moved = dataclasses.replace(lying, nodes=tuple(
-        dataclasses.replace(n, position=tuple(turn.apply(n.position) + [3.0, -2.0, 0.0]))
+        dataclasses.replace(n, position=tuple(turn.apply(n.position) + np.array([3.0, -2.0, 0.0])))
         for n in lying.nodes))
     heading = heading_vector(70.0)  # +x turned with the robot
     cached = cache.plan(moved, built, heading)

@@ -232,5 +232,5 @@ def _edge_nodes(edge: np.ndarray, feet: tuple[str, ...], positions: dict[str, np
                 ) -> tuple[str, str]:
     """The two feet on the support edge ``edge`` (a, b, c), sorted."""
     off = [abs(positions[f][:2] @ edge[:2] + edge[2]) for f in feet]
-    a, b = np.argsort(off)[:2]
-    return tuple(sorted((feet[a], feet[b])))  # type: ignore[return-value]
+    a, b = sorted(feet[i] for i in np.argsort(off)[:2])
+    return a, b
