@@ -12,7 +12,15 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tensim.control.roll_plans import PlanCache, face_down_pose, hull_faces, symmetries
-from tensim.control.rolling import PRISM_SETTINGS, heading_vector, plan_tip, support_face
+from tensim.control.rolling import (
+    PRISM_SETTINGS,
+    RollSettings,
+    heading_vector,
+    plan_tip,
+    support_face,
+)
+from tensim.experiments.roll import roll
+from test_roll import DURATION, STRUT, _icosahedron
 from test_roll_prism import _prism
 
 SETTINGS = dataclasses.replace(PRISM_SETTINGS, steps=6)  # fewer statics steps: a faster test
@@ -98,3 +106,12 @@ def test_a_face_not_of_the_build_hull_is_planned_from_where_the_robot_stands():
         for n in lying.nodes))
     plan = cache.plan(flat, built, heading_vector(0.0))
     assert len(plan.feet) == 4 and cache.fresh == 1 and cache.made == 0
+
+
+def test_a_six_bar_rolls_on_cached_plans():
+    robot = _icosahedron()
+    result, summary = roll(robot, DURATION, heading_deg=0.0, settings=RollSettings(cache=True))
+    ts = result.trajectory
+    assert ts["pos_x/com"][-1] - ts["pos_x/com"][0] > STRUT / 4  # at least one tip's worth
+    assert summary["rolls"] >= 1
+    assert 1 <= summary["plans_made"] < summary["plans"]  # later faces' plans came cached

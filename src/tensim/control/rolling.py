@@ -52,12 +52,14 @@ class RollSettings:
         pump: a plan whose static centre of mass stays short of the edge (a tip only
             momentum can make) is let go while the robot swings back from the edge and
             commanded again as it swings toward it, building up its rocking.
-        cache: make each plan once per support face and edge of the build pose's hull, from
-            the face's canonical pose with the built rest lengths, and share it between faces
-            the robot's symmetry relates (:mod:`tensim.control.roll_plans`); a plan that has
-            not tipped the robot in ``push_s`` is followed by one made afresh. Else (or
-            without ``release``, whose plans start from the rest lengths held) plan every tip
-            from where the robot stands and the rest lengths it holds.
+        cache: make each plan once per support face and edge of the build pose's hull,
+            from the face's canonical pose with the built rest lengths, and share it between
+            faces the robot's symmetry relates (:mod:`tensim.control.roll_plans`); a plan
+            that has not tipped the robot in ``push_s`` is followed by one made afresh. Off
+            by default: it changes the runs, not clearly for the better (docs/rolling.md).
+            Without it (or without ``release``, whose plans start from the rest lengths
+            held) every tip is planned from where the robot stands and the rest lengths it
+            holds.
     """
 
     shorten: float = 0.5
@@ -69,7 +71,7 @@ class RollSettings:
     period_s: float = 0.05
     release: bool = True
     pump: bool = False
-    cache: bool = True
+    cache: bool = False
 
     def __post_init__(self) -> None:
         for name in ("shorten", "lengthen", "margin", "settle_s", "push_s", "period_s"):
@@ -87,11 +89,8 @@ class RollSettings:
 
 # A 3-bar's end cables carry its static centre of mass only a few centimetres past every other
 # edge (the prism flattens first): it tips dynamically instead, with a larger travel and no rest
-# between tips, so that the momentum of one tip carries into the next. Its plans are made
-# afresh: with no rest the motors still hold much of the last tip's rest lengths when the next
-# plan starts, and a plan from there (cables it does not need keep what they hold) rolls it
-# further than a cached plan from the built rest lengths (docs/rolling.md).
-PRISM_SETTINGS = RollSettings(shorten=0.7, lengthen=0.5, settle_s=0.0, push_s=1.0, cache=False)
+# between tips, so that the momentum of one tip carries into the next.
+PRISM_SETTINGS = RollSettings(shorten=0.7, lengthen=0.5, settle_s=0.0, push_s=1.0)
 
 
 def default_settings(structure: Structure) -> RollSettings:
