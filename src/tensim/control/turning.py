@@ -29,10 +29,9 @@ from scipy.spatial.transform import Rotation
 from tensim.control.rolling import FACE_TOLERANCE
 
 DEPTH = 10  # tips a walk may take: twice around a six-bar's hull vertex (five faces meet there)
-RADIUS = 0.25  # body lengths from the start within which the centre of mass moves freely
-WEIGHT = 3.0  # rad of yaw error that one body length beyond RADIUS costs as much as
-TIP_COST = 0.02  # rad per tip: of two walks that end alike, the shorter
-FARTHEST = 1.0  # body lengths: walks that take the centre of mass farther are not followed
+RADIUS = 0.35  # body lengths from the start within which the centre of mass moves freely
+WEIGHT = 4.0  # rad of yaw error that one body length beyond RADIUS costs as much as
+TIP_COST = 0.1  # rad per tip: each real tip may slip or roll on, so the shorter walk
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,21 +74,18 @@ class Placement:
 
 @dataclasses.dataclass(frozen=True)
 class TurnPlan:
-    """The first tip of the best walk back to the first face, and where the walk ends.
+    """The best walk back to the first face, and where it ends.
 
     Attributes:
-        edge: the two nodes of the edge to tip over.
-        heading: (2,) the edge's outward normal on the ground now.
-        tips: tips in the walk.
-        yaw: the yaw the walk ends with, from the start [rad].
-        away: how far the centre of mass ends from where it started [m].
+        walk: its tips, each as (node a, node b, the face it lands on), a and b the edge's
+            nodes (indices into :attr:`RigidHull.names`).
+        yaw: the yaw it ends with, from the start [rad].
+        cost: its :func:`cost` [rad].
     """
 
-    edge: tuple[str, str]
-    heading: np.ndarray
-    tips: int
+    walk: tuple[tuple[int, int, int], ...]
     yaw: float
-    away: float
+    cost: float
 
 
 def rigid_hull(positions: dict[str, np.ndarray], com: np.ndarray) -> RigidHull:
@@ -163,12 +159,12 @@ def tip(hull: RigidHull, placement: Placement, a: int, b: int, face: int) -> Pla
 
 
 def _walk(hull: RigidHull, p: Placement, before: int | None, depth: int,
-          visit: Callable[[Placement, list[tuple[int, int, int]]], bool],
+          visit: Callable[[Placement, list[tuple[int, int, int]]], None],
           path: list[tuple[int, int, int]]) -> None:
     """Calls visit(placement, path) at every placement of every walk from p (never straight
-    back over the edge just crossed) of up to ``depth`` tips; a walk goes on past a placement
-    only where visit returns True."""
-    if not visit(p, path) or depth == 0:
+    back over the edge just crossed) of up to ``depth`` tips."""
+    visit(p, path)
+    if depth == 0:
         return
     for a, b, face in hull.edges[p.face]:
         if face != before:
@@ -177,43 +173,57 @@ def _walk(hull: RigidHull, p: Placement, before: int | None, depth: int,
             path.pop()
 
 
+def cost(hull: RigidHull, end: Placement, start: Placement, turn: float, length: float,
+         tips: int) -> float:
+    """What ending a walk of ``tips`` tips at ``end`` (on the start's face) costs [rad]: its yaw
+    error from ``turn`` [rad], plus :data:`WEIGHT` rad per body length (``length`` [m]) that
+    its centre of mass ends beyond :data:`RADIUS` body lengths from the start, plus
+    :data:`TIP_COST` per tip."""
+    yaw = math.remainder(end.yaw - start.yaw, 2 * math.pi)
+    away = float(np.linalg.norm(ground(hull, end, hull.com[None])[0]
+                                - ground(hull, start, hull.com[None])[0]))
+    return (abs(math.remainder(turn - yaw, 2 * math.pi))
+            + WEIGHT * max(0.0, away / length - RADIUS) + TIP_COST * tips)
+
+
+def walk_cost(hull: RigidHull, now: Placement, start: Placement, turn: float, length: float,
+              walk: tuple[tuple[int, int, int], ...]) -> float:
+    """:func:`cost` of following ``walk`` (tips as in :attr:`TurnPlan.walk`) from ``now``;
+    infinite where it does not end on the start's face."""
+    for a, b, face in walk:
+        now = tip(hull, now, a, b, face)
+    if now.face != start.face:
+        return math.inf
+    return cost(hull, now, start, turn, length, len(walk))
+
+
 def plan_turn(hull: RigidHull, now: Placement, start: Placement, turn: float, length: float,
               depth: int = DEPTH) -> TurnPlan | None:
-    """The first tip of the walk, from ``now`` back to the start's face, whose end best turns
-    the robot by ``turn`` [rad] from ``start`` while keeping its centre of mass near the start.
-
-    A walk's cost is its yaw error, plus :data:`WEIGHT` rad per body length (``length`` [m])
-    that its centre of mass ends beyond :data:`RADIUS` body lengths from the start, plus
-    :data:`TIP_COST` per tip; walks whose centre of mass goes beyond :data:`FARTHEST` body
-    lengths are cut there.
+    """The walk of up to ``depth`` tips, from ``now`` back to the start's face, whose end best
+    turns the robot by ``turn`` [rad] from ``start`` while keeping its centre of mass near the
+    start: the one of least :func:`cost`.
 
     Returns:
         The plan, or None where standing where it is (on the start's face) costs least.
     """
-    origin = ground(hull, start, hull.com[None])[0]
-    best: list[tuple[float, tuple[tuple[int, int, int], ...], float, float]] = []
+    best: list[tuple[float, tuple[tuple[int, int, int], ...], float]] = []
 
-    def visit(p: Placement, path: list[tuple[int, int, int]]) -> bool:
-        away = float(np.linalg.norm(ground(hull, p, hull.com[None])[0] - origin))
-        if away > FARTHEST * length:
-            return False
-        if p.face != start.face:
-            return True
-        yaw = math.remainder(p.yaw - start.yaw, 2 * math.pi)
-        cost = (abs(math.remainder(turn - yaw, 2 * math.pi))
-                + WEIGHT * max(0.0, away / length - RADIUS) + TIP_COST * len(path))
-        if not best or cost < best[0][0] - 1e-9:
-            best[:] = [(cost, tuple(path), yaw, away)]
-        return True
+    def visit(p: Placement, path: list[tuple[int, int, int]]) -> None:
+        if p.face == start.face:
+            c = cost(hull, p, start, turn, length, len(path))
+            if not best or c < best[0][0] - 1e-9:
+                best[:] = [(c, tuple(path), math.remainder(p.yaw - start.yaw, 2 * math.pi))]
 
     _walk(hull, now, None, depth, visit, [])
     if not best or not best[0][1]:
         return None
-    _, path, yaw, away = best[0]
-    a, b, _ = path[0]
-    wa, wb = ground(hull, now, hull.points[[a, b]])
-    centre = ground(hull, now, hull.points[list(hull.faces[now.face])]).mean(axis=0)
+    c, walk, yaw = best[0]
+    return TurnPlan(walk, yaw, c)
+
+
+def edge_heading(hull: RigidHull, placement: Placement, a: int, b: int) -> np.ndarray:
+    """(2,) the outward normal, on the ground, of the support polygon's edge of nodes a and b."""
+    wa, wb = ground(hull, placement, hull.points[[a, b]])
+    centre = ground(hull, placement, hull.points[list(hull.faces[placement.face])]).mean(axis=0)
     normal = np.array([wb[1] - wa[1], wa[0] - wb[0]]) / float(np.linalg.norm(wb - wa))
-    if normal @ ((wa + wb) / 2 - centre) < 0:
-        normal = -normal
-    return TurnPlan((hull.names[a], hull.names[b]), normal, len(path), yaw, away)
+    return normal if normal @ ((wa + wb) / 2 - centre) >= 0 else -normal

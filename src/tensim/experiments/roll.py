@@ -35,7 +35,15 @@ from tensim.control.rolling import (
     support_face,
     yaw_between,
 )
-from tensim.control.turning import Placement, RigidHull, place, plan_turn, rigid_hull
+from tensim.control.turning import (
+    Placement,
+    RigidHull,
+    edge_heading,
+    place,
+    plan_turn,
+    rigid_hull,
+    walk_cost,
+)
 from tensim.design import DesignError
 from tensim.model import WorldOptions, compile_structure
 from tensim.runs import world_record, write_run
@@ -45,6 +53,7 @@ from tensim.structure import Structure, body_length
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
 LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
 TURN_TOLERANCE = 10.0  # deg: turning in place stops once the yaw is this near the target
+TURN_HYSTERESIS = 0.15  # rad of cost a new walk must save to replace the one being followed
 PUMP_HOLD_S = 0.2  # s: a pumped plan is held at least this long before it may let go
 
 
@@ -75,19 +84,25 @@ class _Gait:
     first_roll_s: float | None = None  # when the robot first left its first face [s]
     plans: int = 0
     turn: float | None = None  # rad: the yaw to turn by in place (None: roll on the heading)
-    hull: RigidHull | None = None  # turning: the hull as it stands at the start
-    first: Placement | None = None  # turning: the hull's placement at the start
+    hull: RigidHull | None = None  # turning: the hull as it stands on its first face
+    first: Placement | None = None  # turning: the hull's placement there
+    com_now: np.ndarray | None = None  # (3,) the centre of mass at the last look [m]
+    walk: tuple[tuple[int, int, int], ...] = ()  # turning: the tips still to make
+    tipping_from: int | None = None  # turning: the face the last tip was commanded on
     turned: bool = False
     plan: TipPlan | None = None  # the tip commanded now
     com_before: np.ndarray | None = None  # (2,) the centre of mass a control period ago [m]
     released: bool = False  # pumping: the plan let go while the robot swings back
 
     def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
-        """Turning in place: the outward normal of the edge that starts the best walk of
-        rigid-hull tips back to the first face (:func:`~tensim.control.turning.plan_turn`);
-        None once the robot stands on its first face with its yaw within
-        :data:`TURN_TOLERANCE` of the target, or where standing costs least there."""
-        assert self.turn is not None and self.hull is not None and self.first is not None
+        """Turning in place: the outward normal of the next edge of the walk of rigid-hull
+        tips back to the first face (:func:`~tensim.control.turning.plan_turn`), planned again
+        wherever a tip lands off the walk; None once the robot stands on its first face with
+        its yaw within :data:`TURN_TOLERANCE` of the target, or where standing costs least."""
+        assert self.turn is not None
+        if self.hull is None or self.first is None:  # the reference: the first face, settled
+            self.hull = rigid_hull(positions, self.com_now)
+            self.first = place(self.hull, positions)
         now = place(self.hull, positions)
         home = now.face == self.first.face
         yaw = math.remainder(now.yaw - self.first.yaw, 2 * math.pi)
@@ -95,11 +110,23 @@ class _Gait:
                 <= math.radians(TURN_TOLERANCE):
             self.turned = True
             return None
+        if self.walk and now.face == self.walk[0][2]:
+            self.walk = self.walk[1:]  # landed where the walk said
+        elif not (self.walk and now.face == self.tipping_from):
+            self.walk = ()  # landed off the walk (or none yet)
+        # plan again from where the hull lies now (its feet may have slid), keeping the walk
+        # unless the new one is better by TURN_HYSTERESIS
         plan = plan_turn(self.hull, now, self.first, self.turn, self.length)
-        if plan is None:
+        kept = walk_cost(self.hull, now, self.first, self.turn, self.length, self.walk) \
+            if self.walk else math.inf
+        if plan is None or plan.cost < kept - TURN_HYSTERESIS:
+            self.walk = () if plan is None else plan.walk
+        if not self.walk:
             self.turned = home
             return None
-        return plan.heading
+        self.tipping_from = now.face
+        a, b, _ = self.walk[0]
+        return edge_heading(self.hull, now, a, b)
 
     def heading(self, com: np.ndarray) -> np.ndarray:
         """Toward the goal; without one toward a point on the heading's line through the
@@ -118,7 +145,8 @@ class _Gait:
         positions = node_positions(sim)
         face = support_face(positions)
         held, self.seen = face == self.seen, face  # a new face counts once seen twice running
-        com = sim.data.subtree_com[0][:2].copy()
+        self.com_now = sim.data.subtree_com[0].copy()
+        com = self.com_now[:2].copy()
         before, self.com_before = self.com_before, com
         if face != self.face:
             if held or not self.faces:
@@ -217,9 +245,6 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                  sim.data.subtree_com[0][:2].copy(), body_length(structure))
     if turn_deg is not None:
         gait.turn = math.radians(turn_deg)
-        positions = node_positions(sim)
-        gait.hull = rigid_hull(positions, sim.data.subtree_com[0].copy())
-        gait.first = place(gait.hull, positions)
     chunks: list[TimeSeries] = []
     period = max(record_dt, round(settings.period_s / record_dt) * record_dt)
     done, start = 0.0, time.perf_counter()
