@@ -99,7 +99,7 @@ class _Gait:
         tips back to the first face (:func:`~tensim.control.turning.plan_turn`), planned again
         wherever a tip lands off the walk; None once the robot stands on its first face with
         its yaw within :data:`TURN_TOLERANCE` of the target, or where standing costs least."""
-        assert self.turn is not None
+        assert self.turn is not None and self.com_now is not None
         if self.hull is None or self.first is None:  # the reference: the first face, settled
             self.hull = rigid_hull(positions, self.com_now)
             self.first = place(self.hull, positions)
