@@ -81,6 +81,21 @@ def test_a_walk_around_a_vertex_turns_by_its_angle_defect():
     assert moved == pytest.approx(2 * d * math.sin(defect / 2), abs=1e-9)
 
 
+def test_place_recovers_a_known_yaw_and_offset():
+    points = _lying_six_bar(spin_deg=0.0)
+    hull = rigid_hull(points, np.mean(list(points.values()), axis=0))
+    start = place(hull, points)
+    yaw, offset = 0.7, np.array([0.3, -1.2])  # rad, m
+    c, s = math.cos(yaw), math.sin(yaw)
+    moved = {n: np.array([c * p[0] - s * p[1] + offset[0], s * p[0] + c * p[1] + offset[1],
+                          p[2]]) for n, p in points.items()}
+    now = place(hull, moved)
+    assert now.face == start.face
+    assert math.remainder(now.yaw - start.yaw - yaw, 2 * math.pi) == pytest.approx(0, abs=1e-9)
+    np.testing.assert_allclose(ground(hull, now, hull.points),
+                               np.array([moved[n][:2] for n in hull.names]), atol=1e-9)
+
+
 def test_two_walks_around_two_vertices_turn_twice_as_far_near_the_start():
     # 120 degrees: two vertices' defects, their turns' displacements nearly cancelling
     points = _lying_six_bar(spin_deg=0.0)
