@@ -140,10 +140,6 @@ class Robot:
         self._rest_low, self._rest_high = self.low, self.high
         self._rest0_motors = rest0[self.motors]
         self._hold = self.hold[None]  # (1, n_cables), repeated for each robot's commands
-        # the motors' columns of the commands: a slice where they run on by one (no gather)
-        self._motor_columns: np.ndarray | slice = self.motors
-        if self.motors.size and (np.diff(self.motors) == 1).all():
-            self._motor_columns = slice(int(self.motors[0]), int(self.motors[-1]) + 1)
 
     def command(self, action: np.ndarray) -> tuple[np.ndarray, np.ndarray, Any]:
         """(n_robots, n_motors) actions -> the (n_robots, n_cables) ``ctrl`` commands in SI
@@ -179,7 +175,7 @@ class Robot:
                 self._rest0_motors * (1.0 + applied * self.config.rest_span), self._rest_low),
                 self._rest_high)
         commands = self._hold.repeat(action.shape[0], axis=0)
-        commands[:, self._motor_columns] = command
+        commands[:, self.motors] = command
         return commands, applied, out
 
 

@@ -100,14 +100,6 @@ class Worlds:
         self._sigma = self._noise_sigma(layout["history"][0] if "history" in layout
                                         else max(b for _, b in layout.values()))
         self._noise = bool(self._sigma.any())  # (whether any is above 0)
-        self._buffers()
-
-    def _buffers(self) -> None:
-        """The world-vector buffer of an observation of every robot, and its parts' views
-        (made again after a copy: views do not survive pickling)."""
-        self._world_rows = max((b for _, b in self._world.values()), default=0)
-        self._world_all = np.empty((self.n, self._world_rows, 3))
-        self._part_all = {name: self._world_all[:, a:b] for name, (a, b) in self._world.items()}
 
     def _open_batch(self, models: list[mujoco.MjModel]) -> None:
         """The batch engine over ``models`` (one per robot) and its field views."""
@@ -123,8 +115,7 @@ class Worlds:
 
     def __getstate__(self) -> dict[str, Any]:
         """Everything but the batch engine, whose robots' states are saved instead."""
-        state = {k: v for k, v in self.__dict__.items()
-                 if k not in ("batch", "f", "_world_all", "_part_all")}
+        state = {k: v for k, v in self.__dict__.items() if k not in ("batch", "f")}
         state["_states"] = np.array([self.batch.state[i] for i in range(self.n)])
         state["_warnings"] = np.array(self.batch.warning)
         return state
@@ -132,7 +123,6 @@ class Worlds:
     def __setstate__(self, state: dict[str, Any]) -> None:
         states, warnings = state.pop("_states"), state.pop("_warnings")
         self.__dict__.update(state)
-        self._buffers()
         self._open_batch(self.models)
         ids = np.arange(self.n, dtype=np.int32)
         self.batch.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)
@@ -336,11 +326,8 @@ class Worlds:
             quat = _quat_to_frame(f["xquat"][r][:, self._bodies], yaw)
             terms["pose"] = np.concatenate([rel, quat], axis=2).reshape(k, -1)
         # world vectors, written into one buffer and turned into the frame together
-        if k == self.n:  # (every robot: the buffer kept for it)
-            world, part = self._world_all, self._part_all
-        else:
-            world = np.empty((k, self._world_rows, 3))
-            part = {name: world[:, a:b] for name, (a, b) in self._world.items()}
+        world = np.empty((k, max((b for _, b in self._world.values()), default=0), 3))
+        part = {name: world[:, a:b] for name, (a, b) in self._world.items()}
         if "velocity" in part:
             self._velocity(ids, xipos, part["velocity"])
         if "cable_length" in layout or "tension" in layout:

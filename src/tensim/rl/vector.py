@@ -175,20 +175,20 @@ def _step_info(n: int, live: np.ndarray, terms: dict[str, np.ndarray], clipped: 
                ) -> dict[str, Any]:
     """Gymnasium's vector info: each key with its ``_key`` mask of the robots that have it."""
     every = live.size == n  # every robot stepped: the (new) term arrays are the columns
-    masks = np.ones((5, n), dtype=bool)  # (one array, a row for each key)
+    mask = np.ones(n, dtype=bool)
     if not every:
-        masks[:] = False
-        masks[:, live] = True
+        mask[:] = False
+        mask[live] = True
     info: dict[str, Any] = {}
-    for mask, (key, values) in zip(masks, (
-            ("reward_progress", terms["progress"]), ("reward_control", terms["control"]),
-            ("reward_contact", terms["contact"]), ("unstable", terms["unstable"]),
-            ("action_clipped", clipped if every else clipped[live])), strict=True):
+    for key, values in (("reward_progress", terms["progress"]),
+                        ("reward_control", terms["control"]),
+                        ("reward_contact", terms["contact"]), ("unstable", terms["unstable"]),
+                        ("action_clipped", clipped if every else clipped[live])):
         full = values
         if not every:
             full = np.zeros(n, dtype=values.dtype)
             full[live] = values
-        info[key], info[f"_{key}"] = full, mask
+        info[key], info[f"_{key}"] = full, mask.copy()
     return info
 
 
