@@ -36,6 +36,7 @@ for seed in args.starts:
     print(f"start {seed}: {speeds[-1]:+.4f} body lengths/s"
           + (" (unstable: stopped)" if run["unstable"] else ""))
 s = np.array(speeds)
-print(f"{s.size} starts: mean {s.mean():.3f}, standard deviation {s.std(ddof=1) if s.size > 1 else 0:.3f}, "
+spread = s.std(ddof=1) if s.size > 1 else 0.0
+print(f"{s.size} starts: mean {s.mean():.3f}, standard deviation {spread:.3f}, "
       f"min {s.min():.3f}, max {s.max():.3f} body lengths/s; {np.sum(s >= 0.2)} of {s.size} "
       ">= 0.2")
