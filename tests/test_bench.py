@@ -152,16 +152,25 @@ def test_the_plain_env_of_the_rl_bench_observes_what_the_rolling_observation_hol
 def test_the_cable_law_bench_shows_what_the_implicit_step_couples():
     """The explicit law's three free bodies are three constraint islands, on Euler's and on
     the discrete step alike (no cable in the metric); the implicit law puts every taut cable
-    of the prestressed spine into the discrete step's metric, which joins them into one."""
-    from tensim.benchmarks.engine import DISCRETE_EXPLICIT, bench_laws, format_laws
+    of the prestressed spine into the discrete step's metric, which joins them into one, and
+    so do the cables handed over as tendon springs."""
+    from tensim.benchmarks.engine import (
+        DISCRETE_EXPLICIT,
+        DISCRETE_TENDONS,
+        bench_laws,
+        format_laws,
+    )
 
     report = bench_laws(duration=0.02, repeats=1)
     laws = report["laws"]
-    assert set(laws) == {"explicit", "implicit", "implicitfast", DISCRETE_EXPLICIT}
+    assert set(laws) == {"explicit", "implicit", "implicitfast", DISCRETE_EXPLICIT,
+                         DISCRETE_TENDONS}
     for row in ("explicit", DISCRETE_EXPLICIT):
         assert laws[row]["islands_per_step"] == 3 and laws[row]["integrator_cables_per_step"] == 0
     assert laws["implicit"]["islands_per_step"] == 1
     assert laws["implicit"]["integrator_cables_per_step"] == 12
+    assert laws[DISCRETE_TENDONS]["islands_per_step"] == 1
+    assert laws[DISCRETE_TENDONS]["integrator_cables_per_step"] == 12
     assert laws["explicit"]["ratio_to_explicit"] == 1
     assert all(f["solver_iterations_per_step"] > 0 for f in laws.values())
     assert DISCRETE_EXPLICIT in format_laws(report)

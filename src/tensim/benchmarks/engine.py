@@ -172,6 +172,7 @@ def bench_model(name: str, duration: float = 10.0, repeats: int = 3,
 
 
 DISCRETE_EXPLICIT = "explicit, discrete step"  # bench_laws' row: the integrator alone
+DISCRETE_TENDONS = "tendons, discrete step"  # and with the cables as tendon springs (cost only)
 
 
 def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine3",
@@ -181,7 +182,10 @@ def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine
 
     A further row runs the explicit law on MuJoCo's ``discrete`` step (the implicit law's
     integrator, with no cable in its metric), which separates the integrator's own cost from
-    that of the cables the implicit law couples into it. After the timed runs each loop runs
+    that of the cables the implicit law couples into it; a last row adds to it every cable's
+    share of stiffness and damping as MuJoCo tendon springs and dampers (a spring at the settled
+    length: the cost of tendon terms in the metric against actuator gains, not a law: the
+    springs act while slack too). After the timed runs each loop runs
     once more from the same state, one step at a time, for what MuJoCo does per step: the
     constraint solver's iterations summed over its islands (the explicit law's free bodies
     are solved as separate islands, which the cables of the implicit law's metric join into
@@ -199,14 +203,17 @@ def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine
     loops: dict[str, Callable[[], None]] = {}
     sims: dict[str, Simulation] = {}
     states: dict[str, np.ndarray] = {}
-    rows = [(law, law) for law in CABLE_LAWS] + [(DISCRETE_EXPLICIT, LAW_EXPLICIT)]
+    rows = [(law, law) for law in CABLE_LAWS] + [(DISCRETE_EXPLICIT, LAW_EXPLICIT),
+                                                 (DISCRETE_TENDONS, LAW_EXPLICIT)]
     for row, law in rows:
         compiled = compile_structure(structure, WorldOptions(timestep=dt, cable_law=law))
         sim = Simulation(compiled, controller=model.controller())
         sims[row] = sim
-        if row == DISCRETE_EXPLICIT:
+        if row in (DISCRETE_EXPLICIT, DISCRETE_TENDONS):
             sim.model.opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
         sim.step(int(SETTLE_S / sim.dt))
+        if row == DISCRETE_TENDONS:
+            _tendon_springs(sim)
         states[row] = state = sim.get_state()
 
         def loop(sim: Simulation = sim, state: np.ndarray = state) -> None:
@@ -222,10 +229,11 @@ def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine
             m, d, n = sim.model, sim.data, sim.compiled.n_cables
             pull = (m.actuator_actadr + m.actuator_actnum - 1)[:n][implicit(m)[:n]]
             counts = np.zeros((n_steps, 3))
+            springs = np.count_nonzero(m.tendon_damping[m.actuator_trnid[:n, 0]])
             for k in range(n_steps):
                 sim.step(1)
                 counts[k] = (d.solver_niter[:max(1, d.nisland)].sum(), d.nisland,
-                             np.count_nonzero(d.act[pull]))
+                             np.count_nonzero(d.act[pull]) + springs)
             per_step[row] = counts.mean(axis=0)
     finally:
         for sim in sims.values():
@@ -241,6 +249,18 @@ def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine
                            "integrator_cables_per_step": round(float(per_step[row][2]), 3)}
                      for row, t in timings.items()},
             "core_share": min(t.core_share() for t in timings.values())}
+
+
+def _tendon_springs(sim: Simulation) -> None:
+    """Gives every cable's tendon the implicit law's share of its stiffness and damping as a
+    MuJoCo tendon spring (at its present length) and damper."""
+    from tensim.model._law_layout import G_DAMPING, G_STIFFNESS, THETA_DISCRETE
+
+    m, n = sim.model, sim.compiled.n_cables
+    tendons = m.actuator_trnid[:n, 0]
+    m.tendon_stiffness[tendons] = THETA_DISCRETE * m.actuator_gainprm[:n, G_STIFFNESS]
+    m.tendon_damping[tendons] = THETA_DISCRETE * m.actuator_gainprm[:n, G_DAMPING]
+    m.tendon_lengthspring[tendons] = sim.data.ten_length[tendons, None]
 
 
 def format_laws(report: dict[str, Any]) -> str:
