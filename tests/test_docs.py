@@ -89,3 +89,16 @@ def test_pages_quote_no_figures_from_blocks_that_are_not_run():
     timings = _untranscribed_figures("docs/learning.md")
     assert timings and all("evaluations/s" in line or "CPU" in line for line in timings), \
         timings
+
+
+def test_a_relative_pythonpath_reaches_the_commands_as_the_caller_meant(monkeypatch, tmp_path):
+    """Transcripts run in a scratch folder: ``PYTHONPATH=src`` must still name this tree's
+    sources there, not fall through to an installed copy."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "src").mkdir()
+    monkeypatch.setenv("PYTHONPATH", "src")
+    transcript = check_docs.Transcript(
+        "page.md", 1, "python -c 'import os; print(os.environ[\"PYTHONPATH\"])'", ("",))
+    folder = tmp_path / "elsewhere"
+    folder.mkdir()
+    assert check_docs.run(transcript, folder) == [str((tmp_path / "src").resolve())]

@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 import mujoco
@@ -242,3 +243,27 @@ def test_the_painting_process_draws_what_this_process_draws() -> None:
     assert not np.array_equal(painted[None], painted[FRAME_SAMPLES])
     with pytest.raises(ValueError, match="samples must be 0 or more"):
         FrameScene(compiled, samples=-1)
+
+
+def test_the_painting_process_loads_mujocos_bindings_without_its_package() -> None:
+    """The painting child loads MuJoCo's compiled bindings, not the mujoco package's
+    ``__init__`` (GLFW, the Python renderer) nor tensim's, and still has every name it paints
+    with."""
+    from tensim.viz import _glchild
+
+    probe = textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {str(Path(_glchild.__file__).parent)!r})
+        import _glchild
+        _glchild.register_bare()
+        import mujoco
+        from tensim.viz import _glserver
+        model = mujoco.MjModel.from_xml_string("<mujoco/>")
+        scene = mujoco.MjvScene(model, 10)
+        print(sorted(m for m in ("glfw", "mujoco.rendering", "tensim.sim", "tensim.model")
+                     if m in sys.modules), mujoco.mjtFontScale.mjFONTSCALE_100.value,
+              callable(mujoco.mjr_render), scene.maxgeom)
+        """)
+    out = subprocess.run([sys.executable, "-P", "-c", probe], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.split() == ["[]", "100", "True", "10"]

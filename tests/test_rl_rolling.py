@@ -488,3 +488,59 @@ def test_a_ppo_run_starts_from_an_exported_policy(robot_file, tmp_path, capsys):
     assert "differ: task" in capsys.readouterr().err
     assert init("--algo", "sac", "--steps", "64", "--out", str(tmp_path / "sac")) == 2
     assert "differ: algo" in capsys.readouterr().err
+
+
+def test_a_warm_start_takes_its_own_noise_rate_and_warm_up_and_keeps_each_checkpoint(
+        robot_file, tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    import json
+
+    from tensim.cli import main
+    from tensim.rl import policy as numpy_policy
+    from tensim.rl.export import _layers, export, load_learner
+
+    first, second = tmp_path / "first", tmp_path / "second"
+    assert _train(robot_file, first, "ppo", 64) == 0
+    export(first)
+    source = numpy_policy.load(first / "policy.json")
+
+    def train(steps, *extra):
+        return main(["--quiet", "rl", "train", robot_file, "--envs", "2", "--episode", "1",
+                     "--steps", str(steps), "--checkpoint", "64", "--out", str(second),
+                     *extra])
+
+    # one update of 128 env steps (the run's n_steps), within the value function's warm-up
+    assert train(128, "--init", str(first / "policy.json"), "--init-std", "0.2",
+                 "--init-lr", "1e-4", "--init-warmup", "2", "--keep") == 0
+    init = json.loads((second / "progress.json").read_text())["init"]
+    assert init["action_std"] == 0.2 and init["learning_rate"] == 1e-4
+    assert init["value_warmup_updates"] == 2
+
+    def check(steps, learnt):
+        learner = load_learner(second)
+        assert learner.lr_schedule(1.0) == pytest.approx(1e-4)
+        std = np.exp(learner.policy.log_std.detach().numpy())
+        same = [np.array_equal(got.weight.detach().numpy(), want.astype(np.float32))
+                for got, want in zip(_layers(learner)[0], source.weights, strict=True)]
+        assert (not np.allclose(std, 0.2) and not all(same)) if learnt else \
+            (np.allclose(std, 0.2) and all(same))
+        # each checkpoint's policy kept, as `tensim rl export` writes it
+        kept = numpy_policy.load(second / "checkpoints" / str(steps) / "policy.json")
+        assert kept.meta["training"]["env_steps"] == steps
+        assert [list(w.shape) for w in kept.weights] == kept.meta["network"]["layers"]
+
+    check(128, learnt=False)
+    # resumed (the warm-up's length and the rate are kept): the second update is the
+    # warm-up's last, the third trains the actor too
+    assert train(256, "--resume", "--keep") == 0
+    check(256, learnt=False)
+    assert train(384, "--resume", "--keep") == 0
+    check(384, learnt=True)
+    assert sorted(int(p.name) for p in (second / "checkpoints").iterdir()) == [128, 256, 384]
+    # a warm start's settings without --init: refused, naming the option
+    capsys.readouterr()
+    assert main(["--quiet", "rl", "train", robot_file, "--envs", "2", "--steps", "64",
+                 "--init-lr", "1e-4", "--out", str(tmp_path / "third")]) == 2
+    assert "--init-lr 0.0001: applies only to a run started with --init" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "third").exists()

@@ -56,6 +56,7 @@ def test_headings_0_and_180_roll_opposite_ways(runs):
     assert dx[0.0] > STRUT / 4 and dx[180.0] < -STRUT / 4
     for _, summary in runs.values():
         assert summary["rolls"] >= 1 and summary["faces_visited"] >= 2
+        assert summary["plans_made"] == summary["plans"]  # each made afresh (no cache)
 
 
 @pytest.mark.parametrize("heading", [0.0, 180.0])
@@ -133,6 +134,7 @@ def test_cli_roll_options_belong_to_roll(tmp_path):
     from tensim.cli import main
 
     assert main(["experiment", "drag", "--heading", "90", "--out", str(tmp_path / "d")]) == 2
+    assert main(["experiment", "drag", "--cached-plans", "--out", str(tmp_path / "d")]) == 2
     assert main(["experiment", "roll", "--out", str(tmp_path / "r")]) == 2  # no robot
     assert main(["experiment", "roll", "six_bar", "--heading", "0", "--goal", "1,0",
                  "--out", str(tmp_path / "r")]) == 2
@@ -148,14 +150,15 @@ def test_cli_writes_a_run_folder_with_the_rolling_fields(tmp_path):
     save_structure(_icosahedron(), tmp_path / "robot.yaml")
     out = tmp_path / "run"
     assert main(["--quiet", "experiment", "roll", str(tmp_path / "robot.yaml"), "--heading",
-                 "90", "--duration", "1", "--out", str(out)]) == 0
+                 "90", "--duration", "1", "--cached-plans", "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
     ts = TimeSeries.from_parquet(out / "trajectory.parquet")
     dy = ts["pos_y/com"][-1] - ts["pos_y/com"][0]  # heading 90: along +y
     assert summary["distance_m"] == pytest.approx(dy, abs=1e-6)
     assert summary["body_lengths_per_s"] == pytest.approx(dy / STRUT / 1.0, abs=1e-6)
     for field in ("heading_error_deg", "faces_visited", "rolls", "body_length_m",
-                  "rocks_back", "first_roll_s"):
+                  "rocks_back", "first_roll_s", "plans", "plans_made"):
         assert field in summary
     assert 0 <= summary["rocks_back"] <= max(0, summary["rolls"] - 1)
+    assert 1 <= summary["plans_made"] <= summary["plans"]
     assert (out / "structure.yaml").is_file()

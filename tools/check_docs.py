@@ -140,6 +140,9 @@ def run(transcript: Transcript, folder: Path) -> list[str]:
     """The command's standard output lines, run in ``folder`` with this Python's ``tensim``."""
     bin_dir = str(Path(sys.executable).parent)
     env = {**os.environ, "PATH": bin_dir + os.pathsep + os.environ.get("PATH", "")}
+    if env.get("PYTHONPATH"):  # the commands run elsewhere: a relative entry would not resolve
+        env["PYTHONPATH"] = os.pathsep.join(str(Path(entry).resolve()) if entry else entry
+                                            for entry in env["PYTHONPATH"].split(os.pathsep))
     done = subprocess.run(["bash", "-o", "pipefail", "-c", transcript.command], cwd=folder,
                           env=env, text=True, capture_output=True, check=False)
     if done.returncode != 0:

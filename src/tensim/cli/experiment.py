@@ -262,8 +262,10 @@ def _goal(args: argparse.Namespace, out: Path) -> dict[str, Any]:
 
 
 def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
+    import dataclasses
     import math
 
+    from tensim.control.rolling import default_settings
     from tensim.experiments.roll import ROLL_DURATION, play, roll, write_roll
     from tensim.models import load_controller
 
@@ -279,11 +281,16 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         raise ValueError("--turn: turning in place takes no --heading, --goal or --controller")
     if args.turn is not None and not math.isfinite(args.turn):
         raise ValueError(f"--turn {args.turn!r}: expected a finite angle in degrees")
+    if args.cached_plans and args.controller is not None:
+        raise ValueError("--cached-plans is for the statics gait, not a --controller file")
     if args.controller is None:
+        settings = default_settings(structure)
+        if args.cached_plans:
+            settings = dataclasses.replace(settings, cache=True)
         result, summary = roll(structure, args.duration or ROLL_DURATION,
                                heading_deg=args.heading or 0.0, goal=goal,
                                world=world_from_args(args), turn_deg=args.turn,
-                               progress=Progress("roll", args.quiet))
+                               settings=settings, progress=Progress("roll", args.quiet))
     else:  # a controller file's gait, played open loop (a learned roll gait)
         result, summary = play(structure, load_controller(args.controller, structure),
                                args.duration or ROLL_DURATION, heading_deg=args.heading or 0.0,
@@ -313,7 +320,7 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         first = summary["first_roll_s"]
         print(f"{summary['rocks_back']} of the {summary['rolls']} rolls went back to the face "
               "before; first roll after " + ("none" if first is None else f"{first:.2f} s")
-              + f"; {summary['plans']} plans")
+              + f"; {summary['plans']} plans ({summary['plans_made']} made from statics)")
     return summary
 
 
@@ -359,6 +366,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--turn", type=float, default=None, metavar="DEG",
                    help="roll: turn in place by this yaw, counter-clockwise [deg] (the run ends "
                         "once turned; --duration is the longest it may take)")
+    p.add_argument("--cached-plans", action="store_true",
+                   help="roll: make each tip plan once per support face and edge and share it "
+                        "through the robot's symmetry (RollSettings(cache=True))")
     add_world_options(p)
     add_controller_option(p)
     p.add_argument("--robot", default=None, metavar="FILE.yaml",
@@ -392,6 +402,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.cached_plans and args.name != "roll":
+        raise ValueError(f"--cached-plans is for the roll experiment, not {args.name!r}")
     for option in ("model", "heading", "goal", "turn"):
         if getattr(args, option) is not None and args.name != "roll":
             what = "a robot argument" if option == "model" else f"--{option}"

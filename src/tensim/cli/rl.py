@@ -50,6 +50,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="start a new PPO run from an exported policy.json of the same robot "
                    "and task (its actor and observation normaliser; the value function "
                    "learns afresh)")
+    t.add_argument("--init-std", type=positive, default=None, metavar="STD",
+                   help="with --init: the action noise's standard deviation to start from, "
+                   "in the [-1, 1] action box (default 0.61)")
+    t.add_argument("--init-lr", type=positive, default=None, metavar="LR",
+                   help="with --init: PPO's learning rate (default 3e-4)")
+    t.add_argument("--init-warmup", type=int, default=None, metavar="UPDATES",
+                   help="with --init: PPO updates in which the value function learns alone "
+                   "(default 10)")
+    t.add_argument("--keep", action="store_true",
+                   help="also export every checkpoint's policy to OUT/checkpoints/STEPS/ "
+                   "(policy.json, policy.npz), to choose one after the run")
     t.add_argument("--out", default="runs/rl", help="run folder")
     t.set_defaults(run=train)
 
@@ -109,7 +120,9 @@ def train(args: argparse.Namespace) -> int:
                    rate_label="env steps/s")
     state = run_training(settings, Path(args.out), resume=args.resume,
                          checkpoint_steps=args.checkpoint, progress=bar,
-                         init=None if args.init is None else Path(args.init))
+                         init=None if args.init is None else Path(args.init),
+                         init_std=args.init_std, init_lr=args.init_lr,
+                         init_warmup=args.init_warmup, keep=args.keep)
     curve = state["curve"]
     last = [r for _, r in curve[-max(1, len(curve) // 10):]] if curve else []
     mean = sum(last) / len(last) if last else 0.0

@@ -52,6 +52,14 @@ class RollSettings:
         pump: a plan whose static centre of mass stays short of the edge (a tip only
             momentum can make) is let go while the robot swings back from the edge and
             commanded again as it swings toward it, building up its rocking.
+        cache: make each plan once per support face and edge of the build pose's hull,
+            from the face's canonical pose with the built rest lengths, and share it between
+            faces the robot's symmetry relates (:mod:`tensim.control.roll_plans`); a plan
+            that has not tipped the robot in ``push_s`` is followed by one made afresh. Off
+            by default: it changes the runs, not clearly for the better (docs/rolling.md).
+            Without it (or without ``release``, whose plans start from the rest lengths
+            held) every tip is planned from where the robot stands and the rest lengths it
+            holds.
     """
 
     shorten: float = 0.5
@@ -63,6 +71,7 @@ class RollSettings:
     period_s: float = 0.05
     release: bool = True
     pump: bool = False
+    cache: bool = False
 
     def __post_init__(self) -> None:
         for name in ("shorten", "lengthen", "margin", "settle_s", "push_s", "period_s"):
@@ -246,16 +255,13 @@ def plan_tip(structure: Structure, rest: np.ndarray, built: np.ndarray, heading:
     """
     positions = {n.name: np.asarray(n.position) for n in structure.nodes}
     feet = support_face(positions)
-    edges = support_edges(np.array([positions[f][:2] for f in feet]))
-    ahead = sorted((e for e in edges if e[:2] @ heading > 0), key=lambda e: -e[:2] @ heading)
-    if not ahead:
-        raise DesignError(f"no support edge ahead of the heading on feet {', '.join(feet)}")
+    ahead = ahead_edges(np.array([positions[f][:2] for f in feet]), feet, heading)
     explicit = with_rest_lengths(structure, rest)
     start = settle(explicit, feet, gravity)
     best: TipPlan | None = None
     for edge in ahead:
-        plan = _plan_edge(structure, explicit, start, rest, built, edge, feet, settings,
-                          gravity)
+        plan = plan_edge(structure, explicit, start, rest, built, edge, feet, settings,
+                         gravity)
         if plan.margin >= settings.margin:
             return plan
         if best is None or plan.margin > best.margin:
@@ -264,11 +270,38 @@ def plan_tip(structure: Structure, rest: np.ndarray, built: np.ndarray, heading:
     return best
 
 
-def _plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.ndarray,
-               built: np.ndarray, edge: np.ndarray, feet: tuple[str, ...],
-               settings: RollSettings, gravity: float) -> TipPlan:
+def ahead_edges(polygon: np.ndarray, feet: tuple[str, ...], heading: np.ndarray
+                ) -> list[np.ndarray]:
+    """The edges (a, b, c) of the support polygon ``polygon`` (m, 2) whose outward normal
+    points ahead of ``heading``, best aligned first.
+
+    Raises:
+        DesignError: none does (``feet`` name the face in the message).
+    """
+    ahead = sorted((e for e in support_edges(polygon) if e[:2] @ heading > 0),
+                   key=lambda e: -e[:2] @ heading)
+    if not ahead:
+        raise DesignError(f"no support edge ahead of the heading on feet {', '.join(feet)}")
+    return ahead
+
+
+def plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.ndarray,
+              built: np.ndarray, edge: np.ndarray, feet: tuple[str, ...],
+              settings: RollSettings, gravity: float = GRAVITY) -> TipPlan:
     """Steps the motorised rest lengths along the sensitivity that carries the static centre
-    of mass across ``edge`` (a, b, c), until it lies ``settings.margin`` past it."""
+    of mass across ``edge`` (a, b, c), until it lies ``settings.margin`` past it.
+
+    Args:
+        structure: the robot, its nodes where it stands [m].
+        explicit: the same with explicit rest lengths ``rest``.
+        lin: its static pose on ``feet`` (:func:`tensim.design.inverse.settle`).
+        rest: (n_cables,) the rest lengths it starts from [m].
+        built: (n_cables,) the built rest lengths (the centre of each cable's travel) [m].
+        edge: the support edge, a x + b y + c = 0 with (a, b) its unit outward normal.
+        feet: the support face's nodes.
+        settings: travel, margin and number of steps.
+        gravity: [m/s^2].
+    """
     motorised = np.array([not c.motor.passive for c in structure.cables])
     lower = np.where(motorised, built * (1 - settings.shorten), rest)
     upper = np.where(motorised, built * (1 + settings.lengthen), rest)

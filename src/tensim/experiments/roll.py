@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from tensim.control import ControllerConfig
+from tensim.control.roll_plans import PlanCache
 from tensim.control.rolling import (
     RollSettings,
     TipPlan,
@@ -32,10 +33,17 @@ from tensim.control.rolling import (
     heading_vector,
     plan_tip,
     rocks_back,
-    support_edges,
     support_face,
-    tip_rotation,
     yaw_between,
+)
+from tensim.control.turning import (
+    Placement,
+    RigidHull,
+    edge_heading,
+    place,
+    plan_turn,
+    rigid_hull,
+    walk_cost,
 )
 from tensim.design import DesignError
 from tensim.model import WorldOptions, compile_structure
@@ -46,9 +54,7 @@ from tensim.structure import Structure, body_length
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
 LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
 TURN_TOLERANCE = 10.0  # deg: turning in place stops once the yaw is this near the target
-TURN_DEPTH = 5  # tips ahead turning in place looks (rigid hull): once around a 6-bar's hull vertex
-TURN_RADIUS = 0.1  # body lengths from the start that turning in place moves freely within
-TURN_WEIGHT = 4.0  # rad of yaw error that one body length beyond TURN_RADIUS costs as much as
+TURN_HYSTERESIS = 0.15  # rad of cost a new walk must save to replace the one being followed
 PUMP_HOLD_S = 0.2  # s: a pumped plan is held at least this long before it may let go
 
 
@@ -79,49 +85,51 @@ class _Gait:
     first_roll_s: float | None = None  # when the robot first left its first face [s]
     plans: int = 0
     turn: float | None = None  # rad: the yaw to turn by in place (None: roll on the heading)
-    start: np.ndarray | None = None  # (n, 3) the nodes at the start (turning's reference)
+    hull: RigidHull | None = None  # turning: the hull as it stands on its first face
+    first: Placement | None = None  # turning: the hull's placement there
+    com_now: np.ndarray | None = None  # (3,) the centre of mass at the last look [m]
+    walk: tuple[tuple[int, int, int], ...] = ()  # turning: the tips still to make
+    tipping_from: int | None = None  # turning: the face the last tip was commanded on
     turned: bool = False
     plan: TipPlan | None = None  # the tip commanded now
     com_before: np.ndarray | None = None  # (2,) the centre of mass a control period ago [m]
     released: bool = False  # pumping: the plan let go while the robot swings back
+    cache: PlanCache | None = None  # the plans made so far (None: plan every tip afresh)
+    stuck: bool = False  # a plan on this face timed out: plan afresh from where it stands
 
     def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
-        """Turning in place: the outward normal of the first edge of the sequence of rigid-hull
-        tips that best brings the yaw toward the target while the centre stays near the start
-        (None: the yaw is within :data:`TURN_TOLERANCE`, or no sequence does better than
-        standing)."""
-        assert self.turn is not None and self.start is not None
-        turn, start = self.turn, self.start
-        names = list(positions)
-        points = np.array([positions[n] for n in names])
-        feet = np.array([positions[n] for n in support_face(positions)])
-        origin = start.mean(axis=0)[:2]
-
-        def cost(p: np.ndarray) -> float:
-            error = abs(math.remainder(turn - yaw_between(start, p), 2 * math.pi))
-            away = float(np.linalg.norm(p.mean(axis=0)[:2] - origin)) / self.length
-            return error + TURN_WEIGHT * max(0.0, away - TURN_RADIUS)
-
-        if abs(math.remainder(turn - yaw_between(start, points), 2 * math.pi)) \
+        """Turning in place: the outward normal of the next edge of the walk of rigid-hull
+        tips back to the first face (:func:`~tensim.control.turning.plan_turn`), planned again
+        wherever a tip lands off the walk; None once the robot stands on its first face with
+        its yaw within :data:`TURN_TOLERANCE` of the target, or where standing costs least."""
+        assert self.turn is not None and self.com_now is not None
+        if self.hull is None or self.first is None:  # the reference: the first face, settled
+            self.hull = rigid_hull(positions, self.com_now)
+            self.first = place(self.hull, positions)
+        now = place(self.hull, positions)
+        home = now.face == self.first.face
+        yaw = math.remainder(now.yaw - self.first.yaw, 2 * math.pi)
+        if home and abs(math.remainder(self.turn - yaw, 2 * math.pi)) \
                 <= math.radians(TURN_TOLERANCE):
             self.turned = True
             return None
-        best, heading = cost(points), None
-        frontier: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = [(points, feet, None)]
-        for _ in range(TURN_DEPTH):  # breadth first over sequences of rigid-hull tips
-            grown = []
-            for p, f, first in frontier:
-                for edge in support_edges(f[:, :2]):
-                    rotation, anchor = tip_rotation(p, f, edge)
-                    q = (p - anchor) @ rotation.T + anchor
-                    q[:, 2] -= q[:, 2].min() - points[:, 2].min()
-                    face = support_face(dict(zip(names, q, strict=True)))
-                    lead = edge[:2].copy() if first is None else first
-                    grown.append((q, q[[names.index(n) for n in face]], lead))
-                    if (c := cost(q)) < best - 1e-3:
-                        best, heading = c, lead
-            frontier = grown
-        return heading
+        if self.walk and now.face == self.walk[0][2]:
+            self.walk = self.walk[1:]  # landed where the walk said
+        elif not (self.walk and now.face == self.tipping_from):
+            self.walk = ()  # landed off the walk (or none yet)
+        # plan again from where the hull lies now (its feet may have slid), keeping the walk
+        # unless the new one is better by TURN_HYSTERESIS
+        plan = plan_turn(self.hull, now, self.first, self.turn, self.length)
+        kept = walk_cost(self.hull, now, self.first, self.turn, self.length, self.walk) \
+            if self.walk else math.inf
+        if plan is None or plan.cost < kept - TURN_HYSTERESIS:
+            self.walk = () if plan is None else plan.walk
+        if not self.walk:
+            self.turned = home
+            return None
+        self.tipping_from = now.face
+        a, b, _ = self.walk[0]
+        return edge_heading(self.hull, now, a, b)
 
     def heading(self, com: np.ndarray) -> np.ndarray:
         """Toward the goal; without one toward a point on the heading's line through the
@@ -140,11 +148,13 @@ class _Gait:
         positions = node_positions(sim)
         face = support_face(positions)
         held, self.seen = face == self.seen, face  # a new face counts once seen twice running
-        com = sim.data.subtree_com[0][:2].copy()
+        self.com_now = sim.data.subtree_com[0].copy()
+        com = self.com_now[:2].copy()
         before, self.com_before = self.com_before, com
         if face != self.face:
             if held or not self.faces:
                 self.face, self.since, self.pushing = face, sim.time, False
+                self.stuck = False
                 self.faces.append(face)
                 if len(self.faces) == 2:
                     self.first_roll_s = sim.time
@@ -157,6 +167,7 @@ class _Gait:
             self._push(sim, positions)
         elif self.pushing and waited >= self.settings.settle_s + self.settings.push_s:
             self.since, self.pushing = sim.time, False  # stuck: rest and plan again
+            self.stuck = True  # (afresh: the cached plan did not tip it)
             sim.drive.rest_command[self.motorised] = self.built[self.motorised]
         elif (self.settings.pump and self.pushing and self.plan is not None
               and self.plan.margin < self.settings.margin
@@ -187,10 +198,14 @@ class _Gait:
             sim.drive.rest_command[self.motorised] = self.built[self.motorised]
             return
         try:
-            plan = plan_tip(pose, sim.drive.rest.copy(), self.built, heading, self.settings)
+            plan = (plan_tip(pose, sim.drive.rest.copy(), self.built, heading, self.settings)
+                    if self.cache is None or self.stuck else
+                    self.cache.plan(pose, sim.drive.rest.copy(), heading))
         except DesignError:
             return
         self.plans += 1
+        if self.cache is not None and self.stuck:
+            self.cache.fresh += 1
         sim.drive.rest_command[self.motorised] = plan.rest_lengths[self.motorised]
         self.pushing, self.plan, self.released = True, plan, False
 
@@ -198,19 +213,18 @@ class _Gait:
 def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
          goal: tuple[float, float] | None = None, world: WorldOptions | None = None,
          settings: RollSettings | None = None, record_dt: float = 0.01,
-         turn_deg: float | None = None,
+         turn_deg: float | None = None, plans: PlanCache | None = None,
          progress: Callable[[float, float], None] | None = None
          ) -> tuple[SimulationResult, dict[str, Any]]:
     """Rolls ``structure`` for ``duration`` seconds toward a heading or a goal point, or turns
     it in place by ``turn_deg``.
 
-    Turning in place tips, at each plan, over the first support edge of the sequence of up to
-    :data:`TURN_DEPTH` tips (the hull rolled as a rigid body over each edge) that best brings
-    the robot's yaw toward ``turn_deg`` while its centre stays near the start (beyond
-    :data:`TURN_RADIUS` body lengths from the start, a body length weighs as much as
-    :data:`TURN_WEIGHT` rad of yaw error); it stops once the yaw is within
-    :data:`TURN_TOLERANCE` of the target, and the run ends
-    there (``duration`` is then the longest it may take).
+    Turning in place rolls the hull around its vertices (:mod:`tensim.control.turning`): at
+    each plan it tips over the first edge of the walk of rigid-hull tips, from the face it
+    stands on back to the face it started on, that best turns it by ``turn_deg`` while its
+    centre of mass stays near the start; it stops once it stands on its first face with its
+    yaw within :data:`TURN_TOLERANCE` of the target, and the run ends there (``duration`` is
+    then the longest it may take).
 
     Args:
         structure: a closed robot (its nodes' convex hull is what it rolls on).
@@ -223,6 +237,8 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
         turn_deg: turn in place by this yaw, counter-clockwise [deg] (the heading and goal
             are then unused); the summary adds ``turn_deg``, ``yaw_deg`` and
             ``displacement_m`` (:func:`turn_summary`).
+        plans: the plan cache to use (one made for the same robot, built rest lengths and
+            settings, kept between runs); None: a new one (with ``settings.cache``).
         progress: called as progress(done_s, total_s).
 
     Returns:
@@ -238,9 +254,11 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
     gait = _Gait(compiled.structure, built, motorised, settings, heading_deg, goal,
                  sim.data.subtree_com[0][:2].copy(), body_length(structure))
+    if settings.cache and settings.release:
+        gait.cache = plans or PlanCache(compiled.structure, built, settings,
+                                        -float(compiled.model.opt.gravity[2]))
     if turn_deg is not None:
         gait.turn = math.radians(turn_deg)
-        gait.start = np.array(list(node_positions(sim).values()))
     chunks: list[TimeSeries] = []
     period = max(record_dt, round(settings.period_s / record_dt) * record_dt)
     done, start = 0.0, time.perf_counter()
@@ -264,7 +282,10 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                "heading_deg": heading_deg if goal is None else None,
                "goal_xy_m": list(goal) if goal is not None else None,
                "faces_visited": len(set(gait.faces)), "rolls": max(0, len(gait.faces) - 1),
-               "plans": gait.plans, "rocks_back": rocks_back(gait.faces),
+               "plans": gait.plans,
+               "plans_made": gait.plans if gait.cache is None
+               else gait.cache.made + gait.cache.fresh,
+               "rocks_back": rocks_back(gait.faces),
                "first_roll_s": None if gait.first_roll_s is None
                else round(gait.first_roll_s, 6)}
     if turn_deg is not None:

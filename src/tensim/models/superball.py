@@ -11,11 +11,23 @@ kg/s^2), damping 200 N s/m, pretension 2452 kg dm/s^2 = 245.2 N.
 
 The geometry is the symmetric form of :mod:`tensim.models.six_bar` (parallel struts half a
 strut apart), in which equal pretensions are a state of self-stress; the toolkit's file spaces
-the pairs 15 dm apart instead, a pose its cables then pull towards this one. Motor limits are
-not in the toolkit's models (they leave them effectively unlimited: ``maxTens`` 100000 and
-``targetVelocity`` 10000 in every SUPERball/T6 model, v2 included) and the papers' actuator
-figures were not available (docs/models.md lists what was searched); 0.1 m/s and 1 kN here
-are placeholders, not hardware data.
+the pairs 15 dm apart instead, a pose its cables then pull towards this one.
+
+Motor limits are the built robot's, from J. Bruce's dissertation ("Design, Building, Testing,
+and Control of SUPERball: A Tensegrity Robot to Enable New Forms of Planetary Exploration",
+UC Santa Cruz, 2016; its LaTeX sources are public in the author's ``Advancement_UCSC``
+repository on GitHub). Each motor is a 100 W Maxon brushless motor (24 V, 26,500 rpm no-load,
+691 mN m stall) behind a 109:1 three-stage gearbox rated 3 N m continuous and 3.5 N m peak
+(the chapter "SUPERball v1 Design", table "100W Maxon BLDC Motor Parameters"). The spools were
+cut from 30 mm to 18 mm diameter so that the gearboxes could hold the cables' tensions, which
+"reduces the actuation speed to 47% of" the 30 cm/s that Iscen et al.'s rolling controller
+needed (appendix, "Cable Tension"): ``max_speed`` = 0.47 x 0.30 m/s = 0.14 m/s. ``max_tension``
+is the gearbox's rated continuous torque on that spool, 3 N m / 0.009 m = 333 N (the
+dissertation designed for 200 N continuous, measured about 240 N nominal and over 400 N at
+most, and its controllers capped any cable at 250 N). The built robot had 12 motors; the
+preset motorises all 24 cables, the fully actuated design its papers propose. Not modelled:
+the motors' 0.4 m stroke (the rolling gait's travel stays inside it: half of a 0.63 m rest
+length) and the robot's 998 N/m and 2850 N/m springs (the cables keep the toolkit's 613 N/m).
 
 As built, it rests on a closed triangle of cables (as SUPERball rests between rolls) in its
 static pose under gravity on frictionless feet, so it stands still when released (under
@@ -40,7 +52,8 @@ FRICTION = 0.99
 STIFFNESS = 613.0  # N/m
 DAMPING = 200.0  # N s/m
 PRETENSION = 245.2  # N, the same in every cable
-MOTOR = Motor(max_speed=0.1, max_tension=1000.0)  # placeholders, see the module docstring
+# the built robot: 18 mm spools at 47 % of 0.30 m/s; a 3 N m gearbox on a 9 mm radius
+MOTOR = Motor(max_speed=0.47 * 0.30, max_tension=3.0 / 0.009)
 
 
 def superball(clearance: float = 0.0, standing: bool = True) -> Structure:

@@ -102,16 +102,18 @@ def policy_record(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     return meta, arrays
 
 
-def export(folder: Path, onnx: Path | None = None) -> dict[str, Any]:
-    """Writes ``policy.json`` and ``policy.npz`` beside ``onnx`` (or into ``folder``) and,
-    with ``onnx``, the ONNX graph: raw observation in, action in [-1, 1] out. A robot file
-    (not a preset) is copied beside them, so ``tensim rl evaluate policy.json`` runs.
+def export(folder: Path, onnx: Path | None = None, where: Path | None = None
+           ) -> dict[str, Any]:
+    """Writes ``policy.json`` and ``policy.npz`` beside ``onnx`` (or into ``where``, by
+    default ``folder``) and, with ``onnx``, the ONNX graph: raw observation in, action in
+    [-1, 1] out. A robot file (not a preset) is copied beside them, so ``tensim rl evaluate
+    policy.json`` runs.
 
     Returns:
         the ``policy.json`` record.
     """
     meta, arrays = policy_record(folder)
-    where = Path(folder) if onnx is None else Path(onnx).parent
+    where = Path(onnx).parent if onnx is not None else Path(where or folder)
     where.mkdir(parents=True, exist_ok=True)
     if meta["settings"]["model"] not in PRESETS:  # the robot file, for `rl evaluate`
         with atomic_path(where / meta["settings"]["model"]) as tmp:

@@ -158,6 +158,8 @@ def load_settings(folder: Path) -> TrainSettings:
 
 def train(settings: TrainSettings, out: Path, *, resume: bool = False,
           checkpoint_steps: int = 10_000, init: Path | None = None,
+          init_std: float | None = None, init_lr: float | None = None,
+          init_warmup: int | None = None, keep: bool = False,
           progress: Callable[[float, float], None] | None = None) -> dict[str, Any]:
     """Trains (or resumes training) and returns the progress record.
 
@@ -171,13 +173,25 @@ def train(settings: TrainSettings, out: Path, *, resume: bool = False,
             export``) rather than from random weights: its actor and observation normaliser
             (the value function learns afresh, alone for its first :data:`VALUE_WARMUP`
             updates); the progress record keeps its budget under ``init``.
+        init_std: with ``init``, the PPO action noise's standard deviation to start from
+            (in the [-1, 1] action box; default that of :func:`ppo_recipe`, 0.61): an
+            exported policy carries no noise, and a smaller one fine-tunes it more gently.
+        init_lr: with ``init``, PPO's learning rate (default that of :func:`ppo_recipe`,
+            3e-4).
+        init_warmup: with ``init``, the PPO updates in which the value function learns alone
+            (default :data:`VALUE_WARMUP`).
+        keep: also export every checkpoint's policy (``policy.json`` and ``policy.npz``) to
+            ``out/checkpoints/STEPS/``, so a checkpoint can be chosen after the run.
         progress: called with (env steps done, steps in all).
 
     Raises:
         InputError: ``out`` already holds a run and ``resume`` is False, a resumed run's
-            settings or robot file changed, or ``init`` does not fit the run.
+            settings or robot file changed, or ``init`` does not fit the run, or
+            ``init_std``, ``init_lr`` or ``init_warmup`` is given without ``init`` or is not
+            > 0 (``init_warmup``: an integer >= 0).
     """
     out = Path(out)
+    tuning = _fine_tuning(init, init_std, init_lr, init_warmup)
     start_policy = _start_policy(settings, init) if init is not None else None
     state = _open(settings, out, resume)
     if start_policy is not None and state["steps_done"]:
@@ -185,14 +199,20 @@ def train(settings: TrainSettings, out: Path, *, resume: bool = False,
                          "new run only")
     learner, env = _learner(settings, out, state)
     if start_policy is not None:
-        state["init"] = _warm_start(learner, env, start_policy, Path(init or ""))
+        state["init"] = _warm_start(learner, env, start_policy, Path(init or ""), init_std)
+        state["init"] |= tuning
+        if init_lr is not None:
+            from stable_baselines3.common.utils import FloatSchedule
+
+            learner.learning_rate, learner.lr_schedule = init_lr, FloatSchedule(init_lr)
     done = int(state["steps_done"])
     start = time.process_time() - float(state.get("cpu_s", 0.0))
     curve = _Curve(state["curve"])
     # PPO collects whole rollouts, SAC one env step of every robot at a time: the run stops
     # at the last whole one within ``steps``, so it never trains past its budget
     whole = learner.n_steps * settings.envs if settings.algo == "ppo" else settings.envs
-    warmup = VALUE_WARMUP * whole if "init" in state else 0
+    warmup = int(state["init"].get("value_warmup_updates", VALUE_WARMUP)) * whole \
+        if "init" in state else 0
     while settings.steps - done >= whole:
         chunk = max(whole, min(checkpoint_steps, settings.steps - done) // whole * whole)
         if done < warmup:  # the actor waits while the new value function learns
@@ -202,11 +222,37 @@ def train(settings: TrainSettings, out: Path, *, resume: bool = False,
         done = int(learner.num_timesteps)
         state.update(steps_done=done, curve=curve.points, cpu_s=time.process_time() - start)
         _checkpoint(learner, env, out, state, settings)
+        if keep:
+            from tensim.rl.export import export
+
+            export(out, where=out / "checkpoints" / str(done))
         if progress is not None:
             progress(done, settings.steps)
     env.close()
     _draw_curve(out, state["curve"], settings)
     return state
+
+
+def _fine_tuning(init: Path | None, std: float | None, lr: float | None,
+                 warmup: int | None) -> dict[str, Any]:
+    """The record of a warm start's own settings (those given).
+
+    Raises:
+        InputError: one is given without ``init``, or is out of range.
+    """
+    given = {"--init-std": std, "--init-lr": lr, "--init-warmup": warmup}
+    for name, value in given.items():
+        if value is None:
+            continue
+        if init is None:
+            raise InputError(f"{name} {value}: applies only to a run started with --init")
+        if name == "--init-warmup":
+            if not (isinstance(value, int) and value >= 0):
+                raise InputError(f"{name} must be an integer >= 0 (PPO updates), got {value!r}")
+        elif not (math.isfinite(value) and value > 0):
+            raise InputError(f"{name} must be a number > 0, got {value!r}")
+    return ({} if lr is None else {"learning_rate": lr}) | \
+        ({} if warmup is None else {"value_warmup_updates": warmup})
 
 
 def _start_policy(settings: TrainSettings, source: Path) -> Any:
@@ -241,9 +287,11 @@ def _start_policy(settings: TrainSettings, source: Path) -> Any:
     return policy
 
 
-def _warm_start(learner: Any, env: Any, policy: Any, source: Path) -> dict[str, Any]:
+def _warm_start(learner: Any, env: Any, policy: Any, source: Path,
+                std: float | None = None) -> dict[str, Any]:
     """Copies the exported ``policy``'s actor layers and observation normaliser into a new
-    PPO ``learner`` and its ``env``; returns the record of where it came from.
+    PPO ``learner`` and its ``env`` (and sets its action noise to ``std``, if given);
+    returns the record of where it came from.
 
     Raises:
         InputError: the network's layers differ.
@@ -261,11 +309,14 @@ def _warm_start(learner: Any, env: Any, policy: Any, source: Path) -> dict[str, 
         for layer, w, b in zip(linears, policy.weights, policy.biases, strict=True):
             layer.weight.copy_(torch.as_tensor(w, dtype=layer.weight.dtype))
             layer.bias.copy_(torch.as_tensor(b, dtype=layer.bias.dtype))
+        if std is not None:
+            learner.policy.log_std.fill_(math.log(std))
     trained = policy.meta.get("training") or {}
     env.obs_rms.mean, env.obs_rms.var = policy.mean.copy(), policy.var.copy()
     env.obs_rms.count = float(max(1, trained.get("env_steps", 1)))
     return {"policy": source.name, "env_steps": int(trained.get("env_steps", 0)),
-            "cpu_s": float(trained.get("cpu_s", 0.0))}
+            "cpu_s": float(trained.get("cpu_s", 0.0))} | ({} if std is None else
+                                                          {"action_std": std})
 
 
 def _train_actor(learner: Any, on: bool) -> None:

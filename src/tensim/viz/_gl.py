@@ -148,11 +148,12 @@ def _load_triton_first() -> None:
 class GLServer:
     """A child process that holds a working offscreen OpenGL backend and paints scenes.
 
-    The child (:mod:`tensim.viz._glserver`, run by file so that it loads numpy and MuJoCo but
-    not tensim) first makes a context of ``backend`` current, which is the trial
-    :func:`select_backend` runs; where that works it stays, and :meth:`paint` sends it a
-    :meth:`tensim.viz.render.FrameScene.job`. So a run folder's ``frame.png`` costs one
-    child's start, and the command's own process never loads the OpenGL driver.
+    The child (:mod:`tensim.viz._glserver`, run by the script :mod:`tensim.viz._glchild` so
+    that it loads numpy and MuJoCo's compiled bindings but not tensim) first makes a context
+    of ``backend`` current, which is the trial :func:`select_backend` runs; where that works
+    it stays, and :meth:`paint` sends it a :meth:`tensim.viz.render.FrameScene.job`. So a
+    run folder's ``frame.png`` costs one child's start, and the command's own process never
+    loads the OpenGL driver.
 
     Raises:
         OffscreenUnavailable: the backend does not work here (the message gives the reason).
@@ -163,7 +164,7 @@ class GLServer:
         ours, theirs = multiprocessing.Pipe()
         env = helper_env(MUJOCO_GL=backend)
         env.pop("PYOPENGL_PLATFORM", None)
-        script = Path(__file__).with_name("_glserver.py")
+        script = Path(__file__).with_name("_glchild.py")
         try:
             # -P: the script's folder (tensim/viz) is not put on the path
             self._process = subprocess.Popen(

@@ -1,8 +1,9 @@
 """OpenGL's half of offscreen rendering: a prepared MuJoCo scene painted into an image.
 
 This module imports numpy and MuJoCo only, never the tensim package, so that it can also run
-as a small child process (``python -P _glserver.py FD BACKEND``, started by
-:class:`tensim.viz._gl.GLServer`): it makes a context of ``BACKEND`` current (the trial of
+in a small child process (``python -P _glchild.py FD BACKEND``, started by
+:class:`tensim.viz._gl.GLServer`, which loads MuJoCo's compiled bindings without the rest of
+its package): it makes a context of ``BACKEND`` current (the trial of
 that backend), says whether that worked, then paints the scenes it is sent over the socket
 ``FD`` until the socket closes. A run folder's ``frame.png`` is painted there, so the command's
 own process never loads the OpenGL driver (with Mesa's software driver, 60-180 MiB). The
@@ -14,8 +15,6 @@ its data (MuJoCo pickles them), the option and camera fields, the added geoms an
 from __future__ import annotations
 
 import importlib
-import os
-import sys
 import traceback
 from typing import Any
 
@@ -172,9 +171,3 @@ def serve(fd: int, backend: str) -> None:
     except (EOFError, OSError):
         pass  # the parent has gone
     ctx.free()
-
-
-if __name__ == "__main__":
-    serve(int(sys.argv[1]), sys.argv[2])
-    sys.stdout.flush()
-    os._exit(0)  # skip the interpreter's shutdown, and the GL driver's atexit handlers
