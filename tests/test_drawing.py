@@ -23,7 +23,6 @@ from tensim.viz.drawing import (
     FigurePlan,
     Span,
     background_pays,
-    forks,
 )
 
 CABLES = ("a", "b", "c", "d")
@@ -69,9 +68,7 @@ def _pixels(path: Path) -> np.ndarray:
         return np.asarray(image.convert("RGBA"))
 
 
-@pytest.mark.parametrize("fork", [True, False], ids=["forked", "fresh interpreter"])
-def test_a_drawing_process_draws_the_same_figures_as_this_one(tmp_path, monkeypatch, fork):
-    monkeypatch.setattr("tensim.viz.drawing.forks", lambda: fork)
+def test_a_drawing_process_draws_the_same_figures_as_this_one(tmp_path):
     here, there = tmp_path / "here", tmp_path / "there"
     here.mkdir()
     there.mkdir()
@@ -139,30 +136,7 @@ def test_closing_with_figures_pending_stops_the_process(tmp_path):
     assert process.poll() is not None  # ended (killed) before close returned
 
 
-def test_a_forked_drawing_process_always_pays_and_keeps_matplotlib_out_of_this_one(tmp_path):
-    """A fork costs what drawing here costs: it draws every run's figures, and this process
-    never loads matplotlib (its memory stays out of the command's peak)."""
-    if not forks():
-        pytest.skip("the drawing process is forked on Linux only")
-    assert background_pays(1)
-    probe = textwrap.dedent(f"""
-        import sys
-        from pathlib import Path
-        sys.path.insert(0, {str(Path(__file__).parent)!r})
-        from test_drawing import _draw_all, _plans
-        from tensim.viz.drawing import FigureDrawer
-        with FigureDrawer(_plans(), background=True) as drawer:
-            _draw_all(drawer, Path({str(tmp_path)!r}))
-            print(drawer.background, "matplotlib" in sys.modules)
-        """)
-    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                         check=True).stdout
-    assert out.split() == ["True", "False"]
-    assert all((tmp_path / p.file).is_file() for p in _plans())
-
-
-def test_only_a_long_run_with_an_idle_core_starts_a_fresh_drawing_process(monkeypatch):
-    monkeypatch.setattr("tensim.viz.drawing.forks", lambda: False)
+def test_only_a_long_run_with_an_idle_core_starts_a_drawing_process(monkeypatch):
     monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0, 1})
     monkeypatch.setattr("os.getloadavg", lambda: (0.9, 0.5, 0.5))  # this run alone
     assert background_pays(MIN_STEPS) and not background_pays(MIN_STEPS - 1)

@@ -10,13 +10,9 @@ writes the folder's other files. Without a second core, or for a short run
 whose simulation cannot hide the child's start, or with every core busy, the same functions
 draw in this process; the figures are the same either way.
 
-On Linux the child is a fork of this process (:func:`forks`), made before the run simulates:
-it has numpy and the drawing modules already, so it costs what drawing here costs (the same
-CPU time, measured), while matplotlib, the figures and their pixels stay out of this process's
-memory (about 40 MiB of a run's peak). Elsewhere it is a fresh interpreter
-(``python -P tensim/viz/_drawchild.py``: no copy of this process's MuJoCo, threads or OpenGL
-state, and none of its ``__main__``) that loads numpy, matplotlib and the drawing modules
-only, not the tensim package and its MuJoCo, and pays for that start. Either way it reads the
+The child is a fresh interpreter (``python -P tensim/viz/_drawchild.py``: no copy of this
+process's MuJoCo, threads or OpenGL state, and none of its ``__main__``) that loads numpy,
+matplotlib and the drawing modules only, not the tensim package and its MuJoCo; it reads the
 plans and the data (the channels each figure draws) through a socket pair and writes the PNG
 files itself (atomically, as every figure). It ends with its socket: when the command
 finishes, fails or is killed.
@@ -35,7 +31,6 @@ import subprocess
 import sys
 import threading
 import traceback
-import warnings
 from collections.abc import Mapping, Sequence
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -83,22 +78,11 @@ class FigurePlan:
             raise ValueError(f"unknown figure kind {self.kind!r}; known: {sorted(KINDS)}")
 
 
-def forks() -> bool:
-    """Whether the drawing process is a fork of this one: on Linux (macOS's system libraries
-    are not safe to use in a fork that does not start a new program; Windows cannot fork)."""
-    return sys.platform.startswith("linux") and hasattr(os, "fork")
-
-
 def background_pays(steps: int) -> bool:
-    """Whether a drawing process pays for a run of ``steps`` physics steps.
-
-    A forked one (:func:`forks`) always does: it costs the CPU time that drawing here costs,
-    and keeps matplotlib out of this process's memory. A fresh interpreter pays for a
-    simulation long enough to hide its start, with a core left idle by every program running
-    now (the 1-minute load average at most the usable cores less one); on a busy machine it
-    only competes for the same cores, and costs its start-up on top."""
-    if forks():
-        return True
+    """Whether a drawing process pays for a run of ``steps`` physics steps: a simulation long
+    enough to hide the process's start, and a core left idle by every program running now
+    (the 1-minute load average at most the usable cores less one). On a busy machine the
+    child only competes for the same cores, and costs its start-up on top."""
     cores = len(os.sched_getaffinity(0))
     return steps >= MIN_STEPS and cores >= 2 and _load() <= cores - 1
 
@@ -133,14 +117,11 @@ class FigureDrawer:
         self.handed: set[str] = set()  # the files handed to draw() so far
         self._grid: Any = None  # the last panel grid drawn here, filled again by the next
         self._conn: Connection | None = None
-        self._process: subprocess.Popen[bytes] | _Forked | None = None
+        self._process: subprocess.Popen[bytes] | None = None
         if background:
             self._start()
 
     def _start(self) -> None:
-        if forks():
-            self._fork()
-            return
         ours, theirs = multiprocessing.Pipe()
         # the child runs this very tensim's modules (the script finds them beside it); -P:
         # the script's folder (tensim/viz) is not put on the path
@@ -158,26 +139,6 @@ class FigureDrawer:
         finally:
             theirs.close()
         self._conn, self._process = ours, process
-
-    def _fork(self) -> None:
-        ours, theirs = multiprocessing.Pipe()
-        process = multiprocessing.get_context("fork").Process(
-            target=_serve_forked, args=(theirs, ours), name="tensim-figures", daemon=True)
-        try:
-            with warnings.catch_warnings():
-                # Python 3.12+ warns of a fork with threads running (numpy's BLAS threads,
-                # the OpenGL trial's waiting thread): the child uses none of their locks, and
-                # the C libraries it calls (malloc, OpenBLAS) reset theirs at a fork
-                warnings.simplefilter("ignore", DeprecationWarning)
-                process.start()
-            ours.send(list(self.plans.values()))
-        except OSError as err:
-            log.info("figures drawn in this process: no drawing process (%s)", err)
-            ours.close()
-            return
-        finally:
-            theirs.close()
-        self._conn, self._process = ours, _Forked(process)
 
     @property
     def background(self) -> bool:
@@ -267,33 +228,6 @@ class FigureDrawer:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-class _Forked:
-    """A forked drawing process, with the part of :class:`subprocess.Popen`'s interface the
-    drawer uses."""
-
-    def __init__(self, process: multiprocessing.process.BaseProcess):
-        self._process = process
-
-    def kill(self) -> None:
-        self._process.kill()
-
-    def poll(self) -> int | None:
-        return self._process.exitcode
-
-    def wait(self, timeout: float | None = None) -> int:
-        self._process.join(timeout)
-        if self._process.exitcode is None:
-            raise subprocess.TimeoutExpired("the figure-drawing process", timeout or 0.0)
-        return self._process.exitcode
-
-
-def _serve_forked(conn: Connection, parents: Connection) -> None:
-    """The forked drawing process: :func:`serve` on ``conn``, without the parent's end of the
-    socket (so that it sees the parent go)."""
-    parents.close()
-    serve(conn)
 
 
 # The channels (by quantity) each kind of figure draws from a time series.
