@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 
+from icosahedron import six_bar_points
 from tensim.control.rolling import MOVED_M, heading_error_deg, support_edges, support_face
 from tensim.design import check_structure
 from tensim.experiments.roll import body_length, roll
@@ -25,12 +26,7 @@ DURATION = 8.0  # s: a few rolls (a first tip may go astray while the robot land
 
 def _icosahedron() -> Structure:
     """A small motorised six-bar: 0.6 m struts of 0.3 kg, 24 cables of 800 N/m at 20 N."""
-    h, s = STRUT / 2, STRUT / 4
-    points = {}
-    for axis, perm in (("x", (2, 0, 1)), ("y", (1, 2, 0)), ("z", (0, 1, 2))):
-        for pair, offset in enumerate((-s, s)):
-            for end, along in enumerate((-h, h)):
-                points[f"{axis}{pair}{end}"] = np.array([0.0, offset, along])[list(perm)]
+    points = six_bar_points(STRUT)
     lift = 0.02 - min(p[2] for p in points.values())
     nodes = tuple(Node(n, tuple(p + np.array([0.0, 0.0, lift]))) for n, p in points.items())
     rods = tuple(Rod(f"rod_{a}{k}", (f"{a}{k}0", f"{a}{k}1"), 0.01, linear_density=0.5)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from icosahedron import six_bar_points
 from tensim.control.turning import ground, place, plan_turn, rigid_hull, tip
 from tensim.experiments.roll import roll
 from tensim.model import WorldOptions, compile_structure
@@ -21,12 +22,7 @@ STRUT = 1.0  # m
 def _lying_six_bar(spin_deg: float) -> dict[str, np.ndarray]:
     """The symmetric six-bar's 12 nodes (struts of STRUT, parallel pairs STRUT/2 apart) turned
     so that a closed triangle of cables faces straight down, then by spin_deg about z."""
-    h, s = STRUT / 2, STRUT / 4
-    points = {}
-    for axis, perm in (("x", (2, 0, 1)), ("y", (1, 2, 0)), ("z", (0, 1, 2))):
-        for pair, offset in enumerate((-s, s)):
-            for end, along in enumerate((-h, h)):
-                points[f"{axis}{pair}{end}"] = np.array([0.0, offset, along])[list(perm)]
+    points = six_bar_points(STRUT)
     triangle = next(t for t in itertools.combinations(points, 3)
                     if all(_is_cable(points, a, b) for a, b in itertools.combinations(t, 2)))
     down = Rotation.align_vectors([[0.0, 0.0, -1.0]],
