@@ -1,5 +1,5 @@
 """Builds the optional compiled parts: the cable callback, against the MuJoCo headers in its
-wheel, and the CPG integrator."""
+wheel, the CPG integrator, and the RL environments' observation."""
 
 import os
 
@@ -18,6 +18,15 @@ setup(
             include_dirs=[_INCLUDE],
             extra_compile_args=_FLAGS,
             # Without a C compiler tensim still works, through the (slower) Python callback.
+            optional=True,
+        ),
+        Extension(
+            "tensim.rl._observe",
+            sources=["src/tensim/rl/_observe.c"],
+            extra_compile_args=_FLAGS,
+            libraries=["m"],
+            # Without a C compiler the RL environments observe with NumPy instead (the same
+            # values, more time per step).
             optional=True,
         ),
         Extension(

@@ -10,7 +10,8 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjbatch
 
-from tensim.rl._contacts import GroundContacts, bar_sensor_rows
+from tensim.rl._contacts import SLOTS, GroundContacts, bar_sensor_rows
+from tensim.rl._observe_native import Kernel, kernel
 from tensim.rl._robot import Robot
 from tensim.sim import MODE_PD, PhysicsScale, StabilityLimits, Trial, load_cell_reading
 from tensim.sim._batch import setup_trial
@@ -100,6 +101,21 @@ class Worlds:
         self._sigma = self._noise_sigma(layout["history"][0] if "history" in layout
                                         else max(b for _, b in layout.values()))
         self._noise = bool(self._sigma.any())  # (whether any is above 0)
+        self._kernel = self._compiled()
+
+    def _compiled(self) -> Kernel | None:
+        """The compiled observation of these robots (None: observed with NumPy)."""
+        idx, ground = self.robot.compiled.index, self._ground
+        sensors = None
+        if ground.ready:  # each body's sensor: its first slot's "found" value
+            sensors = ground.index[:, 0, 0]
+        body_ends = np.where(np.isfinite(ground.pad), ground.ends, -1)
+        index = {"body": self._body, "root": self.robot.model.body_rootid[self._body],
+                 "mass": self._mass, "end_body": self._end_body, "end_local": self._end_local,
+                 "tendon": idx.tendon, "sensor_adr": sensors, "body_ends": body_ends,
+                 "slots": SLOTS}
+        return kernel(self.f, {"target": self.target, "previous": self.previous}, index,
+                      self.robot.layout, self.robot.config.task)
 
     def _open_batch(self, models: list[mujoco.MjModel]) -> None:
         """The batch engine over ``models`` (one per robot) and its field views."""
@@ -115,7 +131,7 @@ class Worlds:
 
     def __getstate__(self) -> dict[str, Any]:
         """Everything but the batch engine, whose robots' states are saved instead."""
-        state = {k: v for k, v in self.__dict__.items() if k not in ("batch", "f")}
+        state = {k: v for k, v in self.__dict__.items() if k not in ("batch", "f", "_kernel")}
         state["_states"] = np.array([self.batch.state[i] for i in range(self.n)])
         state["_warnings"] = np.array(self.batch.warning)
         return state
@@ -130,6 +146,7 @@ class Worlds:
             self.batch.state[i] = states[i]
         self.batch.forward(ids)
         self.batch.warning[:] = warnings
+        self._kernel = self._compiled()  # (it points at the new arrays)
 
     # -- episodes --------------------------------------------------------------------------
 
@@ -311,6 +328,56 @@ class Worlds:
     def observe(self, ids: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """(k, size) observations of robots ``ids``, with their sensor noise (written into
         ``out`` where given, a (k, size) array)."""
+        c, r, k = self.robot.config, self._rows(ids), ids.size
+        if not (self._noise or c.history):
+            return self._clean(ids, out)
+        obs = self._noisy(ids, self._clean(ids))
+        if not c.history:
+            if out is None:
+                return obs
+            out[...] = obs
+            return out
+        full = np.concatenate([obs, self.past[r].reshape(k, -1)], axis=1, out=out)
+        self.past[r] = np.concatenate([obs[:, None], self.past[r][:, :-1]], axis=1)
+        return full
+
+    def _clean(self, ids: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """(k, size) observations of robots ``ids`` before noise and history: compiled where
+        it can be (the same values as :meth:`observe_numpy`), else with NumPy."""
+        if self._kernel is None:
+            return self.observe_numpy(ids, out)
+        k, r = ids.size, self._rows(ids)
+        if ids.dtype != np.intc:
+            ids = ids.astype(np.intc)
+        rows = out if out is not None and out.flags.c_contiguous else np.empty(
+            (k, self._kernel.size))
+        if self._fixed_frame:
+            turn = (self._cos, self._sin) if isinstance(r, slice) else (self._cos[ids],
+                                                                         self._sin[ids])
+        else:
+            yaw = self._frame_yaw(ids, self.f["subtree_com"][r, 0],
+                                  self.f["xipos"][r][:, self._bodies])
+            turn = np.cos(yaw), np.sin(yaw)
+        over = self._kernel.observe(ids, turn[0], turn[1], rows)
+        if over is not None:  # a body with more ground contacts than its sensor holds
+            self._contacts_from_lists(ids[over], rows, over)
+        if out is not None and rows is not out:
+            out[...] = rows
+        return rows if out is None else out
+
+    def _contacts_from_lists(self, ids: np.ndarray, rows: np.ndarray, which: np.ndarray
+                             ) -> None:
+        """Writes the contact terms of ``rows[which]`` (robots ``ids``) from their contact
+        lists."""
+        touch, at_end = self._contact_list(ids)
+        for name, flags in (("contact", touch), ("end_contact", at_end)):
+            if name in self.robot.layout:
+                start, stop = self.robot.layout[name]
+                rows[which, start:stop] = flags
+
+    def observe_numpy(self, ids: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """(k, size) observations of robots ``ids`` before noise and history, with NumPy: the
+        reference the compiled observation equals (written into ``out`` where given)."""
         robot, f, r, k = self.robot, self.f, self._rows(ids), ids.size
         layout, c = robot.layout, robot.config
         com = f["subtree_com"][r, 0]
@@ -354,17 +421,7 @@ class Worlds:
         terms["previous_action"] = self.previous[r]
         terms["position"] = com[:, :2]
         parts = [terms[t].reshape(k, -1) for t in self._terms]
-        if not (self._noise or c.history):
-            return np.concatenate(parts, axis=1, out=out)
-        obs = self._noisy(ids, np.concatenate(parts, axis=1))
-        if not c.history:
-            if out is None:
-                return obs
-            out[...] = obs
-            return out
-        full = np.concatenate([obs, self.past[r].reshape(k, -1)], axis=1, out=out)
-        self.past[r] = np.concatenate([obs[:, None], self.past[r][:, :-1]], axis=1)
-        return full
+        return np.concatenate(parts, axis=1, out=out)
 
     def _tension(self, ids: np.ndarray, terms: dict[str, np.ndarray]) -> np.ndarray:
         """(k, n_cables) the load cells, with each robot's own law parameters [N]."""
