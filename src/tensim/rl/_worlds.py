@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjbatch
 
-from tensim.rl._contacts import SLOTS, GroundContacts, bar_sensor_rows
+from tensim.rl._contacts import GroundContacts, bar_sensor_rows
 from tensim.rl._observe_native import Kernel, kernel
 from tensim.rl._robot import Robot
 from tensim.sim import MODE_PD, PhysicsScale, StabilityLimits, Trial, load_cell_reading
@@ -113,7 +113,7 @@ class Worlds:
         index = {"body": self._body, "root": self.robot.model.body_rootid[self._body],
                  "mass": self._mass, "end_body": self._end_body, "end_local": self._end_local,
                  "tendon": idx.tendon, "sensor_adr": sensors, "body_ends": body_ends,
-                 "slots": SLOTS}
+                 "slots": ground.index.shape[1]}
         return kernel(self.f, {"target": self.target, "previous": self.previous}, index,
                       self.robot.layout, self.robot.config.task)
 
