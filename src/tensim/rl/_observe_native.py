@@ -28,7 +28,7 @@ _P = ctypes.c_void_p
 class Spec(ctypes.Structure):
     """The kernel's arguments that stay the same from call to call (``Spec`` in _observe.c)."""
 
-    _fields_ = [  # noqa: RUF012 - ctypes' attribute
+    _fields_ = [
         *[(name, _P) for name in _FIELDS],
         *[(f"{name}_stride", ctypes.c_longlong) for name in _FIELDS],
         ("target", _P), ("previous", _P),
