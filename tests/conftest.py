@@ -1,10 +1,11 @@
-"""Suite-wide checks. With ``TENSIM_REQUIRE_COMPILED=1`` (CI sets it) a compiled cable law or
-CPG that is missing or stale (built from older sources, or for another MuJoCo) fails the run
-at its start: otherwise the tests of the compiled paths skip, and a stale build would pass
-unseen."""
+"""Suite-wide checks. With ``TENSIM_REQUIRE_COMPILED=1`` (CI sets it) a compiled cable law,
+CPG or RL observation (where the rl extra is installed) that is missing or stale (built from
+older sources, or for another MuJoCo) fails the run at its start: otherwise the tests of the
+compiled paths skip, and a stale build would pass unseen."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
 
 import pytest
@@ -18,6 +19,11 @@ def pytest_sessionstart(session: pytest.Session) -> None:
 
     missing = [name for name, ok in (("cable law", _law.compiled_available()),
                                      ("CPG", cpg.compiled_available())) if not ok]
+    if importlib.util.find_spec("gymnasium") is not None:
+        from tensim.rl import _observe_native
+
+        if not _observe_native.available():
+            missing.append("RL observation")
     if missing:
         raise pytest.UsageError(
             f"TENSIM_REQUIRE_COMPILED=1 but the compiled {' and '.join(missing)} did not load "

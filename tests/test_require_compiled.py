@@ -1,5 +1,6 @@
-"""The suite's own guard: with ``TENSIM_REQUIRE_COMPILED=1`` a compiled law or CPG that did not
-load fails the test run at its start, naming what is missing; without it the run goes on."""
+"""The suite's own guard: with ``TENSIM_REQUIRE_COMPILED=1`` a compiled law, CPG or RL
+observation that did not load fails the test run at its start, naming what is missing; without
+it the run goes on."""
 
 from __future__ import annotations
 
@@ -18,12 +19,19 @@ from tensim.sim import _law
 
 _law.compiled_available = lambda: {law}
 cpg.compiled_available = lambda: {cpg}
+try:
+    from tensim.rl import _observe_native
+except ImportError:  # (no rl extra: the guard leaves the RL observation out)
+    pass
+else:
+    _observe_native.available = lambda: {observation}
 """
 
 
-def _run(tmp_path: Path, *, require: bool, law: bool,
-         cpg: bool) -> subprocess.CompletedProcess[str]:
-    (tmp_path / "fake_build.py").write_text(PLUGIN.format(law=law, cpg=cpg))
+def _run(tmp_path: Path, *, require: bool, law: bool, cpg: bool,
+         observation: bool = True) -> subprocess.CompletedProcess[str]:
+    (tmp_path / "fake_build.py").write_text(PLUGIN.format(law=law, cpg=cpg,
+                                                          observation=observation))
     env = dict(os.environ)
     env.pop("TENSIM_REQUIRE_COMPILED", None)
     if require:
@@ -36,11 +44,14 @@ def _run(tmp_path: Path, *, require: bool, law: bool,
         cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
 
 
-@pytest.mark.parametrize(("law", "cpg", "named"), [
-    (False, True, "cable law"), (True, False, "CPG"), (False, False, "cable law and CPG")])
+@pytest.mark.parametrize(("law", "cpg", "observation", "named"), [
+    (False, True, True, "cable law"), (True, False, True, "CPG"),
+    (False, False, True, "cable law and CPG"), (True, True, False, "RL observation")])
 def test_a_missing_build_fails_the_run_when_required(
-        tmp_path: Path, law: bool, cpg: bool, named: str) -> None:
-    done = _run(tmp_path, require=True, law=law, cpg=cpg)
+        tmp_path: Path, law: bool, cpg: bool, observation: bool, named: str) -> None:
+    if not observation:
+        pytest.importorskip("gymnasium", reason="the RL observation is checked with the rl extra")
+    done = _run(tmp_path, require=True, law=law, cpg=cpg, observation=observation)
     assert done.returncode != 0
     assert f"the compiled {named} did not load" in done.stdout + done.stderr
 

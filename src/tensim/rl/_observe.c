@@ -52,6 +52,9 @@ typedef struct {
       previous_action, position, size;
 } Spec;
 
+/* what the loader checks: a build of other sources (another version) is not used */
+#define TENSIM_OBSERVE_VERSION 1
+int tensim_observe_version(void) { return TENSIM_OBSERVE_VERSION; }
 int tensim_observe_spec_size(void) { return (int)sizeof(Spec); }
 
 /* turns the world vector v (x, y, z) about z into the frame: x' = c x + s y, y' = -s x + c y */

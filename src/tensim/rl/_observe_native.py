@@ -15,11 +15,12 @@ from typing import Any
 
 import numpy as np
 
-from tensim._native import load_library
+from tensim._native import load_library, log
 
 TERMS = ("height", "velocity", "rod_axis", "cable_length", "contact", "end_contact", "task",
          "previous_action", "position")  # the terms it writes (with the layout's names)
 MAX_ENDS = 256  # rod ends the kernel's buffer holds
+VERSION = 1  # TENSIM_OBSERVE_VERSION of the sources these bindings were written for
 _FIELDS = ("subtree_com", "xipos", "xpos", "xmat", "cvel", "ten_length", "sensordata")
 _TASKS = {"direction": 1, "goal": 2}  # any other task observes (0, 0)
 _P = ctypes.c_void_p
@@ -45,8 +46,14 @@ class Spec(ctypes.Structure):
 def _load_library() -> ctypes.CDLL | None:
     lib = load_library("tensim.rl._observe", "compiled RL observation",
                        "observing with NumPy")
-    if lib is None or lib.tensim_observe_spec_size() != ctypes.sizeof(Spec):
-        return None  # (another build's layout)
+    if lib is None:
+        return None
+    version = getattr(lib, "tensim_observe_version", None)
+    if version is None or version() != VERSION or \
+            lib.tensim_observe_spec_size() != ctypes.sizeof(Spec):
+        log.warning("compiled RL observation was built from other sources; observing with "
+                    "NumPy (reinstall tensim to rebuild)")
+        return None
     lib.tensim_observe.restype = ctypes.c_int
     lib.tensim_observe.argtypes = [ctypes.POINTER(Spec), ctypes.c_int, _P, _P, _P, _P, _P]
     return lib
