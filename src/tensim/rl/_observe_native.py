@@ -1,6 +1,6 @@
 """Loads and calls the compiled observation (``_observe.c``): the rolling observation's terms
-of many robots in one call, the same values as :meth:`tensim.rl._worlds.Worlds.observe`'s
-NumPy path to the bit.
+of many robots in one call, the same values as
+:meth:`tensim.rl._worlds.Worlds.observe_numpy` (the reference) to the bit.
 
 The library is optional (built where a C compiler was found at install time); without it, or
 for an observation with a term it does not write (``pose``, ``rest_length``, ``tension``), a

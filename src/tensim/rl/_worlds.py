@@ -114,6 +114,7 @@ class Worlds:
                  "mass": self._mass, "end_body": self._end_body, "end_local": self._end_local,
                  "tendon": idx.tendon, "sensor_adr": sensors, "body_ends": body_ends,
                  "slots": ground.index.shape[1]}
+        # (it reads target and previous where they are: both are only written in place)
         return kernel(self.f, {"target": self.target, "previous": self.previous}, index,
                       self.robot.layout, self.robot.config.task)
 
