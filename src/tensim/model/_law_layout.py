@@ -91,10 +91,6 @@ IMPLICIT_EXTRA = 1  # the implicit law adds the pull after them
 # which loses the cross-body terms, needs all of it (docs/architecture.md)
 THETA_DISCRETE = 0.5
 THETA_IMPLICITFAST = 1.0
-# the share of the impedance law's damping gain B that both implicit laws hand the integrator
-# while the motor follows the law (no limit reached): all of it, backward Euler, which damps
-# the controller's loop at any step (the trapezoidal rule rings where h B / m >> 2)
-THETA_IMPEDANCE = 1.0
 
 
 def _slot(table: tuple[tuple[str, str], ...], name: str) -> int:
@@ -218,8 +214,7 @@ def _definitions() -> list[str]:
              f"#define TENSIM_ACTDIM {ACTDIM}", f"#define TENSIM_DC_ACTDIM {DC_ACTDIM}",
              f"#define TENSIM_IMPLICIT_EXTRA {IMPLICIT_EXTRA}",
              f"#define TENSIM_THETA_DISCRETE {THETA_DISCRETE!r}",
-             f"#define TENSIM_THETA_IMPLICITFAST {THETA_IMPLICITFAST!r}",
-             f"#define TENSIM_THETA_IMPEDANCE {THETA_IMPEDANCE!r}"]
+             f"#define TENSIM_THETA_IMPLICITFAST {THETA_IMPLICITFAST!r}"]
     for prefix, table in (("P", DYNPRM), ("G", GAINPRM), ("B", BIASPRM), ("A", ACT)):
         lines.append("")
         lines += [f"#define TENSIM_{prefix}_{name.upper()} {k} /* {doc} */"

@@ -143,20 +143,20 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
   double dt = m->opt.timestep;
   double x = d->ten_length[tendon], v = d->ten_velocity[tendon];
   double k = G(STIFFNESS), rest = d->act[adr + TENSIM_A_REST], input = d->ctrl[m->actuator_ctrladr[i]];
-  double target, set = 0.0;
+  double target;
   if (P(MODE) == TENSIM_MODE_IMPEDANCE) {
     /* impedance law (eq. 3): the rest length that turns the measured tension into T_set */
     double stretch = x - rest;
     double measured = stretch > 0.0 ? k * stretch : 0.0;
-    set = fmax(0.0, P(OFFSET_TENSION) + P(GAIN_K) * (x - P(TARGET_LENGTH)) +
-                        P(GAIN_B) * (v - input));
+    double set = fmax(0.0, P(OFFSET_TENSION) + P(GAIN_K) * (x - P(TARGET_LENGTH)) +
+                                P(GAIN_B) * (v - input));
     target = rest - (set - measured) / k;
   } else if (P(MODE) == TENSIM_MODE_PD) {
     target = rest; /* a PD motor's command is its target length: the rest length stays */
   } else {
     target = input;
   }
-  double next, follow = 0.0; /* the share of its way to the target the rest length moved */
+  double next;
   if (m->actuator_actnum[i] - TENSIM_IMPLICIT_EXTRA * implicit == TENSIM_DC_ACTDIM) {
     next = dc_step(m, d, i, p, g, b, target, x, v, rest, dt);
   } else {
@@ -164,8 +164,7 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
     /* lag: a share 1 - exp(-dt / lag_time) of the way to the target (all of it: no lag) */
     double share = B(LAG_TIME) > 0.0 ? 1.0 - exp(-dt / B(LAG_TIME)) : 1.0;
     double reach = P(MAX_SPEED) * dt;
-    double want = (target - rest) * share;
-    double step = fmin(fmax(want, -reach), reach);
+    double step = fmin(fmax((target - rest) * share, -reach), reach);
     next = rest + step;
     if (step < 0.0) {
       double force_floor = fmin(rest, x - P(MAX_TENSION) / k);
@@ -175,7 +174,6 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
     /* a saturating force cap: pay out to where the static tension is max_tension */
     if (B(SATURATE) != 0.0) next = fmax(next, x - P(MAX_TENSION) / k);
     next = fmax(next, P(MIN_REST));
-    if (step == want && next == rest + step) follow = share; /* no limit reached */
   }
   mjtNum* act_dot = (mjtNum*)d->act_dot; /* multi-activation user dynamics write act_dot */
   act_dot[adr + TENSIM_A_REST] = (next - rest) / dt;
@@ -195,11 +193,7 @@ mjtNum tensim_act_dyn(const mjModel* m, const mjData* d, int i) {
     int last = adr + m->actuator_actnum[i] - 1;
     double theta = m->opt.integrator == mjINT_IMPLICITFAST ? TENSIM_THETA_IMPLICITFAST
                                                            : TENSIM_THETA_DISCRETE;
-    /* the impedance law's damping B, where the motor followed it (set > 0 and no limit
-     * reached): its share TENSIM_THETA_IMPEDANCE, carried on the cable's damping b */
-    double carried = G(DAMPING) > 0.0 && set > 0.0 ? follow * P(GAIN_B) / G(DAMPING) : 0.0;
-    double pull = -(theta + TENSIM_THETA_IMPEDANCE * carried);
-    act_dot[last] = ((stretch > 0.0 ? pull : 0.0) - d->act[last]) / dt;
+    act_dot[last] = ((stretch > 0.0 ? -theta : 0.0) - d->act[last]) / dt;
   }
   return act_dot[adr + TENSIM_A_PEAK];
 }

@@ -12,7 +12,6 @@
 #define TENSIM_IMPLICIT_EXTRA 1
 #define TENSIM_THETA_DISCRETE 0.5
 #define TENSIM_THETA_IMPLICITFAST 1.0
-#define TENSIM_THETA_IMPEDANCE 1.0
 
 #define TENSIM_P_MARKER 0 /* CABLE_MARKER or REFERENCE_MARKER: a tensim cable, and its law's body */
 #define TENSIM_P_MODE 1 /* MODE_REST, MODE_IMPEDANCE or MODE_PD */
@@ -49,6 +48,6 @@
 #define TENSIM_A_SPEED 4 /* DC motors only: the spool's line speed dl/dt [m/s] */
 #define TENSIM_A_PULL 5 /* implicit law only, always the last: -theta while the cable is taut after this step's motor update, else 0.0 (the gain's input) */
 
-#define TENSIM_LAYOUT_ID 1684714325u
+#define TENSIM_LAYOUT_ID 2383126592u
 
 #endif

@@ -60,7 +60,6 @@ from tensim.model._law_layout import (
     P_OFFSET,
     P_TARGET_LENGTH,
     REFERENCE_MARKER,
-    THETA_IMPEDANCE,
     implicit,
     is_cable,
     layout_id,
@@ -170,13 +169,11 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     # a PD motor's command is its target length: its rest length stays where it is
     target = np.where(impedance, _laws.impedance_rest_target(rest, setpoint, measured, k),
                       np.where(pd, rest, command))
-    share = _laws.lag_share(b[:, B_LAG_TIME], dt)
     new = _laws.motor_step(rest, target, x, k, p[:, P_MAX_SPEED], p[:, P_MAX_TENSION],
-                           p[:, P_MIN_REST], p[:, P_MIN_LENGTH], dt, share, b[:, B_SATURATE])
-    follow = _laws.motor_follows(rest, target, new, p[:, P_MAX_SPEED], dt, share)
+                           p[:, P_MIN_REST], p[:, P_MIN_LENGTH], dt,
+                           _laws.lag_share(b[:, B_LAG_TIME], dt), b[:, B_SATURATE])
     speed_rate = np.zeros(len(ids))
     dc = motor_actdim(m)[ids] == DC_ACTDIM
-    follow[dc] = 0.0
     if dc.any():
         new[dc], speed_rate[dc] = _dc_step(p[dc], g[dc], b[dc], d.act[adr[dc] + A_SPEED],
                                            rest[dc], target[dc], x[dc], v[dc], dt)
@@ -198,10 +195,8 @@ def cable_law(m: mujoco.MjModel, d: mujoco.MjData, ids: np.ndarray | None = None
     if native.any():
         # the pull, and MuJoCo's force: its gain term plus the law's bias, clamped
         last = adr[native] + m.actuator_actnum[ids][native] - 1
-        carried = _laws.impedance_carried(np.where(impedance, follow, 0.0), setpoint,
-                                          p[:, P_GAIN_B], damping)[native]
-        pull_rate[native] = (_laws.pull(x[native], next_rest[native], theta(m), carried,
-                                        THETA_IMPEDANCE) - d.act[last]) / dt
+        pull_rate[native] = (_laws.pull(x[native], next_rest[native], theta(m))
+                             - d.act[last]) / dt
         pull = d.act[last] + pull_rate[native] * dt
         out = m.actuator_outadr[ids][native]
         term = _laws.gain_term(d.actuator_length[out], d.actuator_velocity[out], k[native],

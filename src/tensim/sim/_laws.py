@@ -199,48 +199,16 @@ def dc_motor_speed(speed: np.ndarray, drive: np.ndarray, tension: np.ndarray,
     return np.where(back_drivable != 0.0, new, held)
 
 
-def pull(length: np.ndarray, rest_length: np.ndarray, theta: float = 1.0,
-         carried: np.ndarray | float = 0.0, theta_carried: float = 1.0) -> np.ndarray:
-    """The implicit law's pull: -(theta + theta_carried carried) where the cable is taut
-    (x > l), else 0.0.
+def pull(length: np.ndarray, rest_length: np.ndarray, theta: float = 1.0) -> np.ndarray:
+    """The implicit law's pull: -theta where the cable is taut (x > l), else 0.0.
 
     Args:
         length: (n,) anchor-to-anchor length x [m].
         rest_length: (n,) rest length l after this step's motor update [m].
         theta: the share of the gain term's derivatives the integrator takes
             (``_law_layout.theta``).
-        carried: (n,) a further damping the gain term carries, per unit of the cable's
-            damping b (:func:`impedance_carried`) [-].
-        theta_carried: the share of that damping the integrator takes
-            (``_law_layout.THETA_IMPEDANCE``).
     """
-    return np.where(length - rest_length > 0.0, -(theta + theta_carried * carried), 0.0)
-
-
-def motor_follows(rest_length: np.ndarray, target: np.ndarray, new_rest_length: np.ndarray,
-                  max_speed: np.ndarray, dt: float, share: np.ndarray | float = 1.0
-                  ) -> np.ndarray:
-    """The share of its way to ``target`` that :func:`motor_step` moved the rest length where
-    it reached none of its limits (so the new rest length follows the target), else 0.0."""
-    want = (target - rest_length) * share
-    reach = max_speed * dt
-    step = np.minimum(np.maximum(want, -reach), reach)
-    return np.where((step == want) & (new_rest_length == rest_length + step), share, 0.0)
-
-
-def impedance_carried(follow: np.ndarray, setpoint: np.ndarray, damping_gain: np.ndarray,
-                      damping: np.ndarray) -> np.ndarray:
-    """The impedance law's damping B that the implicit laws' gain term carries, per unit of
-    the cable's damping b: follow B / b where the motor followed the law's positive setpoint
-    (the tension then moves with the velocity as follow B + b), else 0 (and 0 where b = 0:
-    the gain term, k x + b xdot, cannot carry it).
-
-    Args:
-        follow: (n,) :func:`motor_follows` [-]. setpoint: (n,) T_set [N].
-        damping_gain: (n,) B [N s/m]. damping: (n,) b [N s/m].
-    """
-    carries = (damping > 0.0) & (setpoint > 0.0)
-    return np.where(carries, follow * damping_gain / np.where(carries, damping, 1.0), 0.0)
+    return np.where(length - rest_length > 0.0, -theta, 0.0)
 
 
 def gain_term(length: np.ndarray, velocity: np.ndarray, stiffness: np.ndarray,

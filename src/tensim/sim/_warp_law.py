@@ -42,7 +42,6 @@ _P_GAIN_B, _P_TARGET = wp.constant(layout.P_GAIN_B), wp.constant(layout.P_TARGET
 _G_K, _G_DAMPING = wp.constant(layout.G_STIFFNESS), wp.constant(layout.G_DAMPING)
 _THETA_DISCRETE = wp.constant(layout.THETA_DISCRETE)
 _THETA_FAST = wp.constant(layout.THETA_IMPLICITFAST)
-_THETA_IMPEDANCE = wp.constant(layout.THETA_IMPEDANCE)
 _IMPLICITFAST = wp.constant(int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST))
 _G_PD_K, _G_PD_B = wp.constant(layout.G_PD_STIFFNESS), wp.constant(layout.G_PD_DAMPING)
 _B_STALL, _B_V0 = wp.constant(layout.B_STALL_FORCE), wp.constant(layout.B_NO_LOAD_SPEED)
@@ -133,7 +132,6 @@ def cable_law(
     rest = act[world, adr + _A_REST]
     command = ctrl[world, actuator_ctrladr[i]]
     target = command
-    setpoint = 0.0
     if p[_P_MODE] == _IMPEDANCE:
         # impedance law (eq. 3): the rest length that turns the measured tension into T_set
         stretch = x - rest
@@ -147,7 +145,6 @@ def cable_law(
     if pd:  # a PD motor's command is its target length: the rest length stays
         target = rest
     new = rest
-    follow = 0.0  # the share of its way to the target the rest length moved (no limit reached)
     if actnum == _DC_ACTDIM:
         speed = act[world, adr + _A_SPEED]
         dc = _dc_step(p, g, b, speed, rest, target, x, v, dt)
@@ -159,8 +156,7 @@ def cable_law(
         if b[_B_LAG] > 0.0:  # lag: a share 1 - exp(-dt / lag_time) of the way to the target
             share = 1.0 - wp.exp(-dt / b[_B_LAG])
         reach = p[_P_MAX_SPEED] * dt
-        want = (target - rest) * share
-        step = wp.min(wp.max(want, -reach), reach)
+        step = wp.min(wp.max((target - rest) * share, -reach), reach)
         new = rest + step
         if step < 0.0:
             new = wp.max(new, wp.min(rest, x - p[_P_MAX_TENSION] / k))
@@ -169,8 +165,6 @@ def cable_law(
         if b[_B_SATURATE] != 0.0:  # a saturating force cap: pay out to the static max_tension
             new = wp.max(new, x - p[_P_MAX_TENSION] / k)
         new = wp.max(new, p[_P_MIN_REST])
-        if step == want and new == rest + step:
-            follow = share
     rate = (new - rest) / dt
     act_dot[world, adr + _A_REST] = rate
     # cable (eq. 1-2) from the rest length after this step, as Euler integration stores it
@@ -197,14 +191,9 @@ def cable_law(
         last = adr + actnum + _EXTRA - 1
         pull = 0.0
         if stretch > 0.0:
-            theta = _THETA_DISCRETE
+            pull = -_THETA_DISCRETE
             if opt_integrator == _IMPLICITFAST:
-                theta = _THETA_FAST
-            # the impedance law's B where the motor followed it, carried on the cable's b
-            carried = 0.0
-            if g[_G_DAMPING] > 0.0 and setpoint > 0.0:
-                carried = follow * p[_P_GAIN_B] / g[_G_DAMPING]
-            pull = -(theta + _THETA_IMPEDANCE * carried)
+                pull = -_THETA_FAST
         act_dot[world, last] = (pull - act[world, last]) / dt
     actuator_force[world, i] = -applied
 
