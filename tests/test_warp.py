@@ -285,3 +285,38 @@ def test_warp_runs_a_pd_motor_as_the_cpu_engine():
     assert a.min() < 0.48 and np.abs(a - b).max() < 1e-4
     ta, tb = c.result.trajectory["tension/c"], w.result.trajectory["tension/c"]
     assert ta.max() > 10.0 and np.abs(ta - tb).max() < 0.05  # 400 N/m x 1e-4 m
+
+
+def test_per_world_fields_found_from_the_buffers_equal_a_field_by_field_comparison():
+    """The fast search (one comparison of each model's whole buffer, mapped back to fields)
+    finds exactly the fields a field-by-field comparison finds: one element changed in a
+    random field of a random model, over many draws; and a model of other sizes is refused."""
+    import copy
+
+    from tensim.sim._warp_batch import per_world_fields
+
+    compiled = compile_structure(preset("tetraspine3").build())
+    batch = compiled.model
+    per_world = ("body_mass", "geom_friction", "actuator_gainprm", "dof_damping",
+                 "body_inertia", "tendon_stiffness", "geom_solref", "actuator_biasprm")
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        models = [copy.copy(batch) for _ in range(5)]
+        changed = set(rng.choice(per_world, size=rng.integers(1, 4), replace=False))
+        for name in changed:
+            a = getattr(models[rng.integers(5)], name).reshape(-1)
+            a[rng.integers(a.size)] += 0.25
+        reference = {name for name in dir(batch) if not name.startswith("_")
+                     and isinstance(v := getattr(batch, name), np.ndarray)
+                     and any(not np.array_equal(getattr(m, name), v) for m in models)}
+        assert reference == changed
+        assert set(per_world_fields(batch, models)) == changed
+    assert per_world_fields(batch, [copy.copy(batch)]) == []
+    # a field MuJoCo Warp holds once for all worlds is refused with its name and trial
+    models = [copy.copy(batch), copy.copy(batch)]
+    models[1].jnt_type[0] = 3
+    with pytest.raises(ValueError, match=r"trial 1: .*jnt_type"):
+        per_world_fields(batch, models)
+    other = compile_structure(preset("prism3").build()).model
+    with pytest.raises(ValueError, match="trial 0: its model differs in size"):
+        per_world_fields(batch, [other])

@@ -20,6 +20,7 @@ copies) is captured once as a CUDA graph and replayed per record.
 from __future__ import annotations
 
 import copy
+import ctypes
 import logging
 import time as _time
 from collections.abc import Callable, Sequence
@@ -123,30 +124,68 @@ def per_world_fields(batch: mujoco.MjModel, models: Sequence[mujoco.MjModel]) ->
     from mujoco_warp._src import types
     from mujoco_warp._src.warp_util import is_array_spec
 
+    sizes = np.asarray(batch._sizes)
     for i, m in enumerate(models):
-        other = [s for s in _SIZES if getattr(m, s) != getattr(batch, s)]
-        if other:
-            raise ValueError(f"trial {i}: its model differs in size ({other[0]} "
-                             f"{getattr(m, other[0])} against {getattr(batch, other[0])}); a "
-                             "batch's trials share one layout")
+        if not np.array_equal(np.asarray(m._sizes), sizes):
+            other = next((s for s in _SIZES if getattr(m, s) != getattr(batch, s)), None)
+            what = (f"{other} {getattr(m, other)} against {getattr(batch, other)}"
+                    if other is not None else "another layout of its arrays")
+            raise ValueError(f"trial {i}: its model differs in size ({what}); a batch's trials "
+                             "share one layout")
     known = {f.name: f.type for f in dataclasses.fields(types.Model)}
     batched = {name for name, kind in known.items()
                if is_array_spec(kind) and getattr(kind, "shape", ("",))[0] == "*"}
+    arrays = {name: value for name in dir(batch) if not name.startswith("_")
+              and isinstance(value := getattr(batch, name, None), np.ndarray) and value.size}
     fields = []
-    for name in dir(batch):
-        value = getattr(batch, name, None)
-        if name.startswith("_") or not isinstance(value, np.ndarray) or value.size == 0:
-            continue
-        differs = next((i for i, m in enumerate(models)
-                        if not np.array_equal(getattr(m, name), value)), None)
-        if differs is None or name not in known or name in _SLEEP_ONLY \
-                or name.startswith("key_"):  # each world starts from its own keyframe
-            continue  # equal, or a field MuJoCo Warp's step does not read
+    for name, differs in _differing(batch, models, arrays).items():
+        if name not in known or name in _SLEEP_ONLY or name.startswith("key_"):
+            continue  # a field MuJoCo Warp's step does not read; each world starts from its key
         if name not in batched:
             raise ValueError(f"trial {differs}: its model differs in {name}, which MuJoCo Warp "
                              "holds once for all worlds; run it on the CPU engine")
         fields.append(name)
     return fields
+
+
+def _differing(batch: mujoco.MjModel, models: Sequence[mujoco.MjModel],
+               arrays: dict[str, np.ndarray]) -> dict[str, int]:
+    """Each of ``arrays`` (``batch``'s fields) in which a model differs, with the first such
+    model.
+
+    MuJoCo keeps a model's arrays in one buffer laid out by its sizes alone, so models of equal
+    sizes (checked by the caller) hold each field at the same offset: one comparison of each
+    model's whole buffer finds the bytes that differ, which are then mapped to their fields
+    (padding between arrays maps to none). A thousand worlds' models are compared in
+    milliseconds; field by field it took seconds."""
+    address = {name: a.__array_interface__["data"][0] for name, a in arrays.items()}
+    start = min(address.values())
+    end = max(address[name] + a.nbytes for name, a in arrays.items())
+    if end - start > batch.nbuffer:  # not one buffer (cannot happen in MuJoCo 3-4): compare
+        return {name: i for name, value in arrays.items()  # field by field
+                for i in [next((i for i, m in enumerate(models)
+                                if not np.array_equal(getattr(m, name), value)), None)]
+                if i is not None}
+    first = next(iter(arrays))
+    offset = address[first] - start
+
+    def buffer(m: mujoco.MjModel) -> np.ndarray:
+        at = getattr(m, first).__array_interface__["data"][0] - offset
+        return np.ctypeslib.as_array((ctypes.c_uint8 * (end - start)).from_address(at))
+
+    reference = buffer(batch)
+    changed = np.full(end - start, -1, dtype=np.int64)  # the first model differing per byte
+    for i, m in enumerate(models):
+        new = (buffer(m) != reference) & (changed < 0)
+        if new.any():
+            changed[new] = i
+    out: dict[str, int] = {}
+    for name, a in arrays.items():
+        span = changed[address[name] - start:address[name] - start + a.nbytes]
+        hit = span[span >= 0]
+        if hit.size:
+            out[name] = int(hit.min())
+    return out
 
 
 def world_capacity(model: mujoco.MjModel) -> tuple[int, int]:
