@@ -381,3 +381,21 @@ def test_stepping_ahead_while_the_host_stores_a_sample_changes_no_result(monkeyp
         np.testing.assert_array_equal(a.result.trajectory["pos_x/com"],
                                       b.result.trajectory["pos_x/com"])
         np.testing.assert_array_equal(a.result.peak_tension, b.result.peak_tension)
+
+
+def test_the_warp_benchmark_times_tensim_beside_mujoco_warp_alone():
+    """bench --backend warp on Warp's CPU device: per batch size a tensim row whose figures
+    are the steps it ran over its loop's time, with its share of MuJoCo Warp alone, then the
+    MuJoCo Warp row it is divided by, then the CPU engine's row."""
+    from tensim.benchmarks.warp import bench_warp, format_row
+
+    report = bench_warp(worlds=(2,), duration=0.02, cases=("tetraspine3_cpg",), device="cpu",
+                        cpu_trials=4)
+    warp, alone, cpu = report["rows"]
+    assert (warp["engine"], alone["engine"], cpu["engine"][:3]) == ("warp", "mjwarp", "cpu")
+    steps = round(0.02 / 0.001)
+    for row in (warp, alone):
+        assert row["worlds"] == 2 and row["failed"] == 0
+        assert row["steps_per_s"] * row["loop_s"] == pytest.approx(2 * steps)
+    assert warp["of_alone"] == pytest.approx(alone["loop_s"] / warp["loop_s"])
+    assert "of MuJoCo Warp alone" in format_row(warp)
