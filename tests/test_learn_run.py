@@ -140,3 +140,26 @@ def test_warp_with_worker_processes_is_refused_before_a_run_folder_exists(tmp_pa
     assert main(["--quiet", "learn", "--backend", "warp", "--processes", "--evaluations", "2",
                  "--out", str(out)]) != 0
     assert not out.exists()
+
+
+def test_the_log_is_forced_to_disk_per_batch_not_per_evaluation(tmp_path, monkeypatch):
+    """Each evaluation reaches the operating system as it finishes (read back mid-run, before
+    any disk flush), and the log is forced to disk once per batch and on close (with the
+    one-second timer held back): 4 batches of 10 are 4 flushes plus the close, not 40."""
+    import tensim.learn.store as store
+
+    synced: list[int] = []
+    monkeypatch.setattr(store.os, "fsync", lambda fd: synced.append(fd))
+    monkeypatch.setattr(store, "SYNC_EVERY_S", 1e9)
+    seen: list[int] = []
+
+    def progress(done: int, total: int, best: float | None, failed: int) -> None:
+        lines = (tmp_path / "run" / EVALUATIONS).read_text().splitlines()
+        seen.append(len(lines) - done)  # every finished evaluation is already in the file
+
+    settings = LearningSettings(OptimizerSettings("cma", batch=10), 40, seed=3)
+    learn(SphereProblem(3), settings, tmp_path / "run", executor=InlineExecutor,
+          progress=progress)
+    assert seen == [0] * 40
+    assert len(synced) == 4 + 1
+    assert len(RunStore(tmp_path / "run").evaluations()) == 40

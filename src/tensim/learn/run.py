@@ -280,6 +280,7 @@ class _Session:
             self._check_logged(first, wanted)
             for evaluation in executor.run(tasks):
                 self._take(evaluation)
+            self.store.sync()
             if len(wanted) < len(points):  # evaluated now, told if the budget is extended
                 break
             costs = [-self.logged[first + k].score for k in range(len(points))]
