@@ -4,23 +4,18 @@ tests/test_roll_prism.py."""
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
 from tensim.control.rolling import (
-    PRISM_SETTINGS,
     _com,
     _com_jacobian,
     _sensitivity,
-    heading_vector,
-    plan_tip,
     support_face,
 )
 from tensim.design.inverse import PIN_STIFFNESS, settle, with_rest_lengths
 from tensim.model import WorldOptions, compile_structure
-from tests.test_roll_prism import _prism
+from test_roll_prism import _prism
 
 
 @pytest.fixture(scope="module")
