@@ -55,8 +55,10 @@ class RollSettings:
         sliding: plan with the feet on frictionless ground (held only in height, as
             :func:`tensim.design.inverse.settle` with ``sliding``), so that the planned pose
             needs no friction; else the feet are held where they stand (friction takes any
-            sideways force). A light robot with stiff, strong cables (a 3-bar) slides its
-            feet: its motors pull far harder than friction holds.
+            sideways force). On a light robot with strong motors (the ``three_bar``
+            preset: 2 kN motors, about 40 N on each foot) friction holds far less than the
+            cables pull; off by default (docs/rolling.md: it tips the preset over its far
+            edge once, but does not roll it faster).
         cache: make each plan once per support face and edge of the build pose's hull,
             from the face's canonical pose with the built rest lengths, and share it between
             faces the robot's symmetry relates (:mod:`tensim.control.roll_plans`); a plan
@@ -235,12 +237,16 @@ class TipPlan:
         direction: (2,) unit outward normal of the edge it tips over.
         margin: how far past the edge the planned static centre of mass lies [m]
             (negative: short of it, the motors' travel spent).
+        height: how high that centre of mass lies above the lowest foot [m] (NaN where
+            not known), so that a rigid tip over the edge from there lifts it by
+            sqrt(margin^2 + height^2) - height.
     """
 
     rest_lengths: np.ndarray
     feet: tuple[str, ...]
     direction: np.ndarray
     margin: float
+    height: float = math.nan
 
 
 def plan_tip(structure: Structure, rest: np.ndarray, built: np.ndarray, heading: np.ndarray,
@@ -338,7 +344,10 @@ def plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.n
     if settings.sliding:
         edge = _edge_through(lin, pair, normal)
         normal = edge[:2]
-    return TipPlan(planned, feet, normal.copy(), float(normal @ _com(lin)[:2] + edge[2]))
+    com = _com(lin)
+    ground = min(lin.pose.position(f)[2] for f in feet)  # type: ignore[attr-defined]
+    return TipPlan(planned, feet, normal.copy(), float(normal @ com[:2] + edge[2]),
+                   float(com[2] - ground))
 
 
 def _edge_through(lin: object, pair: list[str], normal: np.ndarray) -> np.ndarray:
