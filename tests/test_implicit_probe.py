@@ -5,7 +5,7 @@ import mujoco
 import numpy as np
 
 from tensim.control.rest import RestCommand
-from tensim.experiments.implicit_probe import Probe, cable_tensions, own_solve
+from tensim.experiments.implicit_probe import Probe, cable_tensions, own_solve, velocity_jumps
 from tensim.experiments.laws import three_bar
 from tensim.model import WorldOptions, compile_structure
 from tensim.sim import COM, simulate
@@ -77,3 +77,21 @@ def test_explicit_tension_is_not_the_discrete_step() -> None:
         de.ctrl[0] = -(k * (de.ten_length[0] - rest) + b * de.ten_velocity[0])
         mujoco.mj_step(euler, de)
     assert np.abs(de.qpos - dd.qpos).max() > 1e-5  # far beyond the tolerance above
+
+
+def test_velocity_jumps_counts_the_samples_off_the_reference() -> None:
+    """Closed form: on a finer reference grid, two cables whose rates equal the reference's
+    but for a 6 mm/s jump of one cable in 3 of the 10 samples inside the window (and one
+    outside it, and one of 4 mm/s, below the 5 mm/s threshold): 3 / 10."""
+    reference_time = np.linspace(0.0, 2.0, 2001)
+    reference = np.stack([np.sin(reference_time), np.cos(reference_time)], axis=1)
+    time = np.arange(0.0, 2.0, 0.1)
+    rates = np.stack([np.sin(time), np.cos(time)], axis=1)
+    rates[[11, 14, 17], 1] += 6e-3  # inside [1.0, 2.0): jumps
+    rates[12, 0] -= 4e-3  # inside, below the threshold
+    rates[3, 0] += 6e-3  # outside the window
+    share = velocity_jumps(time, rates, reference_time, reference, window=(1.0, 2.0))
+    assert share == 3 / 10
+    # the reference itself has none
+    assert velocity_jumps(reference_time, reference, reference_time, reference,
+                          window=(0.0, 2.0)) == 0.0

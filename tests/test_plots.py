@@ -15,6 +15,7 @@ from tensim.viz.plots import (
     plot_cable_tensions,
     plot_lengths,
     thin,
+    thin_lines,
 )
 
 
@@ -56,6 +57,26 @@ def test_a_held_input_thinned_keeps_each_columns_extremes():
     for c in range(PANEL_PIXELS):
         assert ty[thinned == c].max() == y[column == c].max()
         assert ty[thinned == c].min() == y[column == c].min()
+
+
+def test_lines_thinned_together_are_each_thinned_alone():
+    """A shared panel thins its cables in one pass (thin_lines): each line's points are exactly
+    thin's, so each keeps its columns' extremes; with gaps, a line of NaN only, spikes, a time
+    axis of uneven steps, and lines short enough to be kept whole."""
+    rng = np.random.default_rng(6)
+    for x in (np.linspace(0.0, 10.0, 1001), np.sort(rng.uniform(0.0, 5.0, 3000)),
+              np.arange(50.0)):
+        ys = np.cumsum(rng.standard_normal((40, x.size)), axis=1)
+        ys[3, 100:140] = np.nan
+        ys[4] = np.nan
+        ys[5, ::7] = np.nan
+        ys[6, rng.integers(0, x.size, 5)] += 300.0
+        for pixels in (200, 97, PANEL_PIXELS):
+            together = thin_lines(x, ys, pixels)
+            assert len(together) == len(ys)
+            for y, points in zip(ys, together, strict=True):
+                assert np.array_equal(points, np.column_stack(thin(x, y, pixels)),
+                                      equal_nan=True)
 
 
 def test_short_lines_are_drawn_whole():

@@ -59,3 +59,19 @@ def test_output_cut_short_by_its_reader_is_not_an_error():
     error = proc.stderr.read().decode()
     assert proc.wait() == 0, error
     assert "Broken pipe" not in error and "BrokenPipeError" not in error
+
+
+def test_the_pre_run_check_and_slack_cables_load_no_scipy_optimizer():
+    # scipy.optimize pulls in linprog's chain (scipy.fft, scipy.special...): 0.2-0.3 s of CPU
+    # that `tensim simulate` paid for its pre-run check, which solves nothing, and for the sag
+    # of a slack cable in frame.png
+    probe = ("import sys, numpy as np, tensim.design\n"
+             "from tensim.design.check import check_structure\n"
+             "from tensim.models import preset\n"
+             "from tensim.viz.cables import sag_depth\n"
+             "check_structure(preset('prism3').build(), 1e-3)\n"
+             "sag_depth(np.array([0.3]), np.array([0.31]))\n"
+             "print('scipy.optimize' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "False"

@@ -190,6 +190,24 @@ def test_sag_depth_matches_the_shallow_parabola_formula() -> None:
     assert sag_depth(np.array([0.3, 0.3]), np.array([0.29, 0.3])).tolist() == [0.0, 0.0]
 
 
+def test_sag_depths_of_many_cables_at_once_are_each_cables_root() -> None:
+    """The depths found for many slack cables together are each the root of the arc-length
+    equation, as scipy's brentq finds it for one cable (to 1e-12 of the length)."""
+    from scipy.optimize import brentq
+
+    from tensim.viz.cables import _parabola_length
+
+    rng = np.random.default_rng(3)
+    span = rng.uniform(0.01, 2.0, 200)
+    length = span * (1 + rng.choice([1e-6, 1e-3, 0.1, 2.0, 50.0], span.size))
+    length[:5] = span[:5]  # taut: no sag
+    depth = sag_depth(span, length)
+    assert np.all(depth[:5] == 0.0)
+    for x, target, h in zip(span[5:], length[5:], depth[5:], strict=True):
+        root = brentq(lambda d, x=x, t=target: _parabola_length(x, d) - t, 1e-12, target)
+        assert abs(h - root) <= 1e-12 * target
+
+
 def test_a_vertical_slack_cable_hangs_to_one_side() -> None:
     curve = sag_curve(np.zeros(3), np.array([0.0, 0.0, 0.2]), 0.3, points=201)
     assert _polyline_length(curve) == pytest.approx(0.3, rel=1e-3)

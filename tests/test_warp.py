@@ -218,15 +218,18 @@ def test_held_inputs_give_each_step_its_own_row():
 
     worlds, nu, steps = 3, 2, 7
     rows = (1000.0 * np.arange(worlds)[:, None, None] + 10.0 * np.arange(steps)[None, :, None]
-            + np.arange(nu)[None, None, :])  # world w, step j, input u: 1000 w + 10 j + u
+            + np.arange(nu)[None, None, :])  # group w, step j, input u: 1000 w + 10 j + u
     with wp.ScopedDevice("cpu"):
-        held = HeldInputs(worlds, nu, record_steps=1, total_steps=steps)
+        # worlds 0 and 3 share group 0's rows, world 2 has group 2's, world 1 group 1's
+        group = np.array([0, 1, 2, 0])
+        held = HeldInputs(group, nu, record_steps=1, total_steps=steps)
         assert held.next_rows(1) == steps  # everything the run needs fits: one load
-        held.load(rows)
-        ctrl = wp.zeros((worlds, nu), dtype=float)
+        held.staging(steps)[:] = rows
+        held.load(steps)
+        ctrl = wp.zeros((len(group), nu), dtype=float)
         for j in range(steps):
             held.apply(ctrl)
-            np.testing.assert_array_equal(ctrl.numpy(), rows[:, j])
+            np.testing.assert_array_equal(ctrl.numpy(), rows[group, j])
         held.consumed(steps)
         assert held.left() == 0 and held.remaining == 0
 
@@ -285,3 +288,114 @@ def test_warp_runs_a_pd_motor_as_the_cpu_engine():
     assert a.min() < 0.48 and np.abs(a - b).max() < 1e-4
     ta, tb = c.result.trajectory["tension/c"], w.result.trajectory["tension/c"]
     assert ta.max() > 10.0 and np.abs(ta - tb).max() < 0.05  # 400 N/m x 1e-4 m
+
+
+def test_per_world_fields_found_from_the_buffers_equal_a_field_by_field_comparison():
+    """The fast search (one comparison of each model's whole buffer, mapped back to fields)
+    finds exactly the fields a field-by-field comparison finds: one element changed in a
+    random field of a random model, over many draws; and a model of other sizes is refused."""
+    import copy
+
+    from tensim.sim._warp_batch import per_world_fields
+
+    compiled = compile_structure(preset("tetraspine3").build())
+    batch = compiled.model
+    per_world = ("body_mass", "geom_friction", "actuator_gainprm", "dof_damping",
+                 "body_inertia", "tendon_stiffness", "geom_solref", "actuator_biasprm")
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        models = [copy.copy(batch) for _ in range(5)]
+        changed = set(rng.choice(per_world, size=rng.integers(1, 4), replace=False))
+        for name in changed:
+            a = getattr(models[rng.integers(5)], name).reshape(-1)
+            a[rng.integers(a.size)] += 0.25
+        reference = {name for name in dir(batch) if not name.startswith("_")
+                     and isinstance(v := getattr(batch, name), np.ndarray)
+                     and any(not np.array_equal(getattr(m, name), v) for m in models)}
+        assert reference == changed
+        assert set(per_world_fields(batch, models)) == changed
+    assert per_world_fields(batch, [copy.copy(batch)]) == []
+    # a field MuJoCo Warp holds once for all worlds is refused with its name and trial
+    models = [copy.copy(batch), copy.copy(batch)]
+    models[1].jnt_type[0] = 3
+    with pytest.raises(ValueError, match=r"trial 1: .*jnt_type"):
+        per_world_fields(batch, models)
+    other = compile_structure(preset("prism3").build()).model
+    with pytest.raises(ValueError, match="trial 0: its model differs in size"):
+        per_world_fields(batch, [other])
+
+
+def test_worlds_share_computed_inputs_only_where_their_plans_give_the_same_rows():
+    """A batch computes the inputs of worlds on one gait once (InputPlan.sharing_key): equal
+    keys for one gait under other physics, other keys for another gait, an added load or
+    another rest-length command; and equal keys do give equal rows."""
+    import copy
+
+    from tensim.sim._trials import setup_trial
+
+    p = preset("tetraspine3")
+    structure = p.build()
+    compiled = compile_structure(structure, load_nodes=("s2_tip",))
+    dt = compiled.model.opt.timestep
+    cpg = load_controller("tetraspine3_cpg", structure).with_duration(0.5)
+    gait, other = cpg.build(dt), load_controller("tetraspine3_sine", structure) \
+        .with_duration(0.5).build(dt)
+    push = ramp_hold_release("s2_tip", (0.0, 1.0, 0.5), 8.0, 0.1, 0.1, 0.1, 0.1)
+    trials = [Trial(gait), Trial(gait, physics=PhysicsScale(friction=1.5, stiffness=1.2)),
+              Trial(other), Trial(gait, loads=(push,)), Trial(p.controller())]
+    plans = [setup_trial(compiled, copy.copy(compiled.model), t, dt) for t in trials]
+    keys = [plan.sharing_key() for plan in plans]
+    assert keys[0] == keys[1]
+    assert len({keys[0], keys[2], keys[3], keys[4]}) == 4
+    np.testing.assert_array_equal(plans[0].control(7, 300), plans[1].control(7, 300))
+    assert np.abs(plans[0].control(7, 300) - plans[2].control(7, 300)).max() > 1e-3
+
+
+def test_stepping_ahead_while_the_host_stores_a_sample_changes_no_result(monkeypatch):
+    """On a GPU the next record interval is launched before the host stores the last sample
+    and checks the worlds (on copies taken with the sample). Run that way on Warp's CPU device,
+    a batch with a gait, a push, another gait's friction and a diverging world gives exactly
+    the results of stepping after the sample: every channel, peak, error and failure time."""
+    import tensim.sim._warp_batch as warp_batch
+
+    p = preset("tetraspine3")
+    structure = p.build()
+    compiled = compile_structure(structure)
+    gait = load_controller("tetraspine3_cpg", structure).with_duration(0.5).build(
+        compiled.model.opt.timestep)
+    push = ramp_hold_release("s2_tip", (0.0, 1.0, 0.5), 8.0, 0.05, 0.1, 0.1, 0.1)
+    trials = [Trial(gait), Trial(p.controller(), loads=(push,)),
+              Trial(gait, physics=PhysicsScale(friction=2.0)),
+              Trial(p.controller(), physics=PhysicsScale(stiffness=1e4))]
+    after = run_batch(compiled, trials, 0.5, backend="warp", device="cpu")
+    monkeypatch.setattr(warp_batch, "PIPELINE_ON_CPU", True)
+    ahead = run_batch(compiled, trials, 0.5, backend="warp", device="cpu")
+    assert [r.ok for r in after] == [True, True, True, False]
+    for a, b in zip(after, ahead, strict=True):
+        assert a.error == b.error
+        if a.result is None:
+            continue
+        for channel in ("tension", "rest_length", "setpoint", "length"):
+            np.testing.assert_array_equal(a.result.trajectory.matrix(channel),
+                                          b.result.trajectory.matrix(channel))
+        np.testing.assert_array_equal(a.result.trajectory["pos_x/com"],
+                                      b.result.trajectory["pos_x/com"])
+        np.testing.assert_array_equal(a.result.peak_tension, b.result.peak_tension)
+
+
+def test_the_warp_benchmark_times_tensim_beside_mujoco_warp_alone():
+    """bench --backend warp on Warp's CPU device: per batch size a tensim row whose figures
+    are the steps it ran over its loop's time, with its share of MuJoCo Warp alone, then the
+    MuJoCo Warp row it is divided by, then the CPU engine's row."""
+    from tensim.benchmarks.warp import bench_warp, format_row
+
+    report = bench_warp(worlds=(2,), duration=0.02, cases=("tetraspine3_cpg",), device="cpu",
+                        cpu_trials=4)
+    warp, alone, cpu = report["rows"]
+    assert (warp["engine"], alone["engine"], cpu["engine"][:3]) == ("warp", "mjwarp", "cpu")
+    steps = round(0.02 / 0.001)
+    for row in (warp, alone):
+        assert row["worlds"] == 2 and row["failed"] == 0
+        assert row["steps_per_s"] * row["loop_s"] == pytest.approx(2 * steps)
+    assert warp["of_alone"] == pytest.approx(alone["loop_s"] / warp["loop_s"])
+    assert "of MuJoCo Warp alone" in format_row(warp)

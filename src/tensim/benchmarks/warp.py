@@ -7,6 +7,11 @@ The aggregate figure is physics steps of all worlds per second of the stepping l
 batch's set-up, the per-world model copies and the gaits' input tables, is timed apart). The
 CPU engine (:func:`run_batch` on every core of the host) runs the same kind of trials beside
 it. A first short batch per case compiles the kernels and is not counted.
+
+MuJoCo Warp's own limit for the same work is measured beside (engine ``mjwarp``): the same
+model with the cable law's kernel, the same number of worlds, its step captured as one CUDA
+graph per record interval and replayed, with nothing else: no inputs, recording or checks.
+tensim's figure over this one is the share of the GPU's time its loop leaves to physics.
 """
 
 from __future__ import annotations
@@ -24,7 +29,9 @@ from tensim.models import preset
 from tensim.sim import PhysicsScale, Trial, install_law, run_batch
 
 DISTINCT_GAITS = 64  # CPG gaits built per case; worlds beyond reuse them with other physics
-CASES = ("tetraspine3_cpg", "tetraspine_sidewind", "superball", "prism3")
+CASES = ("tetraspine3_cpg", "tetraspine_sidewind", "three_bar_roll", "superball_roll")
+# also selectable: the passive prism and SUPERball with their rest lengths held
+ALL_CASES = (*CASES, "superball", "prism3")
 
 
 def _case(name: str, duration: float) -> tuple[str, CompiledModel, Callable[[int], list[Trial]]]:
@@ -42,6 +49,8 @@ def _case(name: str, duration: float) -> tuple[str, CompiledModel, Callable[[int
                 lambda n: [Trial(gaits[i % len(gaits)],
                                  physics=PhysicsScale(friction=1.0 + 0.2 * (i // len(gaits)) / n))
                            for i in range(n)])
+    if name in ("three_bar_roll", "superball_roll"):
+        return _rolling_case(name, duration, rng)
     if name == "tetraspine_sidewind":
         structure = preset("tetraspine").build()
         compiled = compile_structure(structure, WorldOptions())
@@ -58,6 +67,75 @@ def _case(name: str, duration: float) -> tuple[str, CompiledModel, Callable[[int
                        for i in range(n)])
 
 
+def _rolling_case(name: str, duration: float, rng: np.random.Generator
+                  ) -> tuple[str, CompiledModel, Callable[[int], list[Trial]]]:
+    """A motorised rolling robot on rolling gaits: the 3-bar on its learned rolling gait (each
+    world another friction), SUPERball on rolling waves drawn at random over its 24 motors."""
+    from tensim.learn import TrialProblem, default_base
+
+    robot = name.removesuffix("_roll")
+    structure = preset(robot).build()
+    problem = TrialProblem(structure, default_base(robot, "roll", structure), "roll", duration,
+                           model=robot)
+    compiled = problem.compiled()
+    dt = compiled.model.opt.timestep
+    if robot == "three_bar":
+        gait = load_controller("three_bar_roll", structure).with_duration(duration).build(dt)
+        return ("motorised 3-bar on its learned rolling gait (9 cables, 6 motorised, 18 DoF)",
+                compiled, lambda n: [Trial(gait, physics=PhysicsScale(
+                    friction=0.8 + 0.4 * i / n)) for i in range(n)])
+    points = rng.random((DISTINCT_GAITS, problem.dimension))
+    gaits = [problem.controller(u).build(dt) for u in points]
+    return ("SUPERball on rolling waves (24 motorised cables, 36 DoF)", compiled,
+            lambda n: [Trial(gaits[i % len(gaits)],
+                             physics=PhysicsScale(friction=0.8 + 0.4 * (i // len(gaits)) / n))
+                       for i in range(n)])
+
+
+def engine_alone(compiled: CompiledModel, worlds: int, duration: float,
+                 record_steps: int) -> float:
+    """Seconds MuJoCo Warp alone takes to step ``worlds`` copies of the model (with the cable
+    law's kernel, held at the build pose's commands) for ``duration``: its step captured as a
+    graph of ``record_steps`` steps on a CUDA device and replayed, a plain loop elsewhere."""
+    import mujoco
+    import mujoco_warp as mjw
+    import warp as wp
+
+    from tensim.model import BUILD_KEY
+    from tensim.sim._warp_batch import world_capacity
+    from tensim.sim._warp_law import install_warp_law, warp_host_model
+
+    host = warp_host_model(compiled.model)
+    data = mujoco.MjData(host)
+    mujoco.mj_resetDataKeyframe(host, data, host.key(BUILD_KEY).id)
+    m = mjw.put_model(host)
+    install_warp_law(m)
+    m.opt.warn_overflow = 0
+    rows, contacts = world_capacity(host)
+    d = mjw.put_data(host, data, nworld=worlds, nconmax=contacts, njmax=rows)
+
+    def interval() -> None:
+        for _ in range(record_steps):
+            mjw.step(m, d)
+
+    interval()  # compiles (cached after the tensim batch) and warms up
+    graph = None
+    if wp.get_device().is_cuda:
+        with wp.ScopedCapture() as capture:
+            interval()
+        graph = capture.graph
+    wp.synchronize()
+    repeats = max(1, round(duration / (record_steps * host.opt.timestep)))
+    started = time.perf_counter()
+    for _ in range(repeats):
+        if graph is not None:
+            wp.capture_launch(graph)
+        else:
+            interval()
+    wp.synchronize()
+    return time.perf_counter() - started
+
+
 def _timed_batch(compiled: CompiledModel, trials: list[Trial], duration: float,
                  **kwargs: Any) -> tuple[float, float, int]:
     """(whole call [s], stepping loop [s], failed trials) of one batch."""
@@ -72,8 +150,8 @@ def _timed_batch(compiled: CompiledModel, trials: list[Trial], duration: float,
 def bench_warp(worlds: Sequence[int] = (256, 1024, 4096, 16384), duration: float = 1.0,
                cases: Sequence[str] = CASES, device: str | None = None, cpu_trials: int = 256,
                report: Callable[[dict[str, Any]], None] | None = None,
-               max_worlds: dict[str, int] | None = None, record_dt: float = 0.01
-               ) -> dict[str, Any]:
+               max_worlds: dict[str, int] | None = None, record_dt: float = 0.01,
+               alone: bool = True) -> dict[str, Any]:
     """Aggregate physics steps per second on MuJoCo Warp against the number of worlds.
 
     Args:
@@ -86,10 +164,13 @@ def bench_warp(worlds: Sequence[int] = (256, 1024, 4096, 16384), duration: float
         max_worlds: per case, the largest batch to run (the 12-segment spine's recorded
             channels fill host memory fastest).
         record_dt: recording period [s] (each record copies the worlds' state to the host).
+        alone: beside each Warp batch, time MuJoCo Warp alone on the same model and worlds
+            (:func:`engine_alone`; rows of engine ``mjwarp``).
 
     Returns:
         ``device``, ``host_cores`` and ``rows``: per case and batch size the whole call and
-        the stepping loop [s], steps/s and real-time factor of all worlds together.
+        the stepping loop [s], steps/s and real-time factor of all worlds together; a Warp
+        row's ``of_alone`` is its steps/s over MuJoCo Warp's alone.
     """
     import warp as wp
 
@@ -114,9 +195,19 @@ def bench_warp(worlds: Sequence[int] = (256, 1024, 4096, 16384), duration: float
                 continue
             whole, loop, failed = _timed_batch(compiled, trials(n), duration, backend="warp",
                                                device=device, record_dt=record_dt)
-            add({"case": name, "what": what, "engine": "warp", "worlds": n, "whole_s": whole,
-                 "loop_s": loop, "failed": failed, "steps_per_s": n * steps / loop,
-                 "real_time_factor": n * duration / loop})
+            row = {"case": name, "what": what, "engine": "warp", "worlds": n, "whole_s": whole,
+                   "loop_s": loop, "failed": failed, "steps_per_s": n * steps / loop,
+                   "real_time_factor": n * duration / loop}
+            if alone:
+                with wp.ScopedDevice(device):
+                    bare = engine_alone(compiled, n, duration, max(1, round(record_dt / dt)))
+                row["of_alone"] = bare / loop
+                add(row)
+                add({"case": name, "what": what, "engine": "mjwarp", "worlds": n,
+                     "whole_s": bare, "loop_s": bare, "failed": 0,
+                     "steps_per_s": n * steps / bare, "real_time_factor": n * duration / bare})
+            else:
+                add(row)
         n = cpu_trials
         whole, loop, failed = _timed_batch(compiled, trials(n), duration, backend="cpu",
                                            threads=threads, record_dt=record_dt)
@@ -134,4 +225,6 @@ def format_row(row: dict[str, Any]) -> str:
     return (f"{row['case']:<20} {row['engine']:<8} {row['worlds']:>6} worlds: "
             f"{row['steps_per_s']:>12,.0f} steps/s, {row['real_time_factor']:>10,.0f}x real time "
             f"(loop {row['loop_s']:.2f} s, whole call {row['whole_s']:.2f} s"
-            + (f", {row['failed']} failed" if row["failed"] else "") + ")")
+            + (f", {row['failed']} failed" if row["failed"] else "")
+            + (f"; {row['of_alone']:.2f} of MuJoCo Warp alone" if "of_alone" in row else "")
+            + ")")

@@ -54,8 +54,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--record-dt", type=positive, default=0.01, metavar="S",
                    help="recording period of --backend warp [s] (default 0.01)")
     p.add_argument("--cases", default=None, metavar="NAME,...",
-                   help="cases of --backend warp (default all: tetraspine3_cpg, "
-                   "tetraspine_sidewind, superball, prism3)")
+                   help="cases of --backend warp (default: tetraspine3_cpg, "
+                   "tetraspine_sidewind, three_bar_roll, superball_roll; also superball and "
+                   "prism3, their rest lengths held)")
+    p.add_argument("--no-alone", dest="alone", action="store_false",
+                   help="--backend warp: skip timing MuJoCo Warp alone beside each batch")
     p.add_argument("--device", default=None, help="the Warp device of --backend warp "
                    "(default: a GPU where there is one, e.g. cuda:0 or cpu)")
     p.set_defaults(run=run)
@@ -73,19 +76,19 @@ def _worlds(text: str, option: str = "--worlds", example: str = "256,1024") -> l
 
 def _run_warp(args: argparse.Namespace) -> int:
     from tensim._files import write_json
-    from tensim.benchmarks.warp import CASES, bench_warp, format_row
+    from tensim.benchmarks.warp import ALL_CASES, CASES, bench_warp, format_row
     from tensim.sim._warp_batch import warp_available
 
     worlds = _worlds(args.worlds)
     if not warp_available():
         raise InputError("--backend warp needs MuJoCo Warp: pip install 'tensim[gpu]'")
     cases = CASES if args.cases is None else tuple(args.cases.split(","))
-    unknown = sorted(set(cases) - set(CASES))
+    unknown = sorted(set(cases) - set(ALL_CASES))
     if unknown:
         raise InputError(f"--cases: unknown case {unknown[0]!r}; expected some of "
-                         f"{', '.join(CASES)}")
+                         f"{', '.join(ALL_CASES)}")
     report = bench_warp(worlds, args.duration, cases, device=args.device,
-                        record_dt=args.record_dt,
+                        record_dt=args.record_dt, alone=args.alone,
                         report=lambda row: print(format_row(row), flush=True))
     print(f"device: {report['device']}; CPU engine on {report['host_cores']} cores")
     if args.json:

@@ -76,13 +76,23 @@ def write_target_velocity(sim: CableSetup, cables: Sequence[str], table: np.ndar
         KeyError: an unknown cable.
         ValueError: a table that does not match ``cables``.
     """
+    sim.drive.set_target_velocity(full_table(sim, cables, table), table_dt)
+
+
+def full_table(sim: CableSetup, cables: Sequence[str], table: np.ndarray) -> np.ndarray:
+    """(rows, n_cables) ``table``'s columns placed at their cables, zeros elsewhere [m/s].
+
+    Raises:
+        KeyError: an unknown cable.
+        ValueError: a table that does not match ``cables``.
+    """
     table = np.asarray(table, dtype=float)
     if table.ndim != 2 or table.shape[1] != len(cables):
         raise ValueError(f"table must be (rows, {len(cables)}), got {table.shape}")
     full = np.zeros((table.shape[0], sim.compiled.n_cables))
     for column, name in enumerate(cables):
         full[:, sim.index.cable_id(name)] = table[:, column]
-    sim.drive.set_target_velocity(full, table_dt)
+    return full
 
 
 def per_item(value: float | Sequence[float], n: int, what: str, item: str = "cable"

@@ -31,7 +31,7 @@ import numpy as np
 
 from tensim._files import write_text
 from tensim._input import InputError, describe, read_text
-from tensim.control._common import check_driven, write_target_velocity
+from tensim.control._common import check_driven, full_table
 from tensim.control.impedance import ImpedanceController
 from tensim.sim import CableSetup
 
@@ -105,6 +105,10 @@ class TableController:
 
     table: VelocityTable
     impedance: ImpedanceController
+    # the table placed at each model's cables, read-only: the simulations of one controller
+    # share it (a batch of thousands of worlds on a few gaits holds and computes each once)
+    _placed: dict[tuple[int, ...], np.ndarray] = dataclasses.field(
+        default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         check_driven(self.impedance, self.table.cables)
@@ -112,7 +116,13 @@ class TableController:
     def configure(self, sim: CableSetup) -> None:
         """Writes the impedance gains and the V* table into ``sim.drive``."""
         self.impedance.configure(sim)
-        write_target_velocity(sim, self.table.cables, self.table.values, self.table.period)
+        key = (sim.compiled.n_cables, *(sim.index.cable_id(c) for c in self.table.cables))
+        full = self._placed.get(key)
+        if full is None:
+            full = full_table(sim, self.table.cables, self.table.values)
+            full.flags.writeable = False
+            self._placed[key] = full
+        sim.drive.set_target_velocity(full, self.table.period)
 
 
 def save_velocity_table(table: VelocityTable, path: str | os.PathLike[str], *,

@@ -25,7 +25,6 @@ import dataclasses
 
 import numpy as np
 from scipy.linalg import svd
-from scipy.optimize import linprog
 
 from tensim.design._blas import one_blas_thread
 from tensim.design._bodies import Bodies, BuildPose, CableGeometry, build_pose, cable_tensions
@@ -227,6 +226,8 @@ def _maximin(basis: np.ndarray, rods: np.ndarray, row: np.ndarray) -> tuple[np.n
 
     Returns x and the largest smallest tension (<= 0 when no all-tension state exists).
     """
+    from scipy.optimize import linprog  # imported on use: see design/__init__
+
     n, s = basis.shape
     cost = np.r_[np.zeros(s), -1.0]  # variables (x, tau): maximise tau
     upper = np.block([[-basis, np.ones((n, 1))], [rods @ basis, np.zeros((len(rods), 1))]])

@@ -31,7 +31,6 @@ import dataclasses
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from tensim.design._errors import DesignError
 from tensim.design.topology import Topology
@@ -188,6 +187,7 @@ def _given_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nd
         x = null @ y.reshape(-1, 3)
         return np.r_[problem.length_residuals(x, scale), _size_residual(x, sized)]
 
+    from scipy.optimize import least_squares  # imported on use: see design/__init__
     fit = least_squares(residuals, start.ravel(), method="trf", xtol=1e-15, ftol=1e-15,
                         gtol=1e-15, max_nfev=2000)
     return null @ fit.x.reshape(-1, 3), q
@@ -251,6 +251,7 @@ def _free_densities(problem: _Problem, rough: np.ndarray | None) -> tuple[np.nda
     upper = np.r_[np.full(3 * problem.n, np.inf), np.where(rods[free], 0.0, np.inf)]
     start = np.r_[x0.ravel(), np.clip(guess[free], lower[3 * problem.n:] + 1e-12,
                                       upper[3 * problem.n:] - 1e-12)]
+    from scipy.optimize import least_squares
     fit = least_squares(residuals, start, jac=jacobian, bounds=(lower, upper), method="trf",
                         xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=2000, x_scale="jac")
     return unpack(fit.x)

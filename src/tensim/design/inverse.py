@@ -27,8 +27,6 @@ import dataclasses
 
 import numpy as np
 from scipy.linalg import null_space
-from scipy.optimize import linprog
-from scipy.spatial.transform import Rotation
 
 from tensim.control.rest import RestCommand
 from tensim.design._blas import one_blas_thread
@@ -107,6 +105,8 @@ def with_rest_lengths(structure: Structure, rest: np.ndarray) -> Structure:
 
 def _move(structure: Structure, body_set: Bodies, twist: np.ndarray) -> Structure:
     """The structure with every free body moved by its full twist (exact rotation)."""
+    from scipy.spatial.transform import Rotation  # imported on use: see design/__init__
+
     nodes = []
     for node in structure.nodes:
         b = body_set.node_body[node.name]
@@ -264,6 +264,7 @@ def _step(lin: _Linear, structure: Structure, targets: dict[str, np.ndarray],
                  slack]
     a_eq = np.hstack([jac @ sens, np.zeros((e, n)), -np.eye(e), np.eye(e)])
     cost = np.r_[np.zeros(n), np.ones(n), np.full(2 * e, MISS_WEIGHT)]
+    from scipy.optimize import linprog  # imported on use: see design/__init__
     result = linprog(cost, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=error,
                      bounds=[(0.0, 0.0) if c.motor.passive else (max(f - r, -TRUST), TRUST)
                              for c, f, r in zip(structure.cables, floor, rest, strict=True)]

@@ -23,7 +23,6 @@ import dataclasses
 from collections.abc import Callable
 
 import numpy as np
-from scipy.optimize import brentq
 
 from tensim.design._bodies import GRAVITY
 from tensim.design._errors import DesignError
@@ -244,6 +243,7 @@ def _first(margin: Callable[[float], float], guess: float | None
         low, high = high, 2 * high
         if high > MAX_FACTOR:
             return None, False
+    from scipy.optimize import brentq  # imported on use: see design/__init__
     root = float(brentq(f, low, high, xtol=1e-9 * high, rtol=1e-10))
     try:  # a root where poses end, not where the margin is spent (1 % of it left)
         ends = margin(root) > LEFT * f(0.0)

@@ -48,6 +48,9 @@ class Stiffness:
         rigid: rigid-body motions (6 for a free structure, 0 when held by the world).
         mechanisms: internal mechanisms of the equilibrium matrix (m - rigid).
         stiffened: internal mechanisms that prestress stiffens (v^T K_g v > 0 on them).
+        modal: (n_dof,) the eigenvalues omega^2 of (K, M) behind ``frequencies`` and
+            ``modes``, unclipped [1/s^2] (None: not kept; :func:`step_bound` then solves the
+            eigenproblem again).
     """
 
     bodies: tuple[str, ...]
@@ -62,6 +65,7 @@ class Stiffness:
     rigid: int
     mechanisms: int
     stiffened: int
+    modal: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
 
     @property
     def matrix(self) -> np.ndarray:
@@ -108,7 +112,7 @@ def stiffness(structure: Structure, count: bool = True, *,
         counts = (eq.n_rigid, eq.internal_mechanisms,
                   _stiffened(eq.mechanisms, body_set.rigid_motions(), geometric))
     return Stiffness(body_set.names, body_set.dof_body, material, geometric, mass, damping,
-                     tensions, frequencies, modes, *counts)
+                     tensions, frequencies, modes, *counts, modal=values)
 
 
 def _stiffened(mechanisms: np.ndarray, rigid: np.ndarray, geometric: np.ndarray) -> int:
@@ -239,7 +243,9 @@ def step_bound(result: Stiffness, integrator: str = "euler") -> StepBound:
 
 
 def _step_bound(result: Stiffness, integrator: str) -> StepBound:
-    values, modes = eigh(result.matrix, result.mass)
+    # the modes stiffness() found (the same eigenproblem, solved once)
+    values, modes = (result.modal, result.modes) if result.modal is not None \
+        else eigh(result.matrix, result.mass)
     values = np.clip(values, 0.0, None)
     damping = modes.T @ result.damping @ modes
     scale = max(values.max(initial=0.0), np.abs(damping).max(initial=0.0) ** 2)

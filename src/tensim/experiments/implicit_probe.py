@@ -1,13 +1,17 @@
 """Measurements behind the implicit cable law's choice (docs/speed.md, docs/architecture.md):
 what sets the disturbance test's error at long steps, and what a law that solved its own cables'
 implicit step, with nothing handed to MuJoCo's metric, would give
-(``python -m tensim.experiments.implicit_probe loop-gain|peak|own-solve``).
+(``python -m tensim.experiments.implicit_probe loop-gain|peak|contacts|own-solve``).
 
 - :func:`loop_gain`: ``h rho(diag(D) J M^-1 J^T)`` at a settled state, for the cables' own
   damping ``b`` and for the impedance laws' damping gains ``B`` (the gain of the explicit step's
   velocity feedback: above 2 a damper applied from the velocity at the step's start rings).
 - :func:`peak_study`: the disturbance test's worst cable, where its peak lies against its
   level over the phases of the test.
+- :func:`contact_study`: the disturbance test at a long step against its reference, as built,
+  without the impedance laws' damping gains, and on MuJoCo's elliptic friction cones: the
+  worst cable and the share of the push's samples in which the cables' length rates jump away
+  from the reference's (:func:`velocity_jumps`).
 - :func:`own_solve`: a probe, not a law of tensim: each step the cable forces of a robot with
   fixed or speed-limited rest lengths are computed in Python from a linearly implicit update of
   the cables alone and applied to MuJoCo's Euler step as plain forces (the robot of
@@ -34,6 +38,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from tensim.experiments import laws
 from tensim.model import WorldOptions, compile_structure
 from tensim.model._compile import compile_spec, without_cable_law
 from tensim.model._law_layout import A_REST, G_DAMPING, P_GAIN_B
@@ -102,13 +107,13 @@ class Probe:
 
 def probes() -> dict[str, Probe]:
     """The laws study's SUPERball push and 3-bar winding (``tensim.experiments.laws``)."""
-    from tensim.experiments.laws import three_bar
     from tensim.models import preset
 
     ball = preset("superball").build()
     push = ramp_hold_release(ball.nodes[0].name, (0.0, 1.0, 0.0), 150.0, 0.5, 0.2, 0.6, 0.2)
     return {"superball": Probe(ball, 3.0, (push,)),
-            "three_bar": Probe(three_bar(), 4.0, wound=(("bottom_0", 0.75), ("vertical_1", 0.75)))}
+            "three_bar": Probe(laws.three_bar(), 4.0,
+                               wound=(("bottom_0", 0.75), ("vertical_1", 0.75)))}
 
 
 def cable_tensions(mode: str, theta: float, dt: float, m: mujoco.MjModel, d: mujoco.MjData,
@@ -266,11 +271,70 @@ def peak_study(dt: float = 4e-3, law: str = "implicit") -> dict[str, Any]:
                 "reference", 35.0, 40.0) - 1.0)}
 
 
+PUSH_S = (30.0, 45.0)  # the disturbance test's push: its rise, hold and fall [s]
+JUMP_M_S = 5e-3  # a length rate this far from the reference's is a jump [m/s]
+
+
+def velocity_jumps(time: np.ndarray, rates: np.ndarray, reference_time: np.ndarray,
+                   reference_rates: np.ndarray, window: tuple[float, float] = PUSH_S,
+                   threshold: float = JUMP_M_S) -> float:
+    """The share of the samples in ``window`` [s] in which some cable's length rate is more
+    than ``threshold`` [m/s] from the reference's at the same time (interpolated).
+
+    Args:
+        time: (n,) [s]. rates: (n, c) the cables' length rates [m/s].
+        reference_time: (r,) [s]. reference_rates: (r, c) [m/s].
+    """
+    inside = (time >= window[0]) & (time < window[1])
+    reference = np.stack([np.interp(time[inside], reference_time, reference_rates[:, j])
+                          for j in range(rates.shape[1])], axis=1)
+    return float((np.abs(rates[inside] - reference) > threshold).any(axis=1).mean())
+
+
+def _rates(result: Any) -> tuple[np.ndarray, np.ndarray]:
+    ts = result.trajectory
+    return ts.time, np.stack([ts[f"velocity/{c}"] for c in result.cables], axis=1)
+
+
+def contact_variants() -> dict[str, Callable[[WorldOptions], Any]]:
+    """The disturbance test as built, with the impedance laws' damping gains B set to 0, and
+    on MuJoCo's elliptic friction cones (each against its own reference)."""
+    return {"as built": laws._tetraspine3,
+            "B = 0": laws._tetraspine3_variant(damping_scale=0.0),
+            "elliptic cones": lambda world: laws._tetraspine3(
+                dataclasses.replace(world, cone="elliptic"))}
+
+
+def contact_study(dt: float = 4e-3, cable_laws: Sequence[str] = ("explicit", "implicit")
+                  ) -> list[str]:
+    """Per variant of :func:`contact_variants` and law at ``dt`` [s]: the worst cable's
+    max-tension change against the 0.05 ms explicit reference [%], when its peak falls [s],
+    the largest distance of the centre of mass [mm], and :func:`velocity_jumps` in the push."""
+    lines = []
+    for name, run in contact_variants().items():
+        reference = run(WorldOptions(timestep=5e-5))
+        lines.append(f"{name}:")
+        for law in cable_laws:
+            result = run(WorldOptions(timestep=dt, cable_law=law))
+            tension, path = laws.compare(result, reference)
+            change = (result.peak_tension - reference.peak_tension) / reference.peak_tension
+            cable = result.cables[int(np.argmax(np.abs(change)))]
+            ts = result.trajectory
+            at = float(ts.time[np.argmax(ts[f"tension/{cable}"])])
+            jumps = velocity_jumps(*_rates(result), *_rates(reference))
+            lines.append(f"  {law:<9} {dt * 1e3:g} ms: max tension {tension:+.2f} % ({cable}, "
+                         f"peak at {at:.2f} s), centre of mass {path * 1e3:.1f} mm, push "
+                         f"samples with a jump {100 * jumps:.0f} %")
+    return lines
+
+
 def main(argv: Sequence[str] | None = None) -> None:
-    """The command line: ``loop-gain``, ``peak DT_MS LAW``, ``own-solve CASE [MODES]``."""
+    """The command line: ``loop-gain``, ``peak DT_MS LAW``, ``contacts``,
+    ``own-solve CASE [MODES]``."""
     parser = argparse.ArgumentParser(prog="python -m tensim.experiments.implicit_probe")
     sub = parser.add_subparsers(dest="what", required=True)
     sub.add_parser("loop-gain")
+    sub.add_parser("contacts")
     peak = sub.add_parser("peak")
     peak.add_argument("dt_ms", type=float)
     peak.add_argument("law")
@@ -286,6 +350,11 @@ def main(argv: Sequence[str] | None = None) -> None:
               "B and B + b (explicit velocity feedback rings above 2), and B on one cable alone")
         for ms, gains in loop_gain().items():
             print(f"  {ms:>3} ms: " + ", ".join(f"{k} {v:5.2f}" for k, v in gains.items()))
+    elif args.what == "contacts":
+        print("tetraspine3 at 4 ms against its 0.05 ms explicit reference; a jump: a cable's "
+              "length rate more than 5 mm/s from the reference's, over the push (30-45 s)")
+        for line in contact_study():
+            print(line)
     elif args.what == "peak":
         r = peak_study(args.dt_ms / 1e3, args.law)
         print(f"tetraspine3, {args.law} at {args.dt_ms:g} ms: worst cable {r['cable']} "

@@ -167,6 +167,14 @@ class InputPlan:
         self.nu = compiled.n_cables + 3 * len(load_nodes)
         self.dt = float(compiled.model.opt.timestep)
 
+    def sharing_key(self) -> tuple[object, ...]:
+        """What :meth:`control` reads, by identity where it is an array of the plan's
+        controller (its V* table, its loads): plans with equal keys, at once, give equal rows,
+        so a batch of many worlds on few gaits computes each gait's rows once."""
+        d = self.drive
+        return (id(d.target_velocity), d.table_dt, d.mode.tobytes(), d.rest_command.tobytes(),
+                tuple(map(id, self.loads)), tuple(self._column), self.nu, self.dt)
+
     def control(self, first: int, count: int) -> np.ndarray:
         """(count, nu) the ``ctrl`` of steps first .. first + count - 1."""
         steps = np.arange(first, first + count)

@@ -124,6 +124,9 @@ class Simulation:
         self.drive = CableDrive(compiled, self.model, data=self.data)
         self._loads = tuple(loads)
         self._qvel, self._ctrl = self.data.qvel, self.data.ctrl  # views, looked up once
+        self._cable_force = self.data.actuator_force[:compiled.n_cables]
+        d = self.data
+        self._energy_fields = (d.qvel[None], d.xpos[None], d.ten_length[None], d.act[None])
         self._bad_acc = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
         self._contact = ContactCheck(compiled) \
             if any(c.contact for c in compiled.structure.cables) else None
@@ -206,7 +209,7 @@ class Simulation:
 
     def push_forces(self) -> None:
         """Keeps the cable forces of the step just taken for the ringing check."""
-        self._forces.push(slice(0, 1), self.data.actuator_force[:self.compiled.n_cables])
+        self._forces.push(slice(0, 1), self._cable_force)
 
     def run(self, duration: float, progress: Callable[[float, float], None] | None = None,
             on_record: Callable[[Simulation], None] | None = None) -> TimeSeries:
@@ -235,7 +238,7 @@ class Simulation:
         """Raises :class:`SimulationError` naming the body or cable if the state ran away or a
         cable rings at the step frequency."""
         bad_acc = self._bad_acc.number
-        if stable(self._qvel, self.data.actuator_force[:self.compiled.n_cables],
+        if stable(self._qvel, self._cable_force,
                   np.array(bad_acc), self.limits):
             # MuJoCo's reset clears the activations: keep the peak tensions for the message
             self._peak_seen = (self.time, self.drive.peak.copy())
@@ -258,8 +261,7 @@ class Simulation:
     def _check_energy(self) -> None:
         """Raises :class:`SimulationError` where the mechanical energy grows geometrically
         (:func:`~tensim.sim._loop.energy_growing`), naming what holds most of it."""
-        d = self.data
-        fields = (d.qvel[None], d.xpos[None], d.ten_length[None], d.act[None])
+        fields = self._energy_fields
         if self._energies.push(slice(None), self._energy.total(*fields))[0]:
             excess = self._energies.energy[0] - self._energies.lowest[0]
             raise SimulationError(energy_message(self._energy.largest(*fields), excess,

@@ -20,6 +20,7 @@ copies) is captured once as a CUDA graph and replayed per record.
 from __future__ import annotations
 
 import copy
+import ctypes
 import logging
 import time as _time
 from collections.abc import Callable, Sequence
@@ -56,6 +57,10 @@ _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 # a trial's model may differ from the batch's in values, never in these sizes
 # fields MuJoCo Warp holds once but reads only for island sleeping, which tensim leaves off
 _SLEEP_ONLY = frozenset({"dof_length"})
+# take() launches the next record interval before storing a sample on CUDA devices, where
+# launches are asynchronous; tests turn it on for Warp's CPU device, where it must (and does)
+# give the same results as stepping after the sample
+PIPELINE_ON_CPU = False
 _SIZES = ("nq", "nv", "nu", "na", "nbody", "ngeom", "nsite", "ntendon", "nwrap", "neq",
           "nkey")
 
@@ -123,30 +128,68 @@ def per_world_fields(batch: mujoco.MjModel, models: Sequence[mujoco.MjModel]) ->
     from mujoco_warp._src import types
     from mujoco_warp._src.warp_util import is_array_spec
 
+    sizes = np.asarray(batch._sizes)
     for i, m in enumerate(models):
-        other = [s for s in _SIZES if getattr(m, s) != getattr(batch, s)]
-        if other:
-            raise ValueError(f"trial {i}: its model differs in size ({other[0]} "
-                             f"{getattr(m, other[0])} against {getattr(batch, other[0])}); a "
-                             "batch's trials share one layout")
+        if not np.array_equal(np.asarray(m._sizes), sizes):
+            other = next((s for s in _SIZES if getattr(m, s) != getattr(batch, s)), None)
+            what = (f"{other} {getattr(m, other)} against {getattr(batch, other)}"
+                    if other is not None else "another layout of its arrays")
+            raise ValueError(f"trial {i}: its model differs in size ({what}); a batch's trials "
+                             "share one layout")
     known = {f.name: f.type for f in dataclasses.fields(types.Model)}
     batched = {name for name, kind in known.items()
                if is_array_spec(kind) and getattr(kind, "shape", ("",))[0] == "*"}
+    arrays = {name: value for name in dir(batch) if not name.startswith("_")
+              and isinstance(value := getattr(batch, name, None), np.ndarray) and value.size}
     fields = []
-    for name in dir(batch):
-        value = getattr(batch, name, None)
-        if name.startswith("_") or not isinstance(value, np.ndarray) or value.size == 0:
-            continue
-        differs = next((i for i, m in enumerate(models)
-                        if not np.array_equal(getattr(m, name), value)), None)
-        if differs is None or name not in known or name in _SLEEP_ONLY \
-                or name.startswith("key_"):  # each world starts from its own keyframe
-            continue  # equal, or a field MuJoCo Warp's step does not read
+    for name, differs in _differing(batch, models, arrays).items():
+        if name not in known or name in _SLEEP_ONLY or name.startswith("key_"):
+            continue  # a field MuJoCo Warp's step does not read; each world starts from its key
         if name not in batched:
             raise ValueError(f"trial {differs}: its model differs in {name}, which MuJoCo Warp "
                              "holds once for all worlds; run it on the CPU engine")
         fields.append(name)
     return fields
+
+
+def _differing(batch: mujoco.MjModel, models: Sequence[mujoco.MjModel],
+               arrays: dict[str, np.ndarray]) -> dict[str, int]:
+    """Each of ``arrays`` (``batch``'s fields) in which a model differs, with the first such
+    model.
+
+    MuJoCo keeps a model's arrays in one buffer laid out by its sizes alone, so models of equal
+    sizes (checked by the caller) hold each field at the same offset: one comparison of each
+    model's whole buffer finds the bytes that differ, which are then mapped to their fields
+    (padding between arrays maps to none). A thousand worlds' models are compared in
+    milliseconds; field by field it took seconds."""
+    address = {name: a.__array_interface__["data"][0] for name, a in arrays.items()}
+    start = min(address.values())
+    end = max(address[name] + a.nbytes for name, a in arrays.items())
+    if end - start > batch.nbuffer:  # not one buffer (cannot happen in MuJoCo 3-4): compare
+        return {name: i for name, value in arrays.items()  # field by field
+                for i in [next((i for i, m in enumerate(models)
+                                if not np.array_equal(getattr(m, name), value)), None)]
+                if i is not None}
+    first = next(iter(arrays))
+    offset = address[first] - start
+
+    def buffer(m: mujoco.MjModel) -> np.ndarray:
+        at = getattr(m, first).__array_interface__["data"][0] - offset
+        return np.ctypeslib.as_array((ctypes.c_uint8 * (end - start)).from_address(at))
+
+    reference = buffer(batch)
+    changed = np.full(end - start, -1, dtype=np.int64)  # the first model differing per byte
+    for i, m in enumerate(models):
+        new = (buffer(m) != reference) & (changed < 0)
+        if new.any():
+            changed[new] = i
+    out: dict[str, int] = {}
+    for name, a in arrays.items():
+        span = changed[address[name] - start:address[name] - start + a.nbytes]
+        hit = span[span >= 0]
+        if hit.size:
+            out[name] = int(hit.min())
+    return out
 
 
 def world_capacity(model: mujoco.MjModel) -> tuple[int, int]:
@@ -194,7 +237,10 @@ class _WarpRun:
         self.d = mjw.put_data(host, data, nworld=n, nconmax=nconmax, njmax=njmax)
         self._restore(host, trials)
         self._step = mjw.step
-        self._graph: Any = None
+        self._graphs: dict[int, Any] = {}  # captured launches, by their number of steps
+        self.taken = 0  # samples taken
+        self._ahead = False  # the next record interval is running (launched by take())
+        self.state: dict[str, np.ndarray] | None = None
         self.samples = SampleBuffers.empty(compiled, 0, (n,))
         self.count = np.zeros(n, dtype=int)
         self.steps = np.zeros(n, dtype=np.int64)
@@ -235,29 +281,56 @@ class _WarpRun:
 
     # -- stepping ----------------------------------------------------------------------------
 
-    def _control(self, first: np.ndarray, count: int) -> np.ndarray:
-        """(n, count, nu) every world's inputs; failed trials hold zeros."""
-        out = np.zeros((len(self.trials), count, self.compiled.model.nu))
+    def _groups(self) -> tuple[np.ndarray, list[int]]:
+        """Each world's input group and each group's first world: worlds that share a gait,
+        loads and clock (:meth:`InputPlan.sharing_key`) share their rows, computed and held
+        once; failed trials (no plan) share one group of zeros."""
+        keys: dict[tuple[object, ...], int] = {}
+        group = np.empty(len(self.plans), dtype=np.int64)
         for i, plan in enumerate(self.plans):
-            if plan is not None:
-                out[i] = plan.control(int(first[i]), count)
-        return out
+            key = ("failed",) if plan is None else (int(self.steps[i]), *plan.sharing_key())
+            group[i] = keys.setdefault(key, len(keys))
+        first = [int(i) for i in np.unique(group, return_index=True)[1]]
+        return group, first
+
+    def _control(self, count: int) -> None:
+        """Stages every group's inputs for the next ``count`` steps (all worlds step on
+        together, so a group's worlds stay on one clock)."""
+        out = self.inputs.staging(count)
+        nu = self.compiled.model.nu
+        for g, i in enumerate(self.leaders):
+            plan = self.plans[i]
+            out[g, :, :nu] = 0.0 if plan is None else plan.control(int(self.steps[i]), count)
 
     def _advance(self, nstep: int) -> None:
-        """Steps every world ``nstep`` steps on its held inputs: a replay of the captured
-        record interval where there is one, else one launch sequence per step."""
+        """Steps every world ``nstep`` steps on its held inputs and waits for them."""
+        self._start(nstep)
+        self._finish(nstep)
+
+    def _start(self, nstep: int) -> None:
+        """Launches ``nstep`` steps of every world on its held inputs, without waiting: a
+        replay of the captured launches where there are (a record interval, or a part of a
+        watched one), else one launch sequence per step."""
         import warp as wp
 
         if self.inputs.left() < nstep:
-            self.inputs.load(self._control(self.steps, self.inputs.next_rows(nstep)))
-        if nstep == self.record_steps and self.inputs.device.is_cuda:
-            if self._graph is None:
+            rows = self.inputs.next_rows(nstep)
+            self._control(rows)
+            self.inputs.load(rows)
+        if self.inputs.device.is_cuda:
+            graph = self._graphs.get(nstep)
+            if graph is None:
                 with wp.ScopedCapture() as capture:
                     self._launch(nstep)
-                self._graph = capture.graph
-            wp.capture_launch(self._graph)
+                graph = self._graphs[nstep] = capture.graph
+            wp.capture_launch(graph)
         else:
             self._launch(nstep)
+
+    def _finish(self, nstep: int) -> None:
+        """Waits for the launched steps and books them."""
+        import warp as wp
+
         wp.synchronize()
         self.inputs.consumed(nstep)
         self.steps += nstep
@@ -269,6 +342,8 @@ class _WarpRun:
 
     def run(self, n_samples: int, duration: float,
             progress: Callable[[float, float], None] | None, fresh: bool) -> None:
+        import warp as wp
+
         from tensim.sim._warp_inputs import HeldInputs
 
         self.samples = SampleBuffers.empty(self.compiled, n_samples + 1, (len(self.trials),))
@@ -278,7 +353,9 @@ class _WarpRun:
         allowance = max((self.energy.load_allowance(t.loads) for t in self.trials),
                         default=0.0)
         self.energies = EnergyHistory(len(self.trials), self.energy.scale + allowance)
-        self.inputs = HeldInputs(len(self.trials), self.compiled.model.nu, self.record_steps,
+        group, self.leaders = self._groups()
+        self.pipeline = wp.get_device().is_cuda or PIPELINE_ON_CPU
+        self.inputs = HeldInputs(group, self.compiled.model.nu, self.record_steps,
                                  n_samples * self.record_steps + int(fresh))
         if fresh:
             self._advance(1)  # the motor update at t = 0
@@ -292,6 +369,10 @@ class _WarpRun:
     # trials are no longer sampled or checked
 
     def advance(self, k: int, nstep: int) -> bool:
+        if self._ahead:  # launched by take(), while the host stored the last sample
+            self._ahead = False
+            self._finish(nstep)
+            return any(e is None for e in self.error)
         if not watched(k, self.n_samples, nstep):
             self._advance(nstep)
             return any(e is None for e in self.error)
@@ -303,20 +384,55 @@ class _WarpRun:
         return any(e is None for e in self.error)
 
     def take(self) -> None:
+        """Samples every live world. On a CUDA device it then launches the next record
+        interval before storing the sample (unless that interval is watched for ringing or
+        there is none), so the GPU steps while the host stores and checks: the state the
+        check reads is copied with the sample."""
         live = np.array([e is None for e in self.error])
-        fields = {name: getattr(self.d, name).numpy()[live] for name in
-                  ("ten_length", "ten_velocity", "act", "ctrl", "xpos", "xquat", "subtree_com")}
+        k = int(self.taken) - 1  # the record this sample ends (-1: the first sample)
+        self.taken += 1
+        names = ("ten_length", "ten_velocity", "act", "ctrl", "xpos", "xquat", "subtree_com")
+        host = {name: self._host(name) for name in names}
+        ahead = (self.pipeline and k + 1 < self.n_samples
+                 and not watched(k + 1, self.n_samples, self.record_steps))
+        if ahead:
+            self.state = {**{name: self._host(name)
+                             for name in ("qvel", "actuator_force", "qacc", "qpos", "overflow")},
+                          **host}
+            self._start(self.record_steps)
+            self._ahead = True
+        else:
+            self.state = None
+        if live.all() and (self.count == self.count[0]).all():  # the usual case: no gathers
+            self.samples.put(slice(None), int(self.count[0]),
+                             sample_time(self.steps * self.dt, self.dt), host,
+                             self.compiled.index)
+            self.count += 1
+            return
+        fields = {name: value[live] for name, value in host.items()}
         time = sample_time(self.steps[live] * self.dt, self.dt)  # the worlds' clocks
         self.samples.put(np.flatnonzero(live), self.count[live], time, fields,
                          self.compiled.index)
         self.count[live] += 1
 
+    def _host(self, name: str) -> np.ndarray:
+        """A host copy of the worlds' MjData field ``name`` (on the CPU device, where
+        ``numpy()`` is a view of the device's memory, copied when the next steps may run
+        before it is read)."""
+        value = getattr(self.d, name).numpy()
+        return value.copy() if self.pipeline and not self.inputs.device.is_cuda else value
+
+    def _read(self, name: str) -> np.ndarray:
+        """The worlds' field ``name`` as of the last sample: from the copy taken with it
+        when the next steps are already running, else from the device."""
+        return self.state[name] if self.state is not None else getattr(self.d, name).numpy()
+
     def check(self) -> None:
         """The stability check of the CPU engines; MuJoCo Warp does not check accelerations
         itself, so the check applies MuJoCo's rule to ``qacc``."""
         n = self.compiled.n_cables
-        qvel, force = self.d.qvel.numpy(), self.d.actuator_force.numpy()
-        bad_acc = bad_acceleration(self.d.qacc.numpy())
+        qvel, force = self._read("qvel"), self._read("actuator_force")
+        bad_acc = bad_acceleration(self._read("qacc"))
         fine = stable(qvel, force[:, :n], bad_acc, self.limits)
         for i in np.flatnonzero(~fine):
             if self.error[i] is not None:
@@ -343,7 +459,7 @@ class _WarpRun:
     def _check_energy(self, qvel: np.ndarray, fine: np.ndarray) -> None:
         """Fails the worlds whose mechanical energy runs away (see
         :func:`tensim.sim._loop.energy_growing`), as the CPU engines do."""
-        parts = [qvel, *(getattr(self.d, name).numpy() for name in ("xpos", "ten_length", "act"))]
+        parts = [qvel, *(self._read(name) for name in ("xpos", "ten_length", "act"))]
         growing = self.energies.push(slice(None), self.energy.total(*parts)) & fine
         for i in np.flatnonzero(growing):
             if self.error[i] is None:
@@ -355,7 +471,7 @@ class _WarpRun:
     def _check_room(self, fine: np.ndarray) -> None:
         """Fails the worlds MuJoCo Warp ran out of room for (contacts or constraint rows
         dropped: their physics is wrong from then on)."""
-        overflow = self.d.overflow.numpy()
+        overflow = self._read("overflow")
         for i in np.flatnonzero(overflow != 0):
             fine[i] = False
             if self.error[i] is None:
@@ -368,7 +484,7 @@ class _WarpRun:
         """Fails the worlds whose contact cables went through an obstacle: each world's
         positions and activations on a CPU copy of its model, checked as the CPU engines do."""
         assert self._contact is not None and self._scratch is not None
-        qpos, act = self.d.qpos.numpy(), self.d.act.numpy()
+        qpos, act = self._read("qpos"), self._read("act")
         for i in map(int, worlds):
             if self.error[i] is not None:
                 continue

@@ -92,6 +92,30 @@ def thin(x: np.ndarray, y: np.ndarray, pixels: int = PANEL_PIXELS
     return x[index], y[index]
 
 
+def thin_lines(x: np.ndarray, ys: np.ndarray, pixels: int = PANEL_PIXELS) -> list[np.ndarray]:
+    """Each row of ``ys`` (m, n) thinned as :func:`thin` does against the shared ``x`` (n,),
+    as (k, 2) arrays of points: the same points, found for all the lines at once (a panel
+    of many cables reduces them in a few array operations, not a few dozen per line)."""
+    ys = np.asarray(ys, dtype=float).reshape(-1, x.size)
+    n = x.size
+    if n <= 4 * pixels:
+        return [np.column_stack([x, y]) for y in ys]
+    edges = np.linspace(x[0], x[-1], pixels + 1)[1:-1]
+    starts = np.unique(np.concatenate([[0], np.searchsorted(x, edges, side="left")]))
+    starts = starts[starts < n]
+    counts = np.diff(np.append(starts, n))
+    keep = np.zeros(ys.shape, dtype=bool)
+    keep[:, [0, -1]] = True
+    position = np.arange(n)
+    for reduce in (np.fmin, np.fmax):  # fmin/fmax ignore NaN
+        extreme = np.repeat(reduce.reduceat(ys, starts, axis=1), counts, axis=1)
+        # the first sample of each column that reaches it (n: none, a column of NaN)
+        first = np.minimum.reduceat(np.where(ys == extreme, position, n), starts, axis=1)
+        rows, _ = np.nonzero(first < n)
+        keep[rows, first[first < n]] = True
+    return [np.column_stack([x[row], y[row]]) for y, row in zip(ys, keep, strict=True)]
+
+
 # More cables than this share panels: one panel per group of cables (see cable_panels), so a
 # robot of hundreds of cables still gets a figure of a few rows that draws in seconds.
 MAX_PANELS = 30
@@ -302,7 +326,7 @@ def _lines(ax: Axes, t: np.ndarray, lines: Sequence[np.ndarray], ls: str = "soli
     """Many cables' lines in one panel, thin, in matplotlib's colour cycle (the k-th line in
     the k-th colour): one collection, not an artist per cable."""
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
-    segments = [np.column_stack(thin(t, y, GROUP_PIXELS)) for y in lines]
+    segments = thin_lines(t, np.array(lines), GROUP_PIXELS)
     ax.add_collection(LineCollection(segments, colors=[colors[k % len(colors)]
                                                        for k in range(len(lines))],
                                      linewidths=0.6, alpha=0.7, linestyles=ls))
