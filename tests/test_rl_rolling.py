@@ -544,3 +544,25 @@ def test_a_warm_start_takes_its_own_noise_rate_and_warm_up_and_keeps_each_checkp
     assert "--init-lr 0.0001: applies only to a run started with --init" in \
         capsys.readouterr().err
     assert not (tmp_path / "third").exists()
+
+
+def test_support_faces_tell_rolling_from_staying_on_one_face():
+    """A straight 3-bar prism turned about its long axis by 120 and 240 degrees stands on each
+    of its three rectangular sides in turn (4 ends each, all 6 ends on the ground); held in
+    one pose it stands on one side, with 4 ends on the ground."""
+    from tensim.rl.evaluate import support_faces
+
+    angles = np.radians([90.0, 210.0, 330.0])
+    ends = np.array([[x, np.cos(a), np.sin(a)] for x in (0.0, 2.0) for a in angles])
+
+    def turned(deg: float) -> np.ndarray:
+        c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+        p = ends @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]]).T
+        return p - [0.0, 0.0, p[:, 2].min()]
+
+    rolled = support_faces(np.array([turned(d) for d in (0.0, 120.0, 240.0, 360.0)]))
+    assert [len(f) for f in rolled] == [4, 4, 4, 4]
+    assert len(set(rolled[:3])) == 3 and rolled[3] == rolled[0]
+    assert set().union(*rolled) == {str(i) for i in range(6)}
+    still = support_faces(np.array([turned(0.0)] * 3))
+    assert len(set(still)) == 1 and len(still[0]) == 4

@@ -222,7 +222,7 @@ class PlanCache:
         line = next(e for e in support_edges(np.array([positions[f][:2] for f in feet]))
                     if _edge_nodes(e, feet, positions) == edge)
         explicit = with_rest_lengths(pose, self.built)
-        start = settle(explicit, feet, self.gravity)
+        start = settle(explicit, feet, self.gravity, sliding=self.settings.sliding)
         plan = plan_edge(pose, explicit, start, self.built, self.built, line, feet,
                          self.settings, self.gravity)
         return plan.rest_lengths, plan.margin

@@ -52,6 +52,13 @@ class RollSettings:
         pump: a plan whose static centre of mass stays short of the edge (a tip only
             momentum can make) is let go while the robot swings back from the edge and
             commanded again as it swings toward it, building up its rocking.
+        sliding: plan with the feet on frictionless ground (held only in height, as
+            :func:`tensim.design.inverse.settle` with ``sliding``), so that the planned pose
+            needs no friction; else the feet are held where they stand (friction takes any
+            sideways force). On a light robot with strong motors (the ``three_bar``
+            preset: 2 kN motors, about 40 N on each foot) friction holds far less than the
+            cables pull; off by default (docs/rolling.md: it tips the preset over its far
+            edge once, but does not roll it faster).
         cache: make each plan once per support face and edge of the build pose's hull,
             from the face's canonical pose with the built rest lengths, and share it between
             faces the robot's symmetry relates (:mod:`tensim.control.roll_plans`); a plan
@@ -71,6 +78,7 @@ class RollSettings:
     period_s: float = 0.05
     release: bool = True
     pump: bool = False
+    sliding: bool = False
     cache: bool = False
 
     def __post_init__(self) -> None:
@@ -203,11 +211,15 @@ def _com(lin: object) -> np.ndarray:
     return body_set.mass @ body_set.com / body_set.mass.sum()
 
 
-def _sensitivity(lin: object, structure: Structure) -> np.ndarray:
-    """(n_dof, n_cables) dq/dl0 of the static pose with the feet held (as the inverse statics)."""
+def _sensitivity(lin: object, structure: Structure, sliding: bool = False) -> np.ndarray:
+    """(n_dof, n_cables) dq/dl0 of the static pose with the feet held (as the inverse
+    statics); ``sliding``: with the feet held only as ``lin``'s stiffness holds them (feet on
+    frictionless ground, :func:`tensim.design.inverse.settle`)."""
     body_set, pose, feet = lin.body_set, lin.pose, lin.feet  # type: ignore[attr-defined]
     k = np.array([c.stiffness for c in structure.cables]) * lin.taut  # type: ignore[attr-defined]
     pull = lin.gradients.T * k  # type: ignore[attr-defined]
+    if sliding:  # the feet's springs are in the stiffness: K dq = A diag(k) dl0
+        return np.linalg.lstsq(lin.stiffness, pull, rcond=1e-12)[0]  # type: ignore[attr-defined]
     free = null_space(np.vstack([body_set.point_jacobian(body_set.node_body[f],
                                                           pose.position(f)) for f in feet])
                       @ body_set.basis)
@@ -225,12 +237,16 @@ class TipPlan:
         direction: (2,) unit outward normal of the edge it tips over.
         margin: how far past the edge the planned static centre of mass lies [m]
             (negative: short of it, the motors' travel spent).
+        height: how high that centre of mass lies above the lowest foot [m] (NaN where
+            not known), so that a rigid tip over the edge from there lifts it by
+            sqrt(margin^2 + height^2) - height.
     """
 
     rest_lengths: np.ndarray
     feet: tuple[str, ...]
     direction: np.ndarray
     margin: float
+    height: float = math.nan
 
 
 def plan_tip(structure: Structure, rest: np.ndarray, built: np.ndarray, heading: np.ndarray,
@@ -257,7 +273,7 @@ def plan_tip(structure: Structure, rest: np.ndarray, built: np.ndarray, heading:
     feet = support_face(positions)
     ahead = ahead_edges(np.array([positions[f][:2] for f in feet]), feet, heading)
     explicit = with_rest_lengths(structure, rest)
-    start = settle(explicit, feet, gravity)
+    start = settle(explicit, feet, gravity, sliding=settings.sliding)
     best: TipPlan | None = None
     for edge in ahead:
         plan = plan_edge(structure, explicit, start, rest, built, edge, feet, settings,
@@ -308,14 +324,38 @@ def plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.n
     step = (upper - lower) / settings.steps
     normal = edge[:2]
     planned = rest.copy()
+    pair = sorted(feet, key=lambda f: abs(normal @ np.asarray(structure.position(f))[:2]
+                                          + edge[2]))[:2]  # the edge's two feet
     for _ in range(settings.steps):
+        if settings.sliding:  # the feet slide: the edge is where its two feet are now
+            edge = _edge_through(lin, pair, normal)
+            normal = edge[:2]
         if normal @ _com(lin)[:2] + edge[2] >= settings.margin:
             break
-        rate = normal @ (_com_jacobian(lin) @ _sensitivity(lin, structure))[:2]
+        rate = normal @ (_com_jacobian(lin)
+                         @ _sensitivity(lin, structure, settings.sliding))[:2]
         useful = np.abs(rate) >= 0.2 * np.abs(rate).max()
         planned = np.clip(planned + np.where(useful, np.sign(rate) * step, 0.0), lower, upper)
         try:
-            lin = settle(with_rest_lengths(explicit, planned), feet, gravity)
+            lin = settle(with_rest_lengths(explicit, planned), feet, gravity,
+                         sliding=settings.sliding)
         except DesignError:
             break
-    return TipPlan(planned, feet, normal.copy(), float(normal @ _com(lin)[:2] + edge[2]))
+    if settings.sliding:
+        edge = _edge_through(lin, pair, normal)
+        normal = edge[:2]
+    com = _com(lin)
+    ground = min(lin.pose.position(f)[2] for f in feet)  # type: ignore[attr-defined]
+    return TipPlan(planned, feet, normal.copy(), float(normal @ com[:2] + edge[2]),
+                   float(com[2] - ground))
+
+
+def _edge_through(lin: object, pair: list[str], normal: np.ndarray) -> np.ndarray:
+    """(3,) the ground line a x + b y + c = 0 through the nodes ``pair`` of the static pose
+    ``lin``, (a, b) its unit normal on the side of ``normal``."""
+    pose = lin.pose  # type: ignore[attr-defined]
+    a, b = (np.asarray(pose.position(n))[:2] for n in pair)
+    along = (b - a) / np.linalg.norm(b - a)
+    out = np.array([along[1], -along[0]])
+    out = out if out @ normal >= 0 else -out
+    return np.array([out[0], out[1], -float(out @ a)])

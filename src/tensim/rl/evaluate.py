@@ -4,6 +4,7 @@ centre of mass's path, read from MjData, gives its speed in body lengths per sec
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from pathlib import Path
 from typing import Any
 
@@ -65,7 +66,8 @@ def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed:
         direction in the world (unit), ``yaw`` (T,) the turn about the vertical since the start
         [rad] (counter-clockwise; the turn task's measure, the best rigid fit of the rod
         ends' move from MjData, summed period by period),
-        ``observations`` (T-1, n_obs), ``actions`` (T-1, n_motors) and ``unstable``.
+        ``observations`` (T-1, n_obs), ``actions`` (T-1, n_motors), ``unstable`` and
+        ``points`` (T, p, 3) the rod ends (or bodies) the yaw is fitted to [m].
     """
     from tensim.rl.env import TensegrityEnv
 
@@ -99,9 +101,19 @@ def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed:
     turns = _yaw_change(cloud[:-1], cloud[1:])
     return {"fps": round(1.0 / (every * dt)), "time": np.arange(len(com)) * dt,
             "com": np.array(com), "yaw": np.concatenate([[0.0], np.cumsum(turns)]),
-            "heading": worlds.target[0].copy(),
+            "heading": worlds.target[0].copy(), "points": cloud,
             "observations": np.array(observations), "actions": np.array(actions),
             "unstable": unstable}
+
+
+def support_faces(points: np.ndarray) -> list[tuple[str, ...]]:
+    """Per sample of ``points`` (T, p, 3) [m], the convex-hull face the robot stands on
+    (:func:`~tensim.control.rolling.support_face`, points named by index): a policy that
+    rolls visits several and puts every rod end on the ground; one that crawls or slides on
+    one face does neither, whatever its speed."""
+    from tensim.control.rolling import support_face
+
+    return [support_face({str(i): p for i, p in enumerate(frame)}) for frame in points]
 
 
 def load_policy(source: Path) -> tuple[TrainSettings, Policy]:
@@ -148,7 +160,9 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
     sensor randomisation). The summary also holds ``yaw_turned_rad`` (counter-clockwise, the
     turn of :func:`run_policy`), ``yaw_rate_deg_per_s`` and ``displacement_body_lengths``
     (the centre of mass's net horizontal displacement over the body length), which say how
-    well a ``turn`` policy turns in place.
+    well a ``turn`` policy turns in place, and whether it rolls: ``faces_visited`` (distinct
+    support faces of the rod ends' hull, sampled every control period), ``support_changes``
+    and ``ends_on_ground`` of ``ends`` (the rod ends that were ever in the support face).
 
     Raises:
         tensim.viz._gl.OffscreenUnavailable: ``video`` where no offscreen OpenGL works.
@@ -171,6 +185,7 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
     along = float(moved @ heading)
     error = heading_error_deg(moved, heading)
     length = body_length(settings.model)
+    faces = support_faces(run["points"])
     summary = {"command": "rl evaluate", "policy_run": str(folder), "model": settings.model,
                "algo": settings.algo, "task": settings.task, "seed": seed,
                "duration_s": float(t[-1]), "body_length_m": round(length, 6),
@@ -183,6 +198,10 @@ def evaluate(folder: Path, out: Path, duration_s: float = 30.0, seed: int = 0,
                "yaw_rate_deg_per_s": round(float(np.degrees(run["yaw"][-1]) / t[-1]), 6)
                if t[-1] > 0 else 0.0,
                "displacement_body_lengths": round(float(np.hypot(*moved)) / length, 6),
+               "faces_visited": len(set(faces)), "support_changes": int(sum(
+                   a != b for a, b in itertools.pairwise(faces))),
+               "ends_on_ground": len(set().union(*faces)),
+               "ends": int(run["points"].shape[1]),
                "physics": dict(physics or {}),
                "training": policy.meta.get("training"),
                "unstable": run["unstable"], "timestep_s": settings.timestep,
