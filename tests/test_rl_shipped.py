@@ -89,11 +89,13 @@ def test_the_shipped_6_bar_policies_run_as_docs_rl_md_says():
 def test_the_fine_tuned_6_bar_policies_roll_from_starts_that_did_not_choose_them():
     # docs/rl.md: each seed's checkpoint was chosen on starts 10-29; from starts 30-33, which
     # played no part, they roll 0.140, 0.116, 0.157, 0.163 (seed 1), 0.087, 0.252, 0.108,
-    # 0.227 (seed 2) and 0.091, 0.186, 0.296, 0.156 (seed 4, trained on from seed 1) body
-    # lengths/s: means 0.144, 0.168 and 0.182, short of the goal of 0.2
+    # 0.227 (seed 2), 0.091, 0.186, 0.296, 0.156 (seed 4, trained on from seed 1) and 0.237,
+    # 0.199, 0.230, 0.236 (seed 8, trained on from seed 4) body lengths/s: means 0.144, 0.168,
+    # 0.182 and 0.226 (over 200 other starts seed 8 rolls 0.193, short of the goal of 0.2)
     for name, steps, init, least in (("finetune_seed1", 1_384_448, 2_990_080, 0.12),
                                      ("finetune_seed2", 1_581_056, 2_990_080, 0.14),
-                                     ("finetune_seed4", 1_196_032, 1_384_448, 0.15)):
+                                     ("finetune_seed4", 1_196_032, 1_384_448, 0.15),
+                                     ("finetune_seed8", 798_720, 1_196_032, 0.19)):
         settings, policy = load_policy(EXAMPLES / "six_bar_roll" / name / "policy.json")
         assert settings.episode_s == 30.0 and policy.meta["training"]["env_steps"] == steps
         assert policy.meta["training"]["init"]["env_steps"] == init
