@@ -19,7 +19,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from tensim.control import load_controller
 from tensim.model import CompiledModel, WorldOptions, compile_structure
 from tensim.models import preset
 from tensim.sim import PhysicsScale, Trial, install_law, run_batch
+
+if TYPE_CHECKING:
+    from tensim.learn import TrialProblem
 
 DISTINCT_GAITS = 64  # CPG gaits built per case; worlds beyond reuse them with other physics
 CASES = ("tetraspine3_cpg", "tetraspine_sidewind", "three_bar_roll", "superball_roll")
@@ -41,14 +44,8 @@ def _case(name: str, duration: float) -> tuple[str, CompiledModel, Callable[[int
         from tensim.benchmarks.batch import _problem
 
         problem = _problem(duration)
-        compiled = problem.compiled()
-        dt = compiled.model.opt.timestep
-        points = rng.random((DISTINCT_GAITS, problem.dimension))
-        gaits = [problem.controller(u).build(dt) for u in points]
-        return ("Tetraspine3, CPG gaits (12 cables, 18 DoF)", compiled,
-                lambda n: [Trial(gaits[i % len(gaits)],
-                                 physics=PhysicsScale(friction=1.0 + 0.2 * (i // len(gaits)) / n))
-                           for i in range(n)])
+        return ("Tetraspine3, CPG gaits (12 cables, 18 DoF)", problem.compiled(),
+                _drawn_gaits(problem, rng, 1.0, 0.2))
     if name in ("three_bar_roll", "superball_roll"):
         return _rolling_case(name, duration, rng)
     if name == "tetraspine_sidewind":
@@ -84,12 +81,20 @@ def _rolling_case(name: str, duration: float, rng: np.random.Generator
         return ("motorised 3-bar on its learned rolling gait (9 cables, 6 motorised, 18 DoF)",
                 compiled, lambda n: [Trial(gait, physics=PhysicsScale(
                     friction=0.8 + 0.4 * i / n)) for i in range(n)])
+    return ("SUPERball on rolling waves (24 motorised cables, 36 DoF)", compiled,
+            _drawn_gaits(problem, rng, 0.8, 0.4))
+
+
+def _drawn_gaits(problem: TrialProblem, rng: np.random.Generator, friction: float,
+                 spread: float) -> Callable[[int], list[Trial]]:
+    """trials(n) of :data:`DISTINCT_GAITS` gaits drawn at random from ``problem``'s family,
+    each reused across worlds with a friction factor from ``friction`` to ``friction +
+    spread``."""
+    dt = problem.compiled().model.opt.timestep
     points = rng.random((DISTINCT_GAITS, problem.dimension))
     gaits = [problem.controller(u).build(dt) for u in points]
-    return ("SUPERball on rolling waves (24 motorised cables, 36 DoF)", compiled,
-            lambda n: [Trial(gaits[i % len(gaits)],
-                             physics=PhysicsScale(friction=0.8 + 0.4 * (i // len(gaits)) / n))
-                       for i in range(n)])
+    return lambda n: [Trial(gaits[i % len(gaits)], physics=PhysicsScale(
+        friction=friction + spread * (i // len(gaits)) / n)) for i in range(n)]
 
 
 def engine_alone(compiled: CompiledModel, worlds: int, duration: float,
