@@ -43,6 +43,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "tensim.rl.Randomization.standard)")
     t.add_argument("--bar-contact-cost", type=positive, default=None,
                    help="penalty per rod-rod contact per second (default none)")
+    t.add_argument("--roll-reward", type=positive, default=None, metavar="M_PER_RAD",
+                   help="--task roll: also reward each radian the robot turns about its "
+                   "rolling axis (z x heading; the best rigid fit of the rod ends' move) with "
+                   "M_PER_RAD metres (default none)")
+    t.add_argument("--slip-cost", type=positive, default=None,
+                   help="penalty per metre the rod ends on the ground slide (default none)")
     t.add_argument("--checkpoint", type=count, default=10_000, metavar="STEPS",
                    help="env steps between checkpoints (default 10000)")
     t.add_argument("--resume", action="store_true", help="continue the run in --out")
@@ -115,7 +121,9 @@ def train(args: argparse.Namespace) -> int:
                              episode_s=args.episode, timestep=args.dt,
                              cable_law=args.cable_law, rest_span=args.rest_span,
                              frame=args.frame, randomization=args.randomize,
-                             bar_contact_cost=args.bar_contact_cost or 0.0)
+                             bar_contact_cost=args.bar_contact_cost or 0.0,
+                             roll_reward=args.roll_reward or 0.0,
+                             slip_cost=args.slip_cost or 0.0)
     bar = Progress(f"rl train {args.algo}", args.quiet, unit="env steps",
                    rate_label="env steps/s")
     state = run_training(settings, Path(args.out), resume=args.resume,

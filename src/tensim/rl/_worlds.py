@@ -256,7 +256,9 @@ class Worlds:
             commands = now
         self.f["ctrl"][r, :n] = commands
         before = self.f["subtree_com"][r, 0, :2].copy()
-        bodies_before = self.turn_points(ids) if c.task == "turn" else None
+        # the points whose best rigid fit measures a turn, before the period: for the turn
+        # task and the rolling reward
+        bodies_before = self.turn_points(ids) if c.task == "turn" or c.roll_reward else None
         failed: np.ndarray | bool = False
         self._calls += 1  # every RING_EVERY-th period, its last steps' forces tell ringing
         checked = self._calls % RING_EVERY == 0
@@ -299,11 +301,20 @@ class Worlds:
         contact = np.zeros(ids.size)
         if c.bar_contact_cost:
             contact = -c.bar_contact_cost * self.bar_contacts(ids) * c.control_dt
-        terms = {"progress": progress, "control": control, "contact": contact}
+        roll, slip = np.zeros(ids.size), np.zeros(ids.size)
+        if c.roll_reward and bodies_before is not None:  # turning about the rolling axis
+            roll = c.roll_reward * _roll_change(bodies_before, self.turn_points(ids),
+                                                self.target[r])
+        if c.slip_cost:  # the metres the feet on the ground slid
+            slip = -c.slip_cost * self.slip(ids) * c.control_dt
+        terms = {"progress": progress, "control": control, "contact": contact, "roll": roll,
+                 "slip": slip}
         if any_true(unstable):  # an unstable robot's terms are 0
             terms = {k: np.where(unstable, 0.0, v) for k, v in terms.items()}
         terms["unstable"] = unstable
         reward = terms["progress"] + terms["control"] + terms["contact"]
+        if c.roll_reward or c.slip_cost:
+            reward = reward + terms["roll"] + terms["slip"]
         return reward, unstable | reached, terms
 
     def _progress(self, ids: np.ndarray, before: np.ndarray, after: np.ndarray,
@@ -526,6 +537,22 @@ class Worlds:
             return self._end_positions(ids)
         return self.f["xipos"][self._rows(ids)][:, self._body].copy()
 
+    def slip(self, ids: np.ndarray) -> np.ndarray:
+        """(k,) the summed horizontal speed of the rod ends on the ground [m/s]: each rod end
+        with a ground contact on its end of the rod (the ``end_contact`` flags), at the
+        velocity of its body's point there (MuJoCo's ``cvel``); 0 for a robot that rolls
+        without slipping."""
+        r, body = self._rows(ids), self._end_body
+        if not body.size:
+            return np.zeros(ids.size)
+        ends = self._end_positions(ids)
+        _, touching = self._contact(ids, ends)
+        cvel = self.f["cvel"][r][:, body]  # (rotation, translation) at the root's com
+        root_com = self.f["subtree_com"][r][:, self.robot.model.body_rootid[body]]
+        velocity = cvel[..., 3:] + _cross(cvel[..., :3], ends - root_com)
+        speed = np.hypot(velocity[..., 0], velocity[..., 1])
+        return np.add.reduce(touching * speed, axis=1)
+
     def bar_contacts(self, ids: np.ndarray) -> np.ndarray:
         """(k,) contacts between two of the robot's rigid bodies, per robot: the sum of the
         pair sensors' counts where the model has them, else from the contact lists."""
@@ -591,19 +618,38 @@ def _as_slice(ids: np.ndarray) -> np.ndarray | slice:
     return ids
 
 
-def _yaw_change(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """(k,) rotation about the vertical [rad, counter-clockwise] of the best rigid fit
-    (Kabsch's, least squares) that takes the (k, p, 3) points ``before`` to ``after``, each
-    set about its centroid: a rigid turn gives its angle, and points that circle their
-    centroid while the body they lie on does not turn (a wobble, a precessing top) give
-    little, where the points' own angles about the centroid would add up their circling."""
+def _fit_rotation(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """(k, 3, 3) the rotation of the best rigid fit (Kabsch's, least squares) that takes the
+    (k, p, 3) points ``before`` to ``after``, each set about its centroid."""
     p = before - before.mean(axis=1, keepdims=True)
     q = after - after.mean(axis=1, keepdims=True)
     u, _, vt = np.linalg.svd(np.einsum("kpi,kpj->kij", p, q))
     d = np.sign(np.linalg.det(np.einsum("kij,kjl->kil", u, vt)))  # a rotation, not a mirror
     vt[:, 2] *= d[:, None]
-    rot = np.einsum("kji,klj->kil", vt, u)  # V diag(1, 1, d) U^T: after ~ rot @ before
+    return np.einsum("kji,klj->kil", vt, u)  # V diag(1, 1, d) U^T: after ~ rot @ before
+
+
+def _yaw_change(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """(k,) rotation about the vertical [rad, counter-clockwise] of the best rigid fit
+    (:func:`_fit_rotation`) that takes the (k, p, 3) points ``before`` to ``after``: a rigid
+    turn gives its angle, and points that circle their centroid while the body they lie on
+    does not turn (a wobble, a precessing top) give little, where the points' own angles
+    about the centroid would add up their circling."""
+    rot = _fit_rotation(before, after)
     return np.arctan2(rot[:, 1, 0] - rot[:, 0, 1], rot[:, 0, 0] + rot[:, 1, 1])
+
+
+def _roll_change(before: np.ndarray, after: np.ndarray, heading: np.ndarray) -> np.ndarray:
+    """(k,) rotation [rad] about the rolling axis z x ``heading`` ((k, 2) unit, world) of the
+    best rigid fit (:func:`_fit_rotation`) that takes the (k, p, 3) points ``before`` to
+    ``after``: the component along that axis of the fit's rotation vector, positive for a
+    robot rolling toward ``heading``; a robot that rocks back and forth sums to nothing."""
+    from scipy.spatial.transform import Rotation
+
+    axis = np.zeros((heading.shape[0], 3))
+    axis[:, 0], axis[:, 1] = -heading[:, 1], heading[:, 0]
+    rotvec = Rotation.from_matrix(_fit_rotation(before, after)).as_rotvec()
+    return np.einsum("kj,kj->k", rotvec, axis)
 
 
 def _rotate(v: np.ndarray, turn: tuple[np.ndarray, np.ndarray]) -> np.ndarray:

@@ -114,6 +114,15 @@ class EnvConfig:
         clockwise: the ``turn`` task rewards clockwise turning.
         control_cost: weight of the mean squared normalised action, per second.
         bar_contact_cost: penalty per rod-rod contact, per second.
+        roll_reward: task ``"direction"``: reward per radian the robot turns about its
+            rolling axis, the horizontal axis z x ``direction`` (the best rigid fit of the rod
+            ends' move over the control period, Kabsch's) [m/rad]; a robot that rolls without
+            slipping on a hull of radius r earns r per radian from the progress term, so a
+            weight near r pays the turning as much again, and rocking or crawling earns
+            nothing net. 0: off.
+        slip_cost: penalty per metre the rod ends on the ground slide horizontally (the
+            horizontal speed of each rod end with a ground contact on its end of the rod,
+            times the control period; rolling without slipping keeps it near 0) [1]. 0: off.
         observation: the observation terms, in order (see :data:`OBSERVATIONS` and docs/rl.md).
         history: previous observations appended to each observation (0: none).
         frame: the frame observations are written in, about the vertical through the centre
@@ -141,6 +150,8 @@ class EnvConfig:
     clockwise: bool = False
     control_cost: float = 0.0
     bar_contact_cost: float = 0.0
+    roll_reward: float = 0.0
+    slip_cost: float = 0.0
     observation: tuple[str, ...] = DEFAULT_OBSERVATION
     history: int = 0
     frame: str = "robot"
@@ -173,10 +184,13 @@ class EnvConfig:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise InputError(f"{name} must be a finite number > 0, got {value!r}")
-        for name in ("control_cost", "bar_contact_cost"):
+        for name in ("control_cost", "bar_contact_cost", "roll_reward", "slip_cost"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise InputError(f"{name} must be a finite number >= 0, got {value!r}")
+        if self.roll_reward and self.task != "direction":
+            raise InputError(f"roll_reward rewards rolling along a direction: it needs task "
+                             f"'direction', got task {self.task!r}")
         if not (isinstance(self.history, int) and 0 <= self.history <= 100):
             raise InputError(f"history must be an integer number of observations in 0..100, "
                              f"got {self.history!r}")

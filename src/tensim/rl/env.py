@@ -72,6 +72,7 @@ class TensegrityEnv(gym.Env):
         info = {"reward_progress": float(terms["progress"][0]),
                 "reward_control": float(terms["control"][0]),
                 "reward_contact": float(terms["contact"][0]),
+                "reward_roll": float(terms["roll"][0]), "reward_slip": float(terms["slip"][0]),
                 "unstable": bool(terms["unstable"][0]), "action_clipped": bool(clipped[0])}
         return self.worlds.observe(self._one)[0], float(reward[0]), terminated, truncated, info
 

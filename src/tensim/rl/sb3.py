@@ -13,14 +13,15 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 from tensim.rl.config import EnvConfig
 from tensim.rl.vector import TensegrityVectorEnv
 
-_TERMS = ("reward_progress", "reward_control", "reward_contact", "unstable")
+_TERMS = ("reward_progress", "reward_control", "reward_contact", "reward_roll", "reward_slip",
+          "unstable")
 
 
 class SB3VecEnv(VecEnv):
     """``num_envs`` robots as one Stable-Baselines3 vector env.
 
     Each robot's info holds its reward terms (``reward_progress``, ``reward_control``,
-    ``reward_contact``) and ``unstable``. An episode's last observation is in
+    ``reward_contact``, ``reward_roll``, ``reward_slip``) and ``unstable``. An episode's last observation is in
     ``infos[i]["terminal_observation"]`` and a time-limit end sets
     ``infos[i]["TimeLimit.truncated"]``, as SB3's own vector envs do.
 
@@ -54,9 +55,8 @@ class SB3VecEnv(VecEnv):
         obs, reward, terminated, truncated, info = self.env.step(self._actions)
         done = terminated | truncated
         columns = [info[k].tolist() for k in _TERMS]  # Python floats and bools, as .item()
-        infos: list[dict[str, Any]] = [
-            {"reward_progress": p, "reward_control": c, "reward_contact": k, "unstable": u}
-            for p, c, k, u in zip(*columns, strict=True)]
+        infos: list[dict[str, Any]] = [dict(zip(_TERMS, values, strict=True))
+                                       for values in zip(*columns, strict=True)]
         for i in done.nonzero()[0]:
             infos[i]["terminal_observation"] = info["final_obs"][i]
             infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])

@@ -54,6 +54,9 @@ class TrainSettings:
         episode_s: episode length [s].
         goal_m: distance of the goal [m] (task ``goal``).
         bar_contact_cost: penalty per rod-rod contact, per second.
+        roll_reward: task ``roll``: reward per radian turned about the rolling axis
+            [m/rad] (:class:`~tensim.rl.EnvConfig`; 0: off).
+        slip_cost: penalty per metre the rod ends on the ground slide (0: off).
         timestep: the physics step [s].
         cable_law: the cable law (``tensim.model.CABLE_LAWS``); the implicit laws hold stiff
             cables at longer steps.
@@ -77,6 +80,8 @@ class TrainSettings:
     episode_s: float = 10.0
     goal_m: float = 2.0
     bar_contact_cost: float = 0.0
+    roll_reward: float = 0.0
+    slip_cost: float = 0.0
     timestep: float = 0.002
     cable_law: str = "implicitfast"
     rest_span: float = 0.6
@@ -106,6 +111,14 @@ class TrainSettings:
                              f"{self.randomization!r}")
         if not (math.isfinite(self.timestep) and self.timestep > 0):
             raise InputError(f"--dt must be a physics step > 0 [s], got {self.timestep}")
+        for name in ("roll_reward", "slip_cost"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise InputError(f"--{name.replace('_', '-')} must be a finite number >= 0, "
+                                 f"got {value!r}")
+        if self.roll_reward and self.task != "roll":
+            raise InputError(f"--roll-reward rewards rolling along the heading: it needs "
+                             f"--task roll, got --task {self.task}")
         if not math.isfinite(self.heading_deg):
             raise InputError(f"--heading must be a finite angle [deg], got {self.heading_deg}")
 
@@ -121,6 +134,7 @@ class TrainSettings:
                          episode_s=self.episode_s if episode_s is None else episode_s,
                          observation=ROLLING_OBSERVATION, frame=self.frame,
                          rest_span=self.rest_span, bar_contact_cost=self.bar_contact_cost,
+                         roll_reward=self.roll_reward, slip_cost=self.slip_cost,
                          randomization=randomization or RANDOMIZATIONS[self.randomization](),
                          world=WorldOptions(timestep=self.timestep, cable_law=self.cable_law))
 
@@ -131,10 +145,14 @@ ROBOT_FILE = "robot.yaml"  # a structure file's copy in the run folder
 def fingerprint(settings: TrainSettings) -> str:
     """A hash of the settings, with a robot file's contents in place of its path (a preset:
     its name); ``steps`` is left out, so a resumed run may train longer, and so is the
-    default randomisation, so runs from before it was a setting keep their fingerprint."""
+    default randomisation and reward terms that are off, so runs from before they were
+    settings keep their fingerprint."""
     record = dataclasses.asdict(settings) | {"steps": 0}
     if record["randomization"] == "start":
         del record["randomization"]
+    for name in ("roll_reward", "slip_cost"):
+        if not record[name]:
+            del record[name]
     if settings.model not in PRESETS:
         record["model"] = hashlib.sha256(Path(settings.model).read_bytes()).hexdigest()
     return hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:16]

@@ -182,7 +182,8 @@ def _step_info(n: int, live: np.ndarray, terms: dict[str, np.ndarray], clipped: 
     info: dict[str, Any] = {}
     for key, values in (("reward_progress", terms["progress"]),
                         ("reward_control", terms["control"]),
-                        ("reward_contact", terms["contact"]), ("unstable", terms["unstable"]),
+                        ("reward_contact", terms["contact"]), ("reward_roll", terms["roll"]),
+                        ("reward_slip", terms["slip"]), ("unstable", terms["unstable"]),
                         ("action_clipped", clipped if every else clipped[live])):
         full = values
         if not every:
