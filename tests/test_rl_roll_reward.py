@@ -12,18 +12,18 @@ import pytest
 
 pytest.importorskip("gymnasium", reason="the rl extra (gymnasium) is not installed")
 
-from tensim import InputError  # noqa: E402
-from tensim.rl import (  # noqa: E402
+from tensim import InputError
+from tensim.rl import (
     DEFAULT_OBSERVATION,
     ROLLING_OBSERVATION,
     EnvConfig,
     Randomization,
     TensegrityEnv,
 )
-from tensim.rl._worlds import _roll_change  # noqa: E402
-from tensim.rl.evaluate import support_faces  # noqa: E402
-from tensim.rl.train import TrainSettings, fingerprint  # noqa: E402
-from tensim.sim import compiled_available  # noqa: E402
+from tensim.rl._worlds import _roll_change
+from tensim.rl.evaluate import support_faces
+from tensim.rl.train import TrainSettings, fingerprint
+from tensim.sim import compiled_available
 
 HEADING = np.array([np.cos(np.radians(30.0)), np.sin(np.radians(30.0))])
 
@@ -81,14 +81,13 @@ def test_a_prism_rolled_through_its_faces_earns_the_angle_it_turned():
 
 
 def test_turns_about_other_axes_and_moves_without_turning_earn_no_roll():
-    ends, axis = _prism()
-    k = len(HEADING)
+    ends, _ = _prism()
     heading = HEADING[None]
-    for moved in (ends + [0.3, -0.2, 0.1],  # slid, no turn
+    for moved in (ends + np.array([0.3, -0.2, 0.1]),  # slid, no turn
                   ends @ _about(np.array([0.0, 0.0, 1.0]), 0.4).T,  # turned about the vertical
                   ends @ _about(np.array([*HEADING, 0.0]), 0.4).T):  # about the heading
         assert _roll_change(ends[None], moved[None], heading)[0] == pytest.approx(
-            0.0, abs=1e-12), k
+            0.0, abs=1e-12)
     # rolling toward the heading is positive, away from it negative, for any heading
     for deg in (0.0, 100.0, -135.0):
         h = np.array([[np.cos(np.radians(deg)), np.sin(np.radians(deg))]])
@@ -183,7 +182,7 @@ def test_the_rolling_terms_are_validated_and_leave_old_fingerprints():
         EnvConfig(slip_cost=float("nan"))
     with pytest.raises(InputError, match="needs task 'direction', got task 'turn'"):
         EnvConfig(task="turn", roll_reward=0.3)
-    with pytest.raises(InputError, match="--roll-reward .* needs --task roll"):
+    with pytest.raises(InputError, match=r"--roll-reward .* needs --task roll"):
         TrainSettings(model="three_bar", task="turn", roll_reward=0.3)
     with pytest.raises(InputError, match="--slip-cost must be"):
         TrainSettings(model="three_bar", slip_cost=-0.1)

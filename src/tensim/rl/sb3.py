@@ -21,8 +21,8 @@ class SB3VecEnv(VecEnv):
     """``num_envs`` robots as one Stable-Baselines3 vector env.
 
     Each robot's info holds its reward terms (``reward_progress``, ``reward_control``,
-    ``reward_contact``, ``reward_roll``, ``reward_slip``) and ``unstable``. An episode's last observation is in
-    ``infos[i]["terminal_observation"]`` and a time-limit end sets
+    ``reward_contact``, ``reward_roll``, ``reward_slip``) and ``unstable``. An episode's last
+    observation is in ``infos[i]["terminal_observation"]`` and a time-limit end sets
     ``infos[i]["TimeLimit.truncated"]``, as SB3's own vector envs do.
 
     Args:
