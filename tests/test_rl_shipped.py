@@ -39,6 +39,29 @@ def test_the_shipped_policies_roll_the_3_bar_a_quarter_body_length_per_second():
 EXAMPLES = Path(__file__).parent.parent / "examples" / "rl"
 
 
+def test_the_policies_rewarded_for_rolling_roll_the_3_bar_through_its_faces():
+    # the goal, rolling: >= 0.25 body lengths/s over 30 s from MjData on two of the three
+    # seeds within a million env steps, standing on many faces of the rod ends' hull in turn
+    # with all six ends taking turns on the ground (docs/rl.md: the policies trained without
+    # the roll term keep to one or two faces and three or four ends)
+    from tensim.rl.evaluate import support_faces
+
+    shipped = sorted((EXAMPLES / "three_bar_rolling").glob("seed*/policy.json"))
+    assert len(shipped) == 3
+    rolled = []
+    for path in shipped:
+        settings, policy = load_policy(path)
+        assert settings.model == "three_bar" and settings.roll_reward > 0
+        assert policy.meta["training"]["env_steps"] <= 10**6
+        run = run_policy(settings, policy, 30.0, seed=0)
+        assert not run["unstable"]
+        along = (run["com"][-1, :2] - run["com"][0, :2]) @ run["heading"]
+        faces = support_faces(run["points"])
+        rolled.append((along / run["time"][-1] / body_length("three_bar"), len(set(faces)),
+                       len(set().union(*faces))))
+    assert sum(v >= 0.25 and n >= 6 and ends == 6 for v, n, ends in rolled) >= 2, rolled
+
+
 def test_the_shipped_turn_policy_turns_the_3_bar_in_place():
     # docs/rl.md: about 44 deg/s counter-clockwise over 30 s from the start of seed 0, the
     # centre of mass moving about a fifth of a body length
