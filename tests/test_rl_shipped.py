@@ -21,7 +21,7 @@ SHIPPED = sorted((Path(__file__).parent.parent / "examples" / "rl" / "three_bar_
                  .glob("seed*/policy.json"))
 
 
-def test_the_shipped_policies_roll_the_3_bar_a_quarter_body_length_per_second():
+def test_the_shipped_policies_move_the_3_bar_a_quarter_body_length_per_second():
     # the goal: >= 0.25 body lengths/s over 30 s from MjData on two of the three seeds,
     # each trained within a million env steps
     assert len(SHIPPED) == 3
