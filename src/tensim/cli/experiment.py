@@ -320,7 +320,9 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         first = summary["first_roll_s"]
         print(f"{summary['rocks_back']} of the {summary['rolls']} rolls went back to the face "
               "before; first roll after " + ("none" if first is None else f"{first:.2f} s")
-              + f"; {summary['plans']} plans ({summary['plans_made']} made from statics)")
+              + ("" if summary["plans"] is None else
+                 f"; {summary['plans']} plans ({summary['plans_made']} made from statics)")
+              + f"; {summary['ends_on_ground']} of {summary['ends']} rod ends on the ground")
     return summary
 
 

@@ -15,6 +15,7 @@ number of rolls. With ``turn_deg`` the gait turns the robot in place instead (:f
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import time
 from collections.abc import Callable
@@ -288,12 +289,75 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                "rocks_back": rocks_back(gait.faces),
                "first_roll_s": None if gait.first_roll_s is None
                else round(gait.first_roll_s, 6)}
+    nodes = _node_bodies(compiled.index)
+    summary.update(ground_summary(trajectory, nodes))
     if turn_deg is not None:
-        bodies = dict(zip((int(b) for b in sim.index.body), sim.index.bodies, strict=True))
-        nodes = {n: (bodies[b], sim.index.node_local[n])
-                 for n, b in sim.index.node_body.items() if b in bodies}
         summary.update(turn_summary(trajectory, turn_deg, body_length(structure), nodes))
     return result, summary
+
+
+def _node_bodies(index: Any) -> dict[str, tuple[str, np.ndarray]]:
+    """Node name -> (its body's name, its position in the body's frame [m]), for the nodes
+    on the robot's rigid bodies."""
+    bodies = dict(zip((int(b) for b in index.body), index.bodies, strict=True))
+    return {n: (bodies[b], index.node_local[n])
+            for n, b in index.node_body.items() if b in bodies}
+
+
+def node_paths(trajectory: TimeSeries, nodes: dict[str, tuple[str, np.ndarray]]
+               ) -> np.ndarray:
+    """(T, n, 3) the recorded paths of ``nodes`` (node name -> (its body's name, its position
+    in the body's frame [m])), from the bodies' ``pos_*`` and ``quat_*`` channels [m]."""
+    out = []
+    for body, local in nodes.values():
+        quat = np.stack([trajectory[f"quat_{a}/{body}"] for a in "wxyz"], axis=1)
+        quat = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+        w, x, y, z = quat.T
+        rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+        pos = np.stack([trajectory[f"pos_{a}/{body}"] for a in "xyz"], axis=1)
+        out.append(pos + np.einsum("ijt,j->ti", rot, np.asarray(local, dtype=float)))
+    return np.stack(out, axis=1)
+
+
+def held_faces(faces: list[tuple[str, ...]], hold: int = 2) -> tuple[list[tuple[str, ...]],
+                                                                         int | None]:
+    """The support faces stood on, in order, from one face per look (``faces``): a new face
+    counts once seen on ``hold`` looks running, as the statics gait counts it.
+
+    Returns:
+        The faces stood on, and the index of the look at which the second was first counted
+        (None where the robot never left its first face).
+    """
+    out: list[tuple[str, ...]] = []
+    first: int | None = None
+    for i, face in enumerate(faces):
+        if not out:
+            out.append(face)
+        elif face != out[-1] and i + 1 >= hold and all(f == face
+                                                      for f in faces[i + 1 - hold:i + 1]):
+            out.append(face)
+            if first is None:
+                first = i
+    return out, first
+
+
+def ground_summary(trajectory: TimeSeries, nodes: dict[str, tuple[str, np.ndarray]]
+                   ) -> dict[str, Any]:
+    """Whether a run rolled, from its recorded rod poses, as ``tensim rl evaluate`` says it:
+    the support face (:func:`tensim.rl.evaluate.support_faces`) at every recorded sample.
+
+    Returns:
+        ``support_changes`` (samples whose support face differs from the sample before),
+        ``ends_on_ground`` (the nodes that were ever in the support face) and ``ends`` (the
+        nodes).
+    """
+    from tensim.rl.evaluate import support_faces
+
+    faces = support_faces(node_paths(trajectory, nodes))
+    return {"support_changes": int(sum(a != b for a, b in itertools.pairwise(faces))),
+            "ends_on_ground": len(set().union(*faces)), "ends": len(nodes)}
 
 
 def turn_summary(trajectory: TimeSeries, turn_deg: float, length: float,
@@ -314,28 +378,13 @@ def turn_summary(trajectory: TimeSeries, turn_deg: float, length: float,
         ``displacement_body_lengths``.
     """
 
-    def points(i: int) -> np.ndarray:
-        out = []
-        for body, local in nodes.values():
-            w, x, y, z = (trajectory[f"quat_{a}/{body}"][i] for a in "wxyz")
-            out.append(np.array([trajectory[f"pos_{a}/{body}"][i] for a in "xyz"])
-                       + _rotation(np.array([w, x, y, z])) @ local)
-        return np.array(out)
-
-    yaw = yaw_between(points(0), points(-1))
+    paths = node_paths(trajectory, nodes)
+    yaw = yaw_between(paths[0], paths[-1])
     moved = float(np.hypot(trajectory[f"pos_x/{COM}"][-1] - trajectory[f"pos_x/{COM}"][0],
                            trajectory[f"pos_y/{COM}"][-1] - trajectory[f"pos_y/{COM}"][0]))
     return {"turn_deg": turn_deg, "yaw_deg": round(math.degrees(yaw), 3),
             "displacement_m": round(moved, 6),
             "displacement_body_lengths": round(moved / length, 6)}
-
-
-def _rotation(quat: np.ndarray) -> np.ndarray:
-    """(3, 3) the rotation of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = quat / np.linalg.norm(quat)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def play(structure: Structure, config: ControllerConfig, duration: float, *,
@@ -346,8 +395,11 @@ def play(structure: Structure, config: ControllerConfig, duration: float, *,
     """Rolls ``structure`` under a controller file's gait for ``duration`` seconds and scores
     the run along a heading (or toward a goal point) as :func:`roll` does.
 
-    The gait plays open loop (it does not look where it goes), so ``faces_visited`` and
-    ``rolls`` are None; the heading only scores the run.
+    The gait plays open loop (it does not look where it goes); the heading only scores the
+    run. ``faces_visited``, ``rolls``, ``rocks_back`` and ``first_roll_s`` are counted as the
+    statics gait counts them, from the support faces of the recorded rod poses
+    (:func:`tensim.rl.evaluate.support_faces`) looked at every control period of the statics
+    gait (:func:`held_faces`); ``plans`` and ``plans_made`` are None.
 
     Args:
         structure: the robot.
@@ -368,11 +420,22 @@ def play(structure: Structure, config: ControllerConfig, duration: float, *,
     result = simulate(compiled, duration, controller=controller, record_dt=record_dt,
                       progress=progress)
     direction = heading_vector(heading_deg) if goal is None else None
+    nodes = _node_bodies(compiled.index)
+    ts = result.trajectory
+    every = max(1, round(RollSettings().period_s / record_dt))  # the statics gait's looks
+    looks = np.arange(0, len(ts.time), every)
+    from tensim.rl.evaluate import support_faces
+
+    faces, first = held_faces(support_faces(node_paths(ts, nodes)[looks]))
     summary = {**result.summary(), **world_record(compiled.world),
-               **roll_summary(result.trajectory, body_length(structure), direction, goal),
+               **roll_summary(ts, body_length(structure), direction, goal),
                "heading_deg": heading_deg if goal is None else None,
                "goal_xy_m": list(goal) if goal is not None else None,
-               "faces_visited": None, "rolls": None}
+               "faces_visited": len(set(faces)), "rolls": len(faces) - 1,
+               "plans": None, "plans_made": None, "rocks_back": rocks_back(faces),
+               "first_roll_s": None if first is None
+               else round(float(ts.time[looks[first]] - ts.time[0]), 6),
+               **ground_summary(ts, nodes)}
     return result, summary
 
 
