@@ -30,6 +30,8 @@ from tensim.control.rolling import (
     RollSettings,
     TipPlan,
     default_settings,
+    fold_pose,
+    folds,
     heading_error_deg,
     heading_vector,
     plan_tip,
@@ -78,7 +80,8 @@ class _Gait:
     goal: tuple[float, float] | None
     origin: np.ndarray
     length: float
-    face: tuple[str, ...] = ()
+    face: tuple[str, ...] = ()  # the face (or with settings.fold_deg, the fold) planned on
+    stood: tuple[str, ...] = ()  # the support face stood on
     seen: tuple[str, ...] = ()
     since: float = 0.0
     pushing: bool = False
@@ -97,6 +100,8 @@ class _Gait:
     released: bool = False  # pumping: the plan let go while the robot swings back
     cache: PlanCache | None = None  # the plans made so far (None: plan every tip afresh)
     stuck: bool = False  # a plan on this face timed out: plan afresh from where it stands
+    folds: dict[tuple[str, ...], tuple[tuple[str, ...], tuple[str, ...]]] = \
+        dataclasses.field(default_factory=dict)  # settings.fold_deg: the build hull's folds
 
     def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
         """Turning in place: the outward normal of the next edge of the walk of rigid-hull
@@ -152,19 +157,26 @@ class _Gait:
         self.com_now = sim.data.subtree_com[0].copy()
         com = self.com_now[:2].copy()
         before, self.com_before = self.com_before, com
-        if face != self.face:
-            if held or not self.faces:
-                self.face, self.since, self.pushing = face, sim.time, False
-                self.stuck = False
-                self.faces.append(face)
-                if len(self.faces) == 2:
-                    self.first_roll_s = sim.time
-                self.released = False
-                if self.settings.release:
-                    sim.drive.rest_command[self.motorised] = self.built[self.motorised]
+        if face != self.stood:
+            if not (held or not self.faces):
+                return
+            self.stood = face
+            self.faces.append(face)
+            if len(self.faces) == 2:
+                self.first_roll_s = sim.time
+            key = self.folds[face][0] if face in self.folds else face
+            if key == self.face:  # a rock within the fold: the push goes on
+                return
+            self.face, self.since, self.pushing = key, sim.time, False
+            self.stuck = False
+            self.released = False
+            if self.settings.release:
+                sim.drive.rest_command[self.motorised] = self.built[self.motorised]
             return
         waited = sim.time - self.since
-        if not self.pushing and waited >= self.settings.settle_s:
+        if not self.pushing and waited >= self.settings.settle_s and (
+                waited >= self.settings.settle_s + self.settings.push_s
+                or self._still(sim, com, before)):
             self._push(sim, positions)
         elif self.pushing and waited >= self.settings.settle_s + self.settings.push_s:
             self.since, self.pushing = sim.time, False  # stuck: rest and plan again
@@ -174,6 +186,18 @@ class _Gait:
               and self.plan.margin < self.settings.margin
               and before is not None):
             self._pump(sim, float(self.plan.direction @ (com - before)), waited)
+
+    def _still(self, sim: Simulation, com: np.ndarray, before: np.ndarray | None) -> bool:
+        """Whether the rest on this face is over (``settings.still_speed``): the cables back
+        at their built rest lengths, the centre of mass slower than ``still_speed``."""
+        limit = self.settings.still_speed
+        if limit <= 0:
+            return True
+        if before is None:
+            return False
+        wound = np.abs(sim.drive.rest[self.motorised] - self.built[self.motorised])
+        speed = float(np.linalg.norm(com - before)) / self.settings.period_s
+        return bool(wound.max(initial=0.0) < 1e-3 and speed < limit)
 
     def _pump(self, sim: Simulation, rate: float, waited: float) -> None:
         """A tip that statics cannot make: let go while the robot swings back from the edge,
@@ -198,10 +222,19 @@ class _Gait:
         if heading is None or self.turned:
             sim.drive.rest_command[self.motorised] = self.built[self.motorised]
             return
+        face = support_face(positions)
+        if face in self.folds:
+            rolled = fold_pose(positions, face, self.folds[face][1], heading)
+            if rolled is not None:  # plan from the fold's forward face, push across both
+                pose = self._pose(rolled)
+        rest = sim.drive.rest.copy()
         try:
-            plan = (plan_tip(pose, sim.drive.rest.copy(), self.built, heading, self.settings)
+            plan = (plan_tip(pose, rest, self.built, heading, self.settings)
                     if self.cache is None or self.stuck else
-                    self.cache.plan(pose, sim.drive.rest.copy(), heading))
+                    # without the release, the cables a cached plan does not move go back
+                    # to their built rest lengths as the next plan winds the others
+                    self.cache.plan(pose, rest if self.settings.release else self.built,
+                                    heading))
         except DesignError:
             return
         self.plans += 1
@@ -255,9 +288,19 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
     gait = _Gait(compiled.structure, built, motorised, settings, heading_deg, goal,
                  sim.data.subtree_com[0][:2].copy(), body_length(structure))
-    if settings.cache and settings.release:
+    if settings.fold_deg > 0:
+        gait.folds = folds({n.name: np.asarray(n.position) for n in compiled.structure.nodes},
+                           settings.fold_deg)
+    if settings.cache and (settings.release or settings.fold_deg > 0):
+        dynamic = None
+        if settings.search > 0:
+            from functools import partial
+
+            from tensim.experiments.roll_search import search_tip
+
+            dynamic = partial(search_tip, built=built, settings=settings, world=world)
         gait.cache = plans or PlanCache(compiled.structure, built, settings,
-                                        -float(compiled.model.opt.gravity[2]))
+                                        -float(compiled.model.opt.gravity[2]), dynamic=dynamic)
     if turn_deg is not None:
         gait.turn = math.radians(turn_deg)
     chunks: list[TimeSeries] = []
