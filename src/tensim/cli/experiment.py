@@ -265,7 +265,7 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     import dataclasses
     import math
 
-    from tensim.control.rolling import default_settings
+    from tensim.control.rolling import default_settings, searched
     from tensim.experiments.roll import ROLL_DURATION, play, roll, write_roll
     from tensim.models import load_controller
 
@@ -281,12 +281,16 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         raise ValueError("--turn: turning in place takes no --heading, --goal or --controller")
     if args.turn is not None and not math.isfinite(args.turn):
         raise ValueError(f"--turn {args.turn!r}: expected a finite angle in degrees")
-    if args.cached_plans and args.controller is not None:
-        raise ValueError("--cached-plans is for the statics gait, not a --controller file")
+    for flag in ("cached_plans", "searched_tips"):
+        if getattr(args, flag) and args.controller is not None:
+            raise ValueError(f"--{flag.replace('_', '-')} is for the statics gait, not a "
+                             "--controller file")
     if args.controller is None:
         settings = default_settings(structure)
         if args.cached_plans:
             settings = dataclasses.replace(settings, cache=True)
+        if args.searched_tips:
+            settings = searched(settings)
         result, summary = roll(structure, args.duration or ROLL_DURATION,
                                heading_deg=args.heading or 0.0, goal=goal,
                                world=world_from_args(args), turn_deg=args.turn,
@@ -371,6 +375,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cached-plans", action="store_true",
                    help="roll: make each tip plan once per support face and edge and share it "
                         "through the robot's symmetry (RollSettings(cache=True))")
+    p.add_argument("--searched-tips", action="store_true",
+                   help="roll: where statics cannot plan a tip (a 3-bar's far edges), use the "
+                        "quickest of constant commands tried in simulation, cached through the "
+                        "symmetry; rest on each face until the cables are back at their built "
+                        "rest lengths (tensim.control.rolling.searched)")
     add_world_options(p)
     add_controller_option(p)
     p.add_argument("--robot", default=None, metavar="FILE.yaml",
@@ -404,8 +413,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.cached_plans and args.name != "roll":
-        raise ValueError(f"--cached-plans is for the roll experiment, not {args.name!r}")
+    for flag in ("cached_plans", "searched_tips"):
+        if getattr(args, flag) and args.name != "roll":
+            raise ValueError(f"--{flag.replace('_', '-')} is for the roll experiment, not "
+                             f"{args.name!r}")
     for option in ("model", "heading", "goal", "turn"):
         if getattr(args, option) is not None and args.name != "roll":
             what = "a robot argument" if option == "model" else f"--{option}"

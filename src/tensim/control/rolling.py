@@ -130,6 +130,21 @@ class RollSettings:
 PRISM_SETTINGS = RollSettings(shorten=0.7, lengthen=0.5, settle_s=0.0, push_s=1.0)
 
 
+SEARCH_TRIES = 100  # constant commands a searched tip tries (RollSettings.search)
+STILL_SPEED = 0.3  # m/s: with searched tips, the rest on a face ends below this speed
+
+
+def searched(settings: RollSettings) -> RollSettings:
+    """``settings`` with tips searched in simulation where statics falls short
+    (``search``), plans cached through the symmetry (``cache``, which the search needs) and a
+    rest on each new face until the cables are back at their built rest lengths and the
+    centre of mass moves slower than :data:`STILL_SPEED` (``still_speed``): a searched tip
+    is found from the face's pose at rest with the built rest lengths, and works from
+    there."""
+    return dataclasses.replace(settings, cache=True, search=SEARCH_TRIES,
+                               still_speed=STILL_SPEED)
+
+
 def default_settings(structure: Structure) -> RollSettings:
     """The gait's settings for ``structure``: :data:`PRISM_SETTINGS` for a robot of three rods
     (a 3-bar prism), the defaults of :class:`RollSettings` otherwise."""
