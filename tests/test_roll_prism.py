@@ -185,10 +185,10 @@ def test_the_faces_from_the_recorded_rod_poses_are_those_the_gait_saw(runs):
     # the recorded bodies' poses (as `experiment roll --controller` and `rl evaluate` do)
     # must agree, look for look
     from tensim.control.rolling import support_face
-    from tensim.experiments.roll import _node_bodies, held_faces, node_paths
+    from tensim.experiments.roll import held_faces, node_bodies, node_paths
     from tensim.model import compile_structure
 
-    nodes = _node_bodies(compile_structure(_prism()).index)
+    nodes = node_bodies(compile_structure(_prism()).index)
     for result, summary in runs.values():
         ts = result.trajectory
         paths = node_paths(ts, nodes)
@@ -220,12 +220,12 @@ def test_a_played_gait_reports_its_faces_from_the_recorded_rod_poses():
     # laid on its side it falls from 4 cm onto a side face and stays: one change of face,
     # which the recorded heights of its nodes show (the three lowest at the end are not the
     # three lowest at the start)
-    from tensim.experiments.roll import _node_bodies, node_paths
+    from tensim.experiments.roll import node_bodies, node_paths
     from tensim.model import compile_structure
 
     lying = _prism()
     result, summary = play(lying, ControllerConfig(default_impedance(lying)), 1.0)
-    z = node_paths(result.trajectory, _node_bodies(compile_structure(lying).index))[..., 2]
+    z = node_paths(result.trajectory, node_bodies(compile_structure(lying).index))[..., 2]
     start, end = (set(np.argsort(h)[:3]) for h in (z[0], z[-1]))
     assert start != end
     assert summary["faces_visited"] == 2 and summary["rolls"] == 1

@@ -332,14 +332,14 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                "rocks_back": rocks_back(gait.faces),
                "first_roll_s": None if gait.first_roll_s is None
                else round(gait.first_roll_s, 6)}
-    nodes = _node_bodies(compiled.index)
+    nodes = node_bodies(compiled.index)
     summary.update(ground_summary(trajectory, nodes))
     if turn_deg is not None:
         summary.update(turn_summary(trajectory, turn_deg, body_length(structure), nodes))
     return result, summary
 
 
-def _node_bodies(index: Any) -> dict[str, tuple[str, np.ndarray]]:
+def node_bodies(index: Any) -> dict[str, tuple[str, np.ndarray]]:
     """Node name -> (its body's name, its position in the body's frame [m]), for the nodes
     on the robot's rigid bodies."""
     bodies = dict(zip((int(b) for b in index.body), index.bodies, strict=True))
@@ -463,7 +463,7 @@ def play(structure: Structure, config: ControllerConfig, duration: float, *,
     result = simulate(compiled, duration, controller=controller, record_dt=record_dt,
                       progress=progress)
     direction = heading_vector(heading_deg) if goal is None else None
-    nodes = _node_bodies(compiled.index)
+    nodes = node_bodies(compiled.index)
     ts = result.trajectory
     every = max(1, round(RollSettings().period_s / record_dt))  # the statics gait's looks
     looks = np.arange(0, len(ts.time), every)
