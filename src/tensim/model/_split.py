@@ -30,6 +30,10 @@ import numpy as np
 
 from tensim.model._law_layout import G_DAMPING, G_PD_DAMPING, G_PD_STIFFNESS, G_STIFFNESS
 
+# a margin at which the explicit law's step is accurate as well as stable on the robots of
+# docs/speed.md (what `tensim bench --cable-laws` and `tensim experiment laws` run as the split)
+MARGIN = 4.0
+
 
 def inverse_effective_mass(model: mujoco.MjModel, data: mujoco.MjData,
                            tendons: np.ndarray) -> np.ndarray:
