@@ -18,12 +18,12 @@ Cases:
 Each case runs under each law (``explicit``, ``implicit``, ``implicitfast``; see
 docs/architecture.md) at each step, and where asked for (``laws``) under ``split``: the
 implicit law split by cable at ``WorldOptions.split_margin`` 4 (its lines also say how many
-cables are handed to the integrator at that step); a line gives the worst cable's change of maximum tension
-against the reference (per cent of that cable's reference peak), the largest distance of the
-centre of mass from the reference's at the same time (mm, and per cent of the distance the
-reference's centre of mass travels), and the CPU time per step of the whole run (it varies
-with the machine and its load; the other figures do not). A run that fails its stability check
-is reported as unstable.
+cables are handed to the integrator at that step); a line gives the worst cable's change of
+maximum tension against the reference (per cent of that cable's reference peak), the largest
+distance of the centre of mass from the reference's at the same time (mm, and per cent of the
+distance the reference's centre of mass travels), and the CPU time per step of the whole run
+(it varies with the machine and its load; the other figures do not). A run that fails its
+stability check is reported as unstable.
 """
 
 from __future__ import annotations
