@@ -217,7 +217,8 @@ def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine
     for row, law, margin in rows:
         compiled = compile_structure(structure, WorldOptions(timestep=dt, cable_law=law,
                                                              split_margin=margin))
-        sim = Simulation(compiled, controller=model.controller())
+        sim = Simulation(compiled, controller=model.controller(),
+                         record_dt=max(1, round(0.01 / dt)) * dt)  # a whole number of steps
         sims[row] = sim
         if row in (DISCRETE_EXPLICIT, DISCRETE_TENDONS):
             sim.model.opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
