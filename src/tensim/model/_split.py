@@ -124,10 +124,11 @@ def explicit_cables(inverse_mass: np.ndarray, stiffness: np.ndarray, damping: np
     return keep
 
 
-def split_cables(model: mujoco.MjModel, keyframe: int, actuators: np.ndarray, timestep: float,
-                 margin: float) -> np.ndarray:
-    """(n,) which of the cable ``actuators`` stay on the explicit law at ``model``'s keyframe
-    (:func:`explicit_cables`; a PD motor's servo counts with its cable's spring, as engaged)."""
+def cable_terms(model: mujoco.MjModel, keyframe: int, actuators: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(W [1/kg], k [N/m], b [N s/m]) of the cable ``actuators`` at ``model``'s keyframe: W =
+    J M^-1 J^T of their tendons, and each cable's stiffness and damping (a PD motor's servo
+    counts with its cable's spring, as engaged)."""
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, keyframe)
     mujoco.mj_kinematics(model, data)
@@ -139,4 +140,11 @@ def split_cables(model: mujoco.MjModel, keyframe: int, actuators: np.ndarray, ti
     stiffness = gain[:, G_STIFFNESS] + gain[:, G_PD_STIFFNESS]
     damping = gain[:, G_DAMPING] + gain[:, G_PD_DAMPING]
     inverse = inverse_effective_mass(model, data, model.actuator_trnid[actuators, 0])
-    return explicit_cables(inverse, stiffness, damping, timestep, margin)
+    return inverse, stiffness, damping
+
+
+def split_cables(model: mujoco.MjModel, keyframe: int, actuators: np.ndarray, timestep: float,
+                 margin: float) -> np.ndarray:
+    """(n,) which of the cable ``actuators`` stay on the explicit law at ``model``'s keyframe
+    (:func:`explicit_cables` on :func:`cable_terms`)."""
+    return explicit_cables(*cable_terms(model, keyframe, actuators), timestep, margin)
