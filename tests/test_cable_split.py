@@ -230,3 +230,19 @@ def test_warp_runs_a_split_robot_as_the_cpu_engine():
 def test_a_bad_split_margin_is_refused(margin):
     with pytest.raises(ValueError, match="split_margin"):
         WorldOptions(cable_law="implicit", split_margin=margin)
+
+
+def test_the_split_is_chosen_on_the_command_line_and_kept_by_the_run_folder(tmp_path):
+    import json
+
+    from tensim.cli import main
+    from tensim.viz.replay import load_run
+
+    out = tmp_path / "run"
+    assert main(["--quiet", "simulate", "tetraspine3", "--cable-law", "implicit",
+                 "--split-margin", "4", "--dt", "0.002", "--duration", "0.1", "--record-dt",
+                 "0.02", "--no-figures", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["cable_law"], summary["split_margin"]) == ("implicit", 4.0)
+    compiled = load_run(out).compiled
+    np.testing.assert_array_equal(implicit(compiled.model), implicit(_mixed().model))
