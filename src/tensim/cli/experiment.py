@@ -141,7 +141,8 @@ def _laws(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         else CASES + (("twelve_bar",) if args.ntrt else ())
     bar = Progress("cable-law study", args.quiet)
     laws = tuple(c.strip() for c in args.laws.split(",") if c.strip()) if args.laws else LAWS
-    summary = run_law_study(cases, Path(args.ntrt) if args.ntrt else None, bar.note, laws)
+    summary = run_law_study(cases, Path(args.ntrt) if args.ntrt else None, bar.note, laws,
+                            **({"split_margin": args.split_margin} if args.split_margin else {}))
     finish_run(out, summary)
     print("\n".join(format_law_study(summary, args.cpu)))
     return summary
@@ -396,8 +397,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "but twelve_bar), tetraspine3_soft, tetraspine3_free_motors")
     p.add_argument("--laws", default=None, metavar="LAW,...",
                    help="laws: explicit, implicit, implicitfast (the default: all three), "
-                        "split (the implicit law split by cable at margin 4; the explicit "
-                        "reference runs whatever is asked)")
+                        "split (the implicit law split by cable at --split-margin, default 4; "
+                        "the explicit reference runs whatever is asked)")
     p.add_argument("--ntrt", default=None, metavar="NTRTSIM_DIR",
                    help="laws: a checkout of the original toolkit, for its 12-bar cube")
     p.add_argument("--cpu", action="store_true", help="laws: print the CPU time per step")

@@ -17,13 +17,13 @@ Cases:
 
 Each case runs under each law (``explicit``, ``implicit``, ``implicitfast``; see
 docs/architecture.md) at each step, and where asked for (``laws``) under ``split``: the
-implicit law split by cable at ``WorldOptions.split_margin`` 4 (its lines also say how many
-cables are handed to the integrator at that step); a line gives the worst cable's change of
-maximum tension against the reference (per cent of that cable's reference peak), the largest
-distance of the centre of mass from the reference's at the same time (mm, and per cent of the
-distance the reference's centre of mass travels), and the CPU time per step of the whole run
-(it varies with the machine and its load; the other figures do not). A run that fails its
-stability check is reported as unstable.
+implicit law split by cable at ``WorldOptions.split_margin`` 4 or as asked (its lines also say
+how many cables are handed to the integrator at that step); a line gives the worst cable's
+change of maximum tension against the reference (per cent of that cable's reference peak),
+the largest distance of the centre of mass from the reference's at the same time (mm, and per
+cent of the distance the reference's centre of mass travels), and the CPU time per step of
+the whole run (it varies with the machine and its load; the other figures do not). A run that
+fails its stability check is reported as unstable.
 """
 
 from __future__ import annotations
@@ -51,9 +51,15 @@ from tensim.structure import Cable, Motor, Node, Rod, Structure
 STEPS_MS = (0.5, 1.0, 2.0, 4.0, 10.0)
 REFERENCE_MS = 0.05
 LAWS = CABLE_LAWS
-SPLIT = "split"  # the implicit law split by cable at split_margin MARGIN
-# each row's world: (cable_law, split_margin)
-ROWS = {**{law: (law, 0.0) for law in CABLE_LAWS}, SPLIT: (LAW_IMPLICIT, MARGIN)}
+SPLIT = "split"  # the implicit law split by cable (at split_margin MARGIN unless asked)
+ROWS = (*CABLE_LAWS, SPLIT)
+
+
+def row_world(law: str, timestep: float, split_margin: float = MARGIN) -> WorldOptions:
+    """The world of a row of the study (a name of ``ROWS``) at ``timestep`` [s]."""
+    if law == SPLIT:
+        return WorldOptions(timestep=timestep, cable_law=LAW_IMPLICIT, split_margin=split_margin)
+    return WorldOptions(timestep=timestep, cable_law=law)
 CASES = ("tetraspine3", "superball", "three_bar")  # twelve_bar: with a checkout of the toolkit
 RECORD_DT = 0.02  # s: a whole number of every step above
 
@@ -180,9 +186,11 @@ def handed_over(structure: Structure, world: WorldOptions) -> int:
 
 
 def study(name: str, run: Run, announce: Callable[[str], None] | None = None,
-          laws: tuple[str, ...] = LAWS, structure: Structure | None = None) -> dict[str, Any]:
+          laws: tuple[str, ...] = LAWS, structure: Structure | None = None,
+          split_margin: float = MARGIN) -> dict[str, Any]:
     """One case under each of ``laws`` (names of ``ROWS``) and step, against its reference
-    (JSON-ready); ``structure``, the case's robot, for the split's count of cables.
+    (JSON-ready); ``structure``, the case's robot, for the split's count of cables, and the
+    split's ``split_margin``.
 
     Returns:
         ``reference`` (max tension [N], the centre of mass's travel [m]) and ``runs``: per law
@@ -198,11 +206,10 @@ def study(name: str, run: Run, announce: Callable[[str], None] | None = None,
     moved = travel(reference)
     runs: dict[str, dict[str, dict[str, Any]]] = {}
     for law in laws:
-        cable_law, margin = ROWS[law]
         for ms in STEPS_MS:
             if announce:
                 announce(f"{name}: {law} at {ms:g} ms")
-            world = WorldOptions(timestep=ms / 1e3, cable_law=cable_law, split_margin=margin)
+            world = row_world(law, ms / 1e3, split_margin)
             count = {} if law != SPLIT or structure is None else {
                 "handed_over": handed_over(structure, world), "cables": len(structure.cables)}
             result, us, error = timed(run, world)
@@ -226,9 +233,9 @@ def _twelve_bar_structure(ntrt: Path) -> Structure:
 
 def run_law_study(cases: tuple[str, ...] = CASES, ntrt: Path | None = None,
                   announce: Callable[[str], None] | None = None,
-                  laws: tuple[str, ...] = LAWS) -> dict[str, Any]:
+                  laws: tuple[str, ...] = LAWS, split_margin: float = MARGIN) -> dict[str, Any]:
     """The study over ``cases`` (``twelve_bar`` needs ``ntrt``) and ``laws`` (names of
-    ``ROWS``); its summary, JSON-ready.
+    ``ROWS``; ``split`` at ``split_margin``); its summary, JSON-ready.
 
     Raises:
         ValueError: an unknown case or law, or twelve_bar without ``ntrt``.
@@ -254,10 +261,11 @@ def run_law_study(cases: tuple[str, ...] = CASES, ntrt: Path | None = None,
     if ntrt is not None:
         structures["twelve_bar"] = lambda: _twelve_bar_structure(ntrt)
     counted = SPLIT in laws
+    WorldOptions(cable_law=LAW_IMPLICIT, split_margin=split_margin)  # refuses a bad margin
     return {"experiment": "laws", "reference_ms": REFERENCE_MS, "steps_ms": list(STEPS_MS),
-            "laws": list(laws), "split_margin": MARGIN,
+            "laws": list(laws), **({"split_margin": split_margin} if counted else {}),
             "cases": {name: study(name, runners[name], announce, laws,
-                                  structures[name]() if counted else None)
+                                  structures[name]() if counted else None, split_margin)
                       for name in cases}}
 
 
