@@ -100,11 +100,17 @@ def _tetraspine3(world: WorldOptions) -> SimulationResult:
     return run_disturbance(dt=world.timestep, world=world)[0]
 
 
-def _tetraspine3_variant(damping_scale: float = 1.0, max_speed: float | None = None) -> Run:
-    """The disturbance test with the impedance laws' B scaled by ``damping_scale`` and every
-    motor's speed limit set to ``max_speed`` [m/s] (None: as built)."""
+def _tetraspine3_variant(damping_scale: float = 1.0, max_speed: float | None = None,
+                         stiffness_scale: float = 1.0) -> Run:
+    """The disturbance test with the impedance laws' B scaled by ``damping_scale``, every
+    motor's speed limit set to ``max_speed`` [m/s] (None: as built) and every cable's stiffness
+    scaled by ``stiffness_scale``."""
     model = preset("tetraspine3")
     structure = model.build()
+    if stiffness_scale != 1.0:
+        structure = dataclasses.replace(structure, cables=tuple(
+            dataclasses.replace(c, stiffness=c.stiffness * stiffness_scale)
+            for c in structure.cables))
     if max_speed is not None:
         structure = dataclasses.replace(structure, cables=tuple(
             dataclasses.replace(c, motor=dataclasses.replace(c.motor, max_speed=max_speed))
