@@ -246,3 +246,15 @@ def test_the_split_is_chosen_on_the_command_line_and_kept_by_the_run_folder(tmp_
     assert (summary["cable_law"], summary["split_margin"]) == ("implicit", 4.0)
     compiled = load_run(out).compiled
     np.testing.assert_array_equal(implicit(compiled.model), implicit(_mixed().model))
+
+
+def test_the_command_line_refuses_a_split_it_cannot_run(tmp_path, capsys):
+    from tensim.cli import main
+
+    run = ["--quiet", "simulate", "prism3", "--duration", "0.01", "--no-figures", "--out",
+           str(tmp_path / "run")]
+    with pytest.raises(SystemExit):
+        main([*run, "--cable-law", "implicit", "--split-margin", "0.5"])
+    assert "argument --split-margin: expected 0 or a number >= 1" in capsys.readouterr().err
+    assert main([*run, "--split-margin", "4"]) != 0  # the explicit law has nothing to split
+    assert "give it with --cable-law implicit" in capsys.readouterr().err

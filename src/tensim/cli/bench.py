@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from tensim._input import InputError
-from tensim.cli._common import count, natural, output_option, positive
+from tensim.cli._common import count, natural, output_option, positive, split_margin
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,7 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "controller where it has one)")
     p.add_argument("--laws-dt", type=positive, default=1e-3, metavar="S",
                    help="--cable-laws: the physics step [s] (default 0.001)")
-    p.add_argument("--split-margin", type=float, default=None, metavar="MARGIN",
+    p.add_argument("--split-margin", type=split_margin, default=None, metavar="MARGIN",
                    help="--cable-laws: the margin of the implicit law's row split by cable "
                    "(default 4; WorldOptions.split_margin)")
     p.add_argument("--rl", action="store_true",
