@@ -34,8 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "figures are taken on a loaded machine")
     p.add_argument("--cable-laws", action="store_true",
                    help="instead of the cases: the cost of a step under each cable law "
-                   "(explicit, implicit, implicitfast), Tetraspine3 under impedance control at "
-                   "1 ms, the laws taking turns")
+                   "(explicit, implicit, implicitfast, the implicit law split by cable), "
+                   "Tetraspine3 under impedance control at 1 ms, the laws taking turns")
     p.add_argument("--laws-model", default="tetraspine3", metavar="PRESET",
                    help="--cable-laws: the preset (default tetraspine3, under its impedance "
                    "controller where it has one)")
