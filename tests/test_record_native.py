@@ -1,0 +1,147 @@
+"""The compiled record loop (``sim/_record.c``) against the Python loop it replaces: the same
+samples, state, checks and errors, bit for bit.
+
+The Python loop (``_record_native.usable`` patched to False) steps each record with the
+bindings' ``mj_step`` and checks in NumPy; the compiled one steps with MuJoCo's own
+``mj_step`` and tests the common case of each check in C. Every run here must agree to the
+bit in its channels, its final state, the ringing check's forces, the energy history (which
+the compiled loop leaves to NumPy) and the peaks kept for a later message; failing runs must
+fail with the same message at the same state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from collections.abc import Callable
+from unittest import mock
+
+import mujoco
+import numpy as np
+import pytest
+
+import tensim
+from tensim.model import compile_spec, compile_structure
+from tensim.models import preset
+from tensim.sim import NodeLoad, Simulation, _record_native, compiled_available, ramp_hold_release
+from tensim.sim._loop import ForceHistory
+from tensim.structure import CableContact, DCMotor, load_structure
+
+pytestmark = pytest.mark.skipif(not _record_native.available() or not compiled_available(),
+                                reason="the compiled record loop or cable law is not built")
+
+HOPPER = "examples/design/hopper.yaml"
+
+
+def _both(run: Callable[[], object]) -> tuple[object, object]:
+    """``run()`` with the compiled loop, then with the Python loop."""
+    compiled = run()
+    with mock.patch.object(_record_native, "usable", lambda sim: False):
+        python = run()
+    return compiled, python
+
+
+def _robots() -> dict[str, tuple[tensim.Structure, object, tuple[NodeLoad, ...]]]:
+    p = preset("tetraspine3")
+    s = p.build()
+    dc = dataclasses.replace(s, cables=tuple(
+        dataclasses.replace(c, motor=dataclasses.replace(c.motor, dc=DCMotor(stall_torque=0.3)))
+        if k % 2 else c for k, c in enumerate(s.cables)))
+    beads = dataclasses.replace(s, cables=tuple(
+        dataclasses.replace(c, contact=CableContact(spacing=0.03)) if k < 2 else c
+        for k, c in enumerate(s.cables)))
+    bare = dataclasses.replace(preset("six_bar").build(), cables=())
+    push = ramp_hold_release(s.nodes[0].name, (1.0, 0.0, 0.0), 20.0, 0.1, 0.2, 0.2, 0.2)
+    return {"impedance": (s, p.controller(), ()), "dc motors": (dc, p.controller(), ()),
+            "contact beads": (beads, None, ()), "no cables": (bare, None, ()),
+            "six-bar": (preset("six_bar").build(), None, ()),
+            "a push": (s, p.controller(), (push,))}
+
+
+@pytest.mark.parametrize("robot", list(_robots()))
+def test_the_compiled_loop_records_what_the_python_loop_records(robot: str) -> None:
+    structure, controller, loads = _robots()[robot]
+    compiled = compile_structure(structure)
+
+    def run() -> dict[str, object]:
+        calls: list[tuple[float, float]] = []
+        with Simulation(compiled, controller=controller, loads=loads) as sim:
+            used = _record_native.usable(sim)
+            first = sim.run(1.23, progress=lambda done, total: calls.append((done, total)))
+            second = sim.run(0.31)  # a run continuing the first
+            return {"series": (first, second), "state": sim.get_state(), "calls": calls,
+                    "forces": (sim._forces.force.copy(), sim._forces.count.copy()),
+                    "energy": (sim._energies.energy.copy(), sim._energies.lowest.copy()),
+                    "peak": sim._peak_seen, "used": used}
+
+    fast, slow = _both(run)
+    assert fast["used"] and not slow["used"]
+    for a, b in zip(fast["series"], slow["series"], strict=True):  # type: ignore[index]
+        assert a.channels.keys() == b.channels.keys()
+        assert np.array_equal(a.time, b.time)
+        for name in a.channels:
+            assert np.array_equal(a.channels[name], b.channels[name], equal_nan=True), name
+    assert np.array_equal(fast["state"], slow["state"])  # type: ignore[arg-type]
+    assert fast["calls"] == slow["calls"] and len(fast["calls"]) == 1  # type: ignore[arg-type]
+    for a, b in ((fast["forces"], slow["forces"]), (fast["energy"], slow["energy"])):
+        assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(a, b, strict=True))
+    assert fast["peak"][0] == slow["peak"][0]  # type: ignore[index]
+    assert np.array_equal(fast["peak"][1], slow["peak"][1])  # type: ignore[index]
+
+
+def test_a_run_with_a_callback_per_record_records_in_python_the_same() -> None:
+    p = preset("tetraspine3")
+    compiled = compile_structure(p.build())
+    seen: list[float] = []
+    with Simulation(compiled, controller=p.controller()) as sim:
+        hooked = sim.run(0.2, on_record=lambda s: seen.append(s.time))
+    with Simulation(compiled, controller=p.controller()) as sim:
+        plain = sim.run(0.2)
+    assert len(seen) == 20
+    assert all(np.array_equal(hooked.channels[k], plain.channels[k], equal_nan=True)
+               for k in plain.channels)
+
+
+def _failure(structure: tensim.Structure, dt: float, record_dt: float) -> Callable[[], object]:
+    compiled = compile_structure(structure, tensim.WorldOptions(timestep=dt))
+
+    def run() -> tuple[str, np.ndarray]:
+        with Simulation(compiled, record_dt=record_dt) as sim, \
+                pytest.raises(tensim.SimulationError) as caught:
+            sim.run(1.0)
+        return str(caught.value), sim.get_state()
+    return run
+
+
+def _no_ringing(self: ForceHistory, ids: object) -> np.ndarray:
+    return np.zeros((len(self.force[ids]), len(self.band)), dtype=bool)
+
+
+def test_a_run_that_rings_or_runs_away_stops_where_and_as_the_python_loop_stops() -> None:
+    hopper = load_structure(HOPPER)
+    fast, slow = _both(_failure(hopper, 5.2e-3, 10.4e-3))  # rings (tests/test_ringing.py)
+    assert "rings at the step frequency" in fast[0]  # type: ignore[index]
+    assert fast[0] == slow[0] and np.array_equal(fast[1], slow[1])  # type: ignore[index]
+    with mock.patch.object(ForceHistory, "ringing", _no_ringing):  # the energy runs away
+        fast, slow = _both(_failure(hopper, 6e-3, 6e-3))
+    assert "mechanical energy" in fast[0]  # type: ignore[index]
+    assert fast[0] == slow[0] and np.array_equal(fast[1], slow[1])  # type: ignore[index]
+
+
+def test_a_mujoco_error_in_the_compiled_loop_is_raised_as_the_bindings_raise_it() -> None:
+    # too little arena for the contacts the six-bar makes as it settles: mj_step fails
+    compiled = compile_structure(preset("six_bar").build())
+    spec = compiled.spec.copy()
+    spec.memory = 8000
+    small = dataclasses.replace(compiled, model=compile_spec(spec))
+
+    def run() -> tuple[str, float]:
+        with Simulation(small) as sim, pytest.raises(mujoco.FatalError) as caught:
+            sim.run(0.5)
+        return str(caught.value), sim.data.time
+
+    fast, slow = _both(run)
+    assert re.match(r"mj_stackAlloc: out of memory", fast[0])  # type: ignore[index]
+    assert fast == slow
+    with Simulation(compiled) as sim:  # and the process goes on
+        assert sim.run(0.05).time.size == 6
