@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import re
 from collections.abc import Callable
+from typing import TypeVar
 from unittest import mock
 
 import mujoco
@@ -23,7 +24,14 @@ import pytest
 import tensim
 from tensim.model import compile_spec, compile_structure
 from tensim.models import preset
-from tensim.sim import NodeLoad, Simulation, _record_native, compiled_available, ramp_hold_release
+from tensim.sim import (
+    Controller,
+    NodeLoad,
+    Simulation,
+    _record_native,
+    compiled_available,
+    ramp_hold_release,
+)
 from tensim.sim._loop import ForceHistory
 from tensim.structure import CableContact, DCMotor, load_structure
 
@@ -31,9 +39,10 @@ pytestmark = pytest.mark.skipif(not _record_native.available() or not compiled_a
                                 reason="the compiled record loop or cable law is not built")
 
 HOPPER = "examples/design/hopper.yaml"
+T = TypeVar("T")
 
 
-def _both(run: Callable[[], object]) -> tuple[object, object]:
+def _both(run: Callable[[], T]) -> tuple[T, T]:
     """``run()`` with the compiled loop, then with the Python loop."""
     compiled = run()
     with mock.patch.object(_record_native, "usable", lambda sim: False):
@@ -41,7 +50,7 @@ def _both(run: Callable[[], object]) -> tuple[object, object]:
     return compiled, python
 
 
-def _robots() -> dict[str, tuple[tensim.Structure, object, tuple[NodeLoad, ...]]]:
+def _robots() -> dict[str, tuple[tensim.Structure, Controller | None, tuple[NodeLoad, ...]]]:
     p = preset("tetraspine3")
     s = p.build()
     dc = dataclasses.replace(s, cables=tuple(
@@ -58,35 +67,44 @@ def _robots() -> dict[str, tuple[tensim.Structure, object, tuple[NodeLoad, ...]]
             "a push": (s, p.controller(), (push,))}
 
 
+@dataclasses.dataclass
+class _Run:
+    series: tuple[tensim.TimeSeries, ...]
+    state: np.ndarray
+    calls: list[tuple[float, float]]
+    kept: tuple[np.ndarray, ...]  # the ringing check's forces, the energy history, the peaks
+    peak_time: float
+    used: bool
+
+
 @pytest.mark.parametrize("robot", list(_robots()))
 def test_the_compiled_loop_records_what_the_python_loop_records(robot: str) -> None:
     structure, controller, loads = _robots()[robot]
     compiled = compile_structure(structure)
 
-    def run() -> dict[str, object]:
+    def run() -> _Run:
         calls: list[tuple[float, float]] = []
         with Simulation(compiled, controller=controller, loads=loads) as sim:
             used = _record_native.usable(sim)
             first = sim.run(1.23, progress=lambda done, total: calls.append((done, total)))
             second = sim.run(0.31)  # a run continuing the first
-            return {"series": (first, second), "state": sim.get_state(), "calls": calls,
-                    "forces": (sim._forces.force.copy(), sim._forces.count.copy()),
-                    "energy": (sim._energies.energy.copy(), sim._energies.lowest.copy()),
-                    "peak": sim._peak_seen, "used": used}
+            peak_time, peaks = sim._peak_seen
+            return _Run((first, second), sim.get_state(), calls,
+                        (sim._forces.force, sim._forces.count, sim._energies.energy,
+                         sim._energies.lowest, peaks), peak_time, used)
 
     fast, slow = _both(run)
-    assert fast["used"] and not slow["used"]
-    for a, b in zip(fast["series"], slow["series"], strict=True):  # type: ignore[index]
+    assert fast.used and not slow.used
+    for a, b in zip(fast.series, slow.series, strict=True):
         assert a.channels.keys() == b.channels.keys()
         assert np.array_equal(a.time, b.time)
         for name in a.channels:
             assert np.array_equal(a.channels[name], b.channels[name], equal_nan=True), name
-    assert np.array_equal(fast["state"], slow["state"])  # type: ignore[arg-type]
-    assert fast["calls"] == slow["calls"] and len(fast["calls"]) == 1  # type: ignore[arg-type]
-    for a, b in ((fast["forces"], slow["forces"]), (fast["energy"], slow["energy"])):
-        assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(a, b, strict=True))
-    assert fast["peak"][0] == slow["peak"][0]  # type: ignore[index]
-    assert np.array_equal(fast["peak"][1], slow["peak"][1])  # type: ignore[index]
+    assert np.array_equal(fast.state, slow.state)
+    assert fast.calls == slow.calls and len(fast.calls) == 1
+    assert all(np.array_equal(x, y, equal_nan=True)
+               for x, y in zip(fast.kept, slow.kept, strict=True))
+    assert fast.peak_time == slow.peak_time
 
 
 def test_a_run_with_a_callback_per_record_records_in_python_the_same() -> None:
@@ -102,7 +120,8 @@ def test_a_run_with_a_callback_per_record_records_in_python_the_same() -> None:
                for k in plain.channels)
 
 
-def _failure(structure: tensim.Structure, dt: float, record_dt: float) -> Callable[[], object]:
+def _failure(structure: tensim.Structure, dt: float, record_dt: float
+             ) -> Callable[[], tuple[str, np.ndarray]]:
     compiled = compile_structure(structure, tensim.WorldOptions(timestep=dt))
 
     def run() -> tuple[str, np.ndarray]:
@@ -113,24 +132,25 @@ def _failure(structure: tensim.Structure, dt: float, record_dt: float) -> Callab
     return run
 
 
-def _no_ringing(self: ForceHistory, ids: object) -> np.ndarray:
+def _no_ringing(self: ForceHistory, ids: slice) -> np.ndarray:
     return np.zeros((len(self.force[ids]), len(self.band)), dtype=bool)
 
 
 def test_a_run_that_rings_or_runs_away_stops_where_and_as_the_python_loop_stops() -> None:
     hopper = load_structure(HOPPER)
     fast, slow = _both(_failure(hopper, 5.2e-3, 10.4e-3))  # rings (tests/test_ringing.py)
-    assert "rings at the step frequency" in fast[0]  # type: ignore[index]
-    assert fast[0] == slow[0] and np.array_equal(fast[1], slow[1])  # type: ignore[index]
+    assert "rings at the step frequency" in fast[0]
+    assert fast[0] == slow[0] and np.array_equal(fast[1], slow[1])
     with mock.patch.object(ForceHistory, "ringing", _no_ringing):  # the energy runs away
         fast, slow = _both(_failure(hopper, 6e-3, 6e-3))
-    assert "mechanical energy" in fast[0]  # type: ignore[index]
-    assert fast[0] == slow[0] and np.array_equal(fast[1], slow[1])  # type: ignore[index]
+    assert "mechanical energy" in fast[0]
+    assert fast[0] == slow[0] and np.array_equal(fast[1], slow[1])
 
 
 def test_a_mujoco_error_in_the_compiled_loop_is_raised_as_the_bindings_raise_it() -> None:
     # too little arena for the contacts the six-bar makes as it settles: mj_step fails
     compiled = compile_structure(preset("six_bar").build())
+    assert compiled.spec is not None
     spec = compiled.spec.copy()
     spec.memory = 8000
     small = dataclasses.replace(compiled, model=compile_spec(spec))
@@ -141,7 +161,7 @@ def test_a_mujoco_error_in_the_compiled_loop_is_raised_as_the_bindings_raise_it(
         return str(caught.value), sim.data.time
 
     fast, slow = _both(run)
-    assert re.match(r"mj_stackAlloc: out of memory", fast[0])  # type: ignore[index]
+    assert re.match(r"mj_stackAlloc: out of memory", fast[0])
     assert fast == slow
     with Simulation(compiled) as sim:  # and the process goes on
         assert sim.run(0.05).time.size == 6
