@@ -95,7 +95,8 @@ def record_loop(backend: Backend, n_samples: int, record_steps: int, dt: float,
     taken at once, each advanced and sampled and, where the loop checks after it, checked
     for what needs no Python; it stops early after a record whose check does (``check``: the
     loop then calls ``check``), and takes none (next k = k) where it cannot, which leaves the
-    record to ``advance`` and ``take``. The loop uses it where no ``on_record`` is given.
+    rest of the run to ``advance`` and ``take``. The loop uses it where no ``on_record`` is
+    given.
 
     Args:
         backend: the worlds.
@@ -114,7 +115,9 @@ def record_loop(backend: Backend, n_samples: int, record_steps: int, dt: float,
         if stretch is not None:  # records at once, up to the next progress report at most
             stop = n_samples if progress is None else min(n_samples, (k // every + 1) * every)
             reached, check = stretch(k, stop)
-            if reached > k:
+            if reached == k:  # it cannot: the rest of the run one record at a time
+                stretch = None
+            else:
                 if check:
                     backend.check()
                 k = reached
