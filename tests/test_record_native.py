@@ -28,9 +28,11 @@ from tensim.sim import (
     Controller,
     NodeLoad,
     Simulation,
+    Trial,
     _record_native,
     compiled_available,
     ramp_hold_release,
+    run_batch,
 )
 from tensim.sim._loop import ForceHistory
 from tensim.structure import CableContact, DCMotor, load_structure
@@ -163,5 +165,9 @@ def test_a_mujoco_error_in_the_compiled_loop_is_raised_as_the_bindings_raise_it(
     fast, slow = _both(run)
     assert re.match(r"mj_stackAlloc: out of memory", fast[0])
     assert fast == slow
+    # MuJoCo's batch engine, on threads, still reports its own errors with the loop's hook in
+    for k, trial in enumerate(run_batch(small, [Trial(), Trial()], 0.5, threads=2)):
+        assert trial.error is not None
+        assert trial.error.startswith(f"trial {k}: MuJoCo: mj_stackAlloc: out of memory")
     with Simulation(compiled) as sim:  # and the process goes on
         assert sim.run(0.05).time.size == 6
