@@ -6,6 +6,13 @@ stepped by MuJoCo's own ``mj_step`` in one call, the same arithmetic as the Pyth
 The library is optional (built where a C compiler was found at install time); without it, on
 the Python cable law, with a callback per record (``on_record``), or where MuJoCo's library or
 its error hook cannot be reached, runs record in Python.
+
+MuJoCo's errors: the loop calls ``mj_step`` outside the bindings, whose per-thread error hook
+turns an error into ``mujoco.FatalError``; so on loading, where ``mju_user_error`` is unset, this
+module sets it to the library's handler, which carries an error inside the loop back out as the
+same exception (on any other call, which the bindings' own hook does not cover, it does what
+MuJoCo's default does: prints the error and exits). Where another library has set the hook,
+runs record in Python.
 """
 
 from __future__ import annotations
