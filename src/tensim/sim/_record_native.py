@@ -36,6 +36,7 @@ from tensim.sim._loop import (
 )
 
 if TYPE_CHECKING:
+    from tensim.sim._loop import StabilityLimits
     from tensim.sim._samples import SampleRows
     from tensim.sim._simulation import Simulation
 
@@ -150,18 +151,15 @@ def usable(sim: Simulation) -> bool:
 
 
 class NativeRecords:
-    """The compiled record loop of one :meth:`Simulation.run`.
+    """The compiled record loop of one simulation (its runs: :meth:`begin` each).
 
     Args:
-        sim: the simulation (on the compiled cable law).
-        rows: its recorder's rows.
-        n_samples: the run's records.
+        sim: the simulation (on the compiled cable law); not kept.
     """
 
-    def __init__(self, sim: Simulation, rows: SampleRows, n_samples: int):
+    def __init__(self, sim: Simulation):
         assert _LIB is not None
         self._lib, step, hook = _LIB
-        self.sim, self.rows = sim, rows
         n = sim.compiled.n_cables
         self._peak_act = np.asarray(sim.index.rest_act, np.int64) + A_PEAK
         self._peak_seen = np.zeros(n)
@@ -177,17 +175,14 @@ class NativeRecords:
                    0.5 * energy.stiffness)]
         self.fields = (m.nv, 3 * m.nbody, m.ntendon, m.na)  # a snapshot's, after its time
         self.snapshots = np.zeros((SNAPSHOTS, 1 + sum(self.fields)))
-        self._keep = (self._peak_act, self._peak_seen, rows._columns, forces.force, forces.count,
-                      ring_floor, ints, floats)
+        self._keep = (self._peak_act, self._peak_seen, forces.force, forces.count, ring_floor,
+                      ints, floats)
         assert forces.count.dtype == np.int64 and forces.force.flags.c_contiguous
         self.spec = RecordSpec(
             step=step, user_error=ctypes.addressof(hook), m=sim.model._address,
-            d=sim.data._address, nstep=sim.record_steps, n_samples=n_samples,
-            check_every=CHECK_EVERY, ring_every=RING_EVERY, ring_steps=RING_STEPS,
-            python_checks=int(sim._contact is not None), flat=rows._flat.ctypes.data,
-            columns=rows._columns.ctypes.data, ncolumns=rows._columns.size,
-            rows=rows._rows.ctypes.data, times=rows._time.ctypes.data, n_cables=n,
-            max_speed=sim.limits.max_speed, max_tension=sim.limits.max_tension,
+            d=sim.data._address, nstep=sim.record_steps, check_every=CHECK_EVERY,
+            ring_every=RING_EVERY, ring_steps=RING_STEPS,
+            python_checks=int(sim._contact is not None), n_cables=n,
             peak_act=self._peak_act.ctypes.data, peak_seen=self._peak_seen.ctypes.data,
             force=forces.force.ctypes.data, count=forces.count.ctypes.data,
             ring_floor=ring_floor.ctypes.data, n_lin=ints[0].size, lin=ints[0].ctypes.data,
@@ -199,11 +194,22 @@ class NativeRecords:
             snapshot_capacity=SNAPSHOTS)
         self.cursor = RecordCursor()
         self._spec_ref, self._cursor_ref = ctypes.byref(self.spec), ctypes.byref(self.cursor)
+        self.rows: SampleRows | None = None
 
-    def run(self, k: int, stop: int, control: np.ndarray, cuts: np.ndarray, done: int,
-            cut: int) -> tuple[int, int, int, int]:
-        """Records k .. stop - 1 on the block ``control`` (rows ``done`` on stepped; ``cut``
-        the run of equal rows they are in, whose ends are ``cuts``).
+    def begin(self, rows: SampleRows, n_samples: int, limits: StabilityLimits) -> None:
+        """Starts a run of ``n_samples`` records into ``rows`` under ``limits``."""
+        spec = self.spec
+        spec.n_samples, spec.max_speed, spec.max_tension = \
+            n_samples, limits.max_speed, limits.max_tension
+        spec.flat, spec.columns, spec.ncolumns = \
+            rows._flat.ctypes.data, rows._columns.ctypes.data, rows._columns.size
+        spec.rows, spec.times = rows._rows.ctypes.data, rows._time.ctypes.data
+        self.rows = rows  # (keeps the arrays alive)
+
+    def run(self, sim: Simulation, k: int, stop: int, control: np.ndarray, cuts: np.ndarray,
+            done: int, cut: int) -> tuple[int, int, int, int]:
+        """Records k .. stop - 1 of ``sim``'s run on the block ``control`` (rows ``done`` on
+        stepped; ``cut`` the run of equal rows they are in, whose ends are ``cuts``).
 
         Returns:
             (status, the next record, the block's rows stepped, the run they are in).
@@ -211,14 +217,15 @@ class NativeRecords:
         Raises:
             mujoco.FatalError: MuJoCo raised an error.
         """
-        c, sim = self.cursor, self.sim
-        c.k, c.sample, c.control, c.cuts = k, self.rows.k, control.ctypes.data, cuts.ctypes.data
+        c, rows = self.cursor, self.rows
+        assert rows is not None
+        c.k, c.sample, c.control, c.cuts = k, rows.k, control.ctypes.data, cuts.ctypes.data
         c.nu, c.done, c.cut, c.pushed = control.shape[1], done, cut, int(sim._forces.fresh)
         c.lowest = sim._energies.lowest[0]
         status = self._lib.tensim_records(self._spec_ref, self._cursor_ref, stop)
         if status == FAILED:
             raise mujoco.FatalError(c.error.decode(errors="replace"))
-        self.rows.k = c.sample
+        rows.k = c.sample
         sim._forces.fresh = bool(c.pushed)
         if c.checked:
             sim._peak_seen = ((next_step(c.peak_time, sim.dt) - 1) * sim.dt,
@@ -230,4 +237,3 @@ class NativeRecords:
                                row[1 + nv + nx + nt:][None]),
                               (next_step(float(row[0]), sim.dt) - 1) * sim.dt)
         return status, c.k, c.done, c.cut
-

@@ -136,6 +136,8 @@ class Simulation:
         self._energy = Energy(compiled)  # and the energy at each check, for its growth
         self._energies = EnergyHistory(1, self._energy.scale
                                        + self._energy.load_allowance(self._loads))
+        self._native: _record_native.NativeRecords | None = None
+        self._native_made = False
         if controller is not None:
             controller.configure(self)
         self._advance(1)  # the motor update at t = 0
@@ -207,6 +209,15 @@ class Simulation:
         for first in range(0, nstep, block):
             count = min(block, nstep - first)
             _Segments(plan.control(self._next_step(), count)).run(self, 0, count)
+
+    def _native_records(self) -> _record_native.NativeRecords | None:
+        """The compiled record loop of this simulation's runs, made at the first (None where
+        runs record in Python, see :func:`~tensim.sim._record_native.usable`)."""
+        if not self._native_made:
+            self._native = _record_native.NativeRecords(self) \
+                if _record_native.usable(self) else None
+            self._native_made = True
+        return self._native
 
     def push_forces(self) -> None:
         """Keeps the cable forces of the step just taken for the ringing check."""
@@ -351,8 +362,9 @@ class _SingleRun:
         self.plan = sim.inputs()
         self.per_block = max(1, _block_steps(self.plan.nu) // sim.record_steps)
         self.segments, self.done = _Segments(np.zeros((0, 0))), 0
-        self.native = _record_native.NativeRecords(sim, self.recorder.rows, n_samples) \
-            if _record_native.usable(sim) else None
+        self.native = sim._native_records()
+        if self.native is not None:
+            self.native.begin(self.recorder.rows, n_samples, sim.limits)
 
     def _block(self, k: int, nstep: int) -> None:
         if k % self.per_block == 0:  # the inputs of the next records
@@ -372,9 +384,9 @@ class _SingleRun:
             return k, False
         stop = min(stop, (k // self.per_block + 1) * self.per_block)
         status, reached, self.done, self.segments._i = self.native.run(
-            k, stop, control, self.segments.cut_array, self.done, self.segments._i)
+            self.sim, k, stop, control, self.segments.cut_array, self.done, self.segments._i)
         if status == _record_native.NO_HANDLER:
-            self.native = None
+            self.native = self.sim._native = None
         return reached, status == _record_native.CHECK
 
     def advance(self, k: int, nstep: int) -> bool:
