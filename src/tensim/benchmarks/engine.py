@@ -32,6 +32,7 @@ from tensim.model import (
 )
 from tensim.models import preset
 from tensim.sim import Controller, Simulation, compiled_available
+from tensim.sim._record_native import available as record_loop_available
 from tensim.structure import CableContact
 from tensim.terrain import Flat, Terrain
 
@@ -327,6 +328,7 @@ def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, Any]:
     cases += climb_cases(duration, repeats)
     return {
         "compiled_callback": compiled_available(),
+        "compiled_record_loop": record_loop_available(),
         "load_average_before": load,
         "core_share": {c.name: min(c.tensim.core_share(), c.engine.core_share()) for c in cases},
         "duration_s": duration,
