@@ -53,7 +53,8 @@ class _Stretches(_Log):
 
     def __init__(self, most: int, until: int):
         super().__init__()
-        self.most, self.until, self.stops = most, until, []
+        self.most, self.until = most, until
+        self.stops: list[int] = []
 
     def records(self, k: int, stop: int) -> tuple[int, bool]:
         self.stops.append(stop)
