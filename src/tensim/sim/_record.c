@@ -33,7 +33,7 @@
 
 #include <mujoco/mujoco.h>
 
-#define TENSIM_RECORD_VERSION 2
+#define TENSIM_RECORD_VERSION 3
 
 typedef void (*StepFn)(const mjModel*, mjData*);
 typedef void (*ErrorFn)(const char*);
@@ -118,6 +118,8 @@ static void on_error(const char* msg) {
 }
 
 int tensim_record_version(void) { return TENSIM_RECORD_VERSION; }
+/* The MuJoCo this library was built against: its mjModel and mjData layouts are read here. */
+int tensim_record_header_version(void) { return mjVERSION_HEADER; }
 int tensim_record_spec_size(void) { return (int)sizeof(RecordSpec); }
 int tensim_record_cursor_size(void) { return (int)sizeof(RecordCursor); }
 void* tensim_record_handler(void) { return (void*)on_error; }

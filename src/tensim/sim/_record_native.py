@@ -40,7 +40,7 @@ if TYPE_CHECKING:
     from tensim.sim._samples import SampleRows
     from tensim.sim._simulation import Simulation
 
-VERSION = 2  # TENSIM_RECORD_VERSION of the sources these bindings were written for
+VERSION = 3  # TENSIM_RECORD_VERSION of the sources these bindings were written for
 REACHED, CHECK, FAILED, NO_HANDLER = 0, 1, -1, -2
 SNAPSHOTS = 16  # energy checks passed in C per call, at most
 _P = ctypes.c_void_p
@@ -99,6 +99,11 @@ def _load() -> tuple[ctypes.CDLL, int, ctypes.c_void_p] | None:
             lib.tensim_record_cursor_size() != ctypes.sizeof(RecordCursor):
         log.warning("compiled record loop was built from other sources; recording in Python "
                     "(reinstall tensim to rebuild)")
+        return None
+    if lib.tensim_record_header_version() != mujoco.mj_version():
+        log.warning("compiled record loop was built for MuJoCo %s but %s is installed; "
+                    "recording in Python (reinstall tensim to rebuild)",
+                    lib.tensim_record_header_version(), mujoco.mj_version())
         return None
     engine = _mujoco_library()
     if engine is None:
