@@ -33,6 +33,7 @@ from tensim.model import (
 from tensim.model._split import MARGIN as SPLIT_MARGIN
 from tensim.models import preset
 from tensim.sim import Controller, Simulation, compiled_available
+from tensim.sim._record_native import available as record_loop_available
 from tensim.structure import CableContact
 from tensim.terrain import Flat, Terrain
 
@@ -338,6 +339,7 @@ def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, Any]:
     cases += climb_cases(duration, repeats)
     return {
         "compiled_callback": compiled_available(),
+        "compiled_record_loop": record_loop_available(),
         "load_average_before": load,
         "core_share": {c.name: min(c.tensim.core_share(), c.engine.core_share()) for c in cases},
         "duration_s": duration,
