@@ -134,13 +134,15 @@ def _timestep(args: argparse.Namespace, out: Path) -> dict[str, Any]:
 
 
 def _laws(args: argparse.Namespace, out: Path) -> dict[str, Any]:
-    from tensim.experiments.laws import CASES, format_law_study, run_law_study
+    from tensim.experiments.laws import CASES, LAWS, format_law_study, run_law_study
     from tensim.runs import finish_run
 
     cases = tuple(c.strip() for c in args.cases.split(",") if c.strip()) if args.cases \
         else CASES + (("twelve_bar",) if args.ntrt else ())
     bar = Progress("cable-law study", args.quiet)
-    summary = run_law_study(cases, Path(args.ntrt) if args.ntrt else None, bar.note)
+    laws = tuple(c.strip() for c in args.laws.split(",") if c.strip()) if args.laws else LAWS
+    summary = run_law_study(cases, Path(args.ntrt) if args.ntrt else None, bar.note, laws,
+                            **({"split_margin": args.split_margin} if args.split_margin else {}))
     finish_run(out, summary)
     print("\n".join(format_law_study(summary, args.cpu)))
     return summary
@@ -404,6 +406,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cases", default=None, metavar="NAME,...",
                    help="laws: tetraspine3, superball, three_bar, twelve_bar (default all "
                         "but twelve_bar), tetraspine3_soft, tetraspine3_free_motors")
+    p.add_argument("--laws", default=None, metavar="LAW,...",
+                   help="laws: explicit, implicit, implicitfast (the default: all three), "
+                        "split (the implicit law split by cable at --split-margin, default 4; "
+                        "the explicit reference runs whatever is asked)")
     p.add_argument("--ntrt", default=None, metavar="NTRTSIM_DIR",
                    help="laws: a checkout of the original toolkit, for its 12-bar cube")
     p.add_argument("--cpu", action="store_true", help="laws: print the CPU time per step")
@@ -427,7 +433,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--target is for the goal experiment, not {args.name!r}")
     for option, names in (("push", ("disturbance",)), ("hold", ("disturbance",)),
                           ("peak_force", ("disturbance",)), ("tow", ("drag",)),
-                          ("cases", ("laws",)), ("ntrt", ("laws",))):
+                          ("cases", ("laws",)), ("ntrt", ("laws",)), ("laws", ("laws",))):
         if getattr(args, option) is not None and args.name not in names:
             raise ValueError(f"--{option.replace('_', '-')} is for the {names[0]} experiment, "
                              f"not {args.name!r}")
