@@ -21,6 +21,14 @@ setup(
             optional=True,
         ),
         Extension(
+            "tensim.sim._record",
+            sources=["src/tensim/sim/_record.c"],
+            include_dirs=[_INCLUDE],
+            extra_compile_args=_FLAGS,
+            # Without a C compiler a run records in Python (the same samples, more time).
+            optional=True,
+        ),
+        Extension(
             "tensim.rl._observe",
             sources=["src/tensim/rl/_observe.c"],
             extra_compile_args=_FLAGS,

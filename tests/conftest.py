@@ -1,7 +1,7 @@
 """Suite-wide checks. With ``TENSIM_REQUIRE_COMPILED=1`` (CI sets it) a compiled cable law,
-CPG or RL observation (where the rl extra is installed) that is missing or stale (built from
-older sources, or for another MuJoCo) fails the run at its start: otherwise the tests of the
-compiled paths skip, and a stale build would pass unseen."""
+CPG, record loop or RL observation (where the rl extra is installed) that is missing or stale
+(built from older sources, or for another MuJoCo) fails the run at its start: otherwise the
+tests of the compiled paths skip, and a stale build would pass unseen."""
 
 from __future__ import annotations
 
@@ -15,10 +15,11 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     if os.environ.get("TENSIM_REQUIRE_COMPILED") != "1":
         return
     from tensim.control import cpg
-    from tensim.sim import _law
+    from tensim.sim import _law, _record_native
 
     missing = [name for name, ok in (("cable law", _law.compiled_available()),
-                                     ("CPG", cpg.compiled_available())) if not ok]
+                                     ("CPG", cpg.compiled_available()),
+                                     ("record loop", _record_native.available())) if not ok]
     if importlib.util.find_spec("gymnasium") is not None:
         from tensim.rl import _observe_native
 

@@ -46,6 +46,46 @@ def test_loop_samples_first_then_steps_samples_and_checks_every_few_records():
     np.testing.assert_allclose(progress, [(1.0, 1.2)])  # about every simulated second
 
 
+class _Stretches(_Log):
+    """A back-end that takes records in stretches of at most ``most`` (as the compiled record
+    loop does), asking the loop to check after the check records whose number is odd, and
+    checking the others itself; after ``until`` records it can take no more."""
+
+    def __init__(self, most: int, until: int):
+        super().__init__()
+        self.most, self.until = most, until
+        self.stops: list[int] = []
+
+    def records(self, k: int, stop: int) -> tuple[int, bool]:
+        self.stops.append(stop)
+        if k >= self.until:
+            return k, False
+        for j in range(k, min(stop, k + self.most)):
+            self.advance(j, 10)
+            self.take()
+            if (j % CHECK_EVERY == 0 or j == 11) and j % 2:
+                return j + 1, True
+            if j % CHECK_EVERY == 0 or j == 11:
+                self.check()
+        return min(stop, k + self.most), False
+
+
+def test_stretches_of_records_are_the_records_one_at_a_time():
+    one, progress_one = _Log(), []
+    record_loop(one, 12, 10, 0.01, 1.2, lambda done, total: progress_one.append(done))
+    for most, until in ((3, 99), (100, 99), (4, 7)):  # the last: the rest one at a time
+        log, progress = _Stretches(most, until), []
+        record_loop(log, 12, 10, 0.01, 1.2, lambda done, total, seen=progress: seen.append(done))
+        assert log.calls == one.calls and progress == progress_one
+        assert set(log.stops) <= {10, 12}  # a stretch ends at a progress report or the end
+
+
+def test_a_callback_per_record_takes_no_stretches():
+    log, seen = _Stretches(100, 99), []
+    record_loop(log, 12, 10, 0.01, 1.2, on_record=lambda: seen.append(log.k))
+    assert log.stops == [] and seen == list(range(12))
+
+
 def test_loop_stops_when_no_world_is_left_running():
     log = _Log(stop=3)
     record_loop(log, 12, 1, 0.01, 0.12)

@@ -1,6 +1,6 @@
-"""The suite's own guard: with ``TENSIM_REQUIRE_COMPILED=1`` a compiled law, CPG or RL
-observation that did not load fails the test run at its start, naming what is missing; without
-it the run goes on."""
+"""The suite's own guard: with ``TENSIM_REQUIRE_COMPILED=1`` a compiled law, CPG, record loop
+or RL observation that did not load fails the test run at its start, naming what is missing;
+without it the run goes on."""
 
 from __future__ import annotations
 
@@ -15,10 +15,11 @@ ROOT = Path(__file__).resolve().parents[1]
 
 PLUGIN = """
 from tensim.control import cpg
-from tensim.sim import _law
+from tensim.sim import _law, _record_native
 
 _law.compiled_available = lambda: {law}
 cpg.compiled_available = lambda: {cpg}
+_record_native.available = lambda: {record}
 try:
     from tensim.rl import _observe_native
 except ImportError:  # (no rl extra: the guard leaves the RL observation out)
@@ -29,8 +30,8 @@ else:
 
 
 def _run(tmp_path: Path, *, require: bool, law: bool, cpg: bool,
-         observation: bool = True) -> subprocess.CompletedProcess[str]:
-    (tmp_path / "fake_build.py").write_text(PLUGIN.format(law=law, cpg=cpg,
+         observation: bool = True, record: bool = True) -> subprocess.CompletedProcess[str]:
+    (tmp_path / "fake_build.py").write_text(PLUGIN.format(law=law, cpg=cpg, record=record,
                                                           observation=observation))
     env = dict(os.environ)
     env.pop("TENSIM_REQUIRE_COMPILED", None)
@@ -54,6 +55,12 @@ def test_a_missing_build_fails_the_run_when_required(
     done = _run(tmp_path, require=True, law=law, cpg=cpg, observation=observation)
     assert done.returncode != 0
     assert f"the compiled {named} did not load" in done.stdout + done.stderr
+
+
+def test_a_missing_record_loop_fails_the_run_when_required(tmp_path: Path) -> None:
+    done = _run(tmp_path, require=True, law=True, cpg=True, record=False)
+    assert done.returncode != 0
+    assert "the compiled record loop did not load" in done.stdout + done.stderr
 
 
 def test_without_the_flag_a_missing_build_only_skips(tmp_path: Path) -> None:

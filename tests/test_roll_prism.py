@@ -169,3 +169,64 @@ def test_cli_turn_refuses_a_heading_and_other_experiments(tmp_path):
                  "--out", out]) == 2
     assert main(["experiment", "roll", "six_bar", "--turn", "nan", "--out", out]) == 2
     assert main(["experiment", "drag", "--turn", "30", "--out", out]) == 2
+
+
+def test_held_faces_count_a_face_once_seen_twice_running():
+    from tensim.experiments.roll import held_faces
+
+    a, b, c = ("a",), ("b",), ("c",)
+    # a one-look flicker onto c is not a face stood on; b held for two looks is
+    assert held_faces([a, a, c, a, b, b, b, a, a]) == ([a, b, a], 5)
+    assert held_faces([a, a, a]) == ([a], None)
+
+
+def test_the_faces_from_the_recorded_rod_poses_are_those_the_gait_saw(runs):
+    # the gait counts faces from the live simulation at each look; the same count made from
+    # the recorded bodies' poses (as `experiment roll --controller` and `rl evaluate` do)
+    # must agree, look for look
+    from tensim.control.rolling import support_face
+    from tensim.experiments.roll import held_faces, node_bodies, node_paths
+    from tensim.model import compile_structure
+
+    nodes = node_bodies(compile_structure(_prism()).index)
+    for result, summary in runs.values():
+        ts = result.trajectory
+        paths = node_paths(ts, nodes)
+        looks = np.arange(0, len(ts.time), 5)  # every 0.05 s, the gait's period
+        faces, first = held_faces([support_face(dict(zip(nodes, p, strict=True)))
+                                   for p in paths[looks]])
+        assert len(faces) - 1 == summary["rolls"]
+        assert len(set(faces)) == summary["faces_visited"]
+        assert rocks_back(faces) == summary["rocks_back"]
+        assert ts.time[looks[first]] == pytest.approx(summary["first_roll_s"], abs=1e-9)
+        # every node on the ground at some sample: nodes whose recorded height came within
+        # the face tolerance of the lowest node's
+        low = paths[:, :, 2] - paths[:, :, 2].min(axis=1, keepdims=True)
+        assert summary["ends_on_ground"] <= int((low < 0.02 * 1.3).any(axis=0).sum())
+        assert summary["ends"] == 6 and summary["support_changes"] >= summary["rolls"]
+
+
+def test_a_played_gait_reports_its_faces_from_the_recorded_rod_poses():
+    from tensim.control import ControllerConfig, default_impedance
+    from tensim.experiments.roll import play
+
+    robot = _prism(lying=False)
+    # no gait: the prism stands still on its bottom triangle, b0 b1 b2
+    result, summary = play(robot, ControllerConfig(default_impedance(robot)), 1.0)
+    assert summary["faces_visited"] == 1 and summary["rolls"] == 0
+    assert summary["rocks_back"] == 0 and summary["first_roll_s"] is None
+    assert summary["plans"] is None and summary["support_changes"] == 0
+    assert summary["ends_on_ground"] == 3 and summary["ends"] == 6
+    # laid on its side it falls from 4 cm onto a side face and stays: one change of face,
+    # which the recorded heights of its nodes show (the three lowest at the end are not the
+    # three lowest at the start)
+    from tensim.experiments.roll import node_bodies, node_paths
+    from tensim.model import compile_structure
+
+    lying = _prism()
+    result, summary = play(lying, ControllerConfig(default_impedance(lying)), 1.0)
+    z = node_paths(result.trajectory, node_bodies(compile_structure(lying).index))[..., 2]
+    start, end = (set(np.argsort(h)[:3]) for h in (z[0], z[-1]))
+    assert start != end
+    assert summary["faces_visited"] == 2 and summary["rolls"] == 1
+    assert summary["ends_on_ground"] == len(start | end) == 4

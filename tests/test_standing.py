@@ -67,3 +67,22 @@ def test_on_frictionless_ground_the_build_pose_needs_no_sideways_push(monkeypatc
     raw = with_rest_lengths(raw, np.array([raw.rest_length(c) for c in raw.cables]))
     held = settle(raw, feet(raw)).pose
     assert _drift(_frictionless(held))[1] > 2e-3
+
+
+def test_settle_from_a_start_pose_keeps_the_structures_rest_lengths():
+    """Newton from another pose must reach the static pose of the structure's own rest
+    lengths (2 % shorter here), not of the start's: the start lends positions only."""
+    built = three_bar()
+    shorter = with_rest_lengths(built, 0.98 * np.array([built.rest_length(c)
+                                                         for c in built.cables]))
+    pinned = feet(built)
+    direct = settle(shorter, pinned, sliding=True)
+    from_build = settle(shorter, pinned, sliding=True, start=built)
+    unchanged = settle(built, pinned, sliding=True)
+    moved = max(np.linalg.norm(direct.pose.position(n.name) - unchanged.pose.position(n.name))
+                for n in built.nodes)
+    assert moved > 1e-3  # the shorter cables do move the pose
+    for node in built.nodes:
+        assert np.allclose(from_build.pose.position(node.name), direct.pose.position(node.name),
+                           atol=1e-6)
+    assert np.allclose(from_build.tensions, direct.tensions, rtol=1e-6, atol=1e-6)

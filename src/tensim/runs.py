@@ -155,6 +155,7 @@ def world_record(world: WorldOptions) -> dict[str, Any]:
             "noslip_iterations": world.noslip_iterations, "condim": world.condim,
             "torsional_friction_m": world.torsional_friction,
             "rolling_friction_m": world.rolling_friction, "cable_law": world.cable_law,
+            "split_margin": world.split_margin,
             "min_inertia_ratio": world.min_inertia_ratio}
 
 

@@ -30,8 +30,10 @@ from tensim.model import (
     compile_structure,
     without_cable_law,
 )
+from tensim.model._split import MARGIN as SPLIT_MARGIN
 from tensim.models import preset
 from tensim.sim import Controller, Simulation, compiled_available
+from tensim.sim._record_native import available as record_loop_available
 from tensim.structure import CableContact
 from tensim.terrain import Flat, Terrain
 
@@ -175,10 +177,17 @@ DISCRETE_EXPLICIT = "explicit, discrete step"  # bench_laws' row: the integrator
 DISCRETE_TENDONS = "tendons, discrete step"  # and with the cables as tendon springs (cost only)
 
 
+def split_row(margin: float) -> str:
+    """bench_laws' row of the implicit law split by cable at ``margin``."""
+    return f"implicit, split {margin:g}"
+
+
 def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine3",
-               dt: float = 1e-3) -> dict[str, Any]:
+               dt: float = 1e-3, split_margin: float = SPLIT_MARGIN) -> dict[str, Any]:
     """The cost of a step under each cable law (``WorldOptions.cable_law``): preset ``name``
-    under its impedance controller at step ``dt``, the laws' loops taking turns.
+    under its impedance controller (if it has one) at step ``dt``, the laws' loops taking
+    turns; a row after the laws runs the implicit law split by cable at ``split_margin``
+    (``WorldOptions.split_margin``).
 
     A further row runs the explicit law on MuJoCo's ``discrete`` step (the implicit law's
     integrator, with no cable in its metric), which separates the integrator's own cost from
@@ -196,18 +205,21 @@ def bench_laws(duration: float = 10.0, repeats: int = 3, name: str = "tetraspine
         JSON-ready figures: per law, the best and median CPU and wall time per step [us], the
         ratio of its best CPU time to the explicit law's, and the per-step means above.
     """
-    from tensim.model._law_layout import CABLE_LAWS, LAW_EXPLICIT, implicit
+    from tensim.model._law_layout import CABLE_LAWS, LAW_EXPLICIT, LAW_IMPLICIT, implicit
 
     model = preset(name)
     structure = model.build()
     loops: dict[str, Callable[[], None]] = {}
     sims: dict[str, Simulation] = {}
     states: dict[str, np.ndarray] = {}
-    rows = [(law, law) for law in CABLE_LAWS] + [(DISCRETE_EXPLICIT, LAW_EXPLICIT),
-                                                 (DISCRETE_TENDONS, LAW_EXPLICIT)]
-    for row, law in rows:
-        compiled = compile_structure(structure, WorldOptions(timestep=dt, cable_law=law))
-        sim = Simulation(compiled, controller=model.controller())
+    rows = [(law, law, 0.0) for law in CABLE_LAWS] + [
+        (split_row(split_margin), LAW_IMPLICIT, split_margin),
+        (DISCRETE_EXPLICIT, LAW_EXPLICIT, 0.0), (DISCRETE_TENDONS, LAW_EXPLICIT, 0.0)]
+    for row, law, margin in rows:
+        compiled = compile_structure(structure, WorldOptions(timestep=dt, cable_law=law,
+                                                             split_margin=margin))
+        sim = Simulation(compiled, controller=model.controller(),
+                         record_dt=max(1, round(0.01 / dt)) * dt)  # a whole number of steps
         sims[row] = sim
         if row in (DISCRETE_EXPLICIT, DISCRETE_TENDONS):
             sim.model.opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
@@ -327,6 +339,7 @@ def run_benchmarks(duration: float = 10.0, repeats: int = 3) -> dict[str, Any]:
     cases += climb_cases(duration, repeats)
     return {
         "compiled_callback": compiled_available(),
+        "compiled_record_loop": record_loop_available(),
         "load_average_before": load,
         "core_share": {c.name: min(c.tensim.core_share(), c.engine.core_share()) for c in cases},
         "duration_s": duration,

@@ -198,6 +198,11 @@ def add_world_options(parser: argparse.ArgumentParser, dt: float = 1e-3) -> None
                              "implicit (MuJoCo's discrete integrator takes each taut cable's "
                              "stiffness and damping: stiff, damped cables at 1-10 ms) or "
                              "implicitfast (cheaper, damping only; see docs/speed.md)")
+    parser.add_argument("--split-margin", type=split_margin, default=0.0, metavar="MARGIN",
+                        help="with --cable-law implicit: keep on the explicit law the cables "
+                             "whose explicit step bound, together, is at least MARGIN steps "
+                             "(e.g. 4; 0, the default: hand every cable to the integrator; see "
+                             "docs/speed.md)")
     parser.add_argument("--contact", default=None, metavar="KEY=VALUE,...",
                         help="robot-ground friction model: cone=pyramidal|elliptic, "
                              "noslip=ITERATIONS, condim=3|4|6, torsional=COEFF [m], "
@@ -228,13 +233,28 @@ def world_from_args(args: argparse.Namespace) -> WorldOptions:
     from tensim.terrain import Flat, parse_terrain
 
     text = getattr(args, "terrain", None)
+    if getattr(args, "split_margin", None) and getattr(args, "cable_law", None) != "implicit":
+        raise ValueError("--split-margin splits the implicit law's cables: give it with "
+                         "--cable-law implicit")
     return WorldOptions(timestep=args.dt,
                         terrain=parse_terrain(text) if text is not None else Flat(),
                         self_collision=not getattr(args, "no_self_collision", False),
                         cable_law=getattr(args, "cable_law", None) or "explicit",
+                        split_margin=getattr(args, "split_margin", None) or 0.0,
                         **contact_options(getattr(args, "contact", None)),
                         **({} if getattr(args, "inertia_floor", None) is None else
                            {"min_inertia_ratio": args.inertia_floor}))
+
+
+def split_margin(text: str) -> float:
+    """0 or a finite number >= 1 (argparse type of ``--split-margin``)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and (value == 0 or value >= 1)):
+        raise argparse.ArgumentTypeError(f"expected 0 or a number >= 1, got {text[:50]!r}")
+    return value
 
 
 def _fraction(text: str) -> float:

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from tensim._input import InputError
-from tensim.cli._common import count, natural, output_option, positive
+from tensim.cli._common import count, natural, output_option, positive, split_margin
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,8 +34,16 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "figures are taken on a loaded machine")
     p.add_argument("--cable-laws", action="store_true",
                    help="instead of the cases: the cost of a step under each cable law "
-                   "(explicit, implicit, implicitfast), Tetraspine3 under impedance control at "
-                   "1 ms, the laws taking turns")
+                   "(explicit, implicit, implicitfast, the implicit law split by cable), "
+                   "Tetraspine3 under impedance control at 1 ms, the laws taking turns")
+    p.add_argument("--laws-model", default="tetraspine3", metavar="PRESET",
+                   help="--cable-laws: the preset (default tetraspine3, under its impedance "
+                   "controller where it has one)")
+    p.add_argument("--laws-dt", type=positive, default=1e-3, metavar="S",
+                   help="--cable-laws: the physics step [s] (default 0.001)")
+    p.add_argument("--split-margin", type=split_margin, default=None, metavar="MARGIN",
+                   help="--cable-laws: the margin of the implicit law's row split by cable "
+                   "(default 4; WorldOptions.split_margin)")
     p.add_argument("--rl", action="store_true",
                    help="instead of the cases: env steps per CPU second of the rolling 3-bar "
                    "(the three_bar preset as `tensim rl train --task roll` trains it) in the "
@@ -128,7 +136,9 @@ def run(args: argparse.Namespace) -> int:
         from tensim.benchmarks.engine import bench_laws, format_laws
 
         load = load_average()
-        laws = bench_laws(args.duration, args.repeats)
+        laws = bench_laws(args.duration, args.repeats, args.laws_model, args.laws_dt,
+                          **({} if args.split_margin is None
+                             else {"split_margin": args.split_margin}))
         print(format_laws(laws))
         print(machine_note({"cable laws": laws["core_share"]}, load))
         if args.json:

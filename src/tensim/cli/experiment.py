@@ -134,13 +134,15 @@ def _timestep(args: argparse.Namespace, out: Path) -> dict[str, Any]:
 
 
 def _laws(args: argparse.Namespace, out: Path) -> dict[str, Any]:
-    from tensim.experiments.laws import CASES, format_law_study, run_law_study
+    from tensim.experiments.laws import CASES, LAWS, format_law_study, run_law_study
     from tensim.runs import finish_run
 
     cases = tuple(c.strip() for c in args.cases.split(",") if c.strip()) if args.cases \
         else CASES + (("twelve_bar",) if args.ntrt else ())
     bar = Progress("cable-law study", args.quiet)
-    summary = run_law_study(cases, Path(args.ntrt) if args.ntrt else None, bar.note)
+    laws = tuple(c.strip() for c in args.laws.split(",") if c.strip()) if args.laws else LAWS
+    summary = run_law_study(cases, Path(args.ntrt) if args.ntrt else None, bar.note, laws,
+                            **({"split_margin": args.split_margin} if args.split_margin else {}))
     finish_run(out, summary)
     print("\n".join(format_law_study(summary, args.cpu)))
     return summary
@@ -265,7 +267,7 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     import dataclasses
     import math
 
-    from tensim.control.rolling import default_settings
+    from tensim.control.rolling import default_settings, searched
     from tensim.experiments.roll import ROLL_DURATION, play, roll, write_roll
     from tensim.models import load_controller
 
@@ -281,12 +283,16 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         raise ValueError("--turn: turning in place takes no --heading, --goal or --controller")
     if args.turn is not None and not math.isfinite(args.turn):
         raise ValueError(f"--turn {args.turn!r}: expected a finite angle in degrees")
-    if args.cached_plans and args.controller is not None:
-        raise ValueError("--cached-plans is for the statics gait, not a --controller file")
+    for flag in ("cached_plans", "searched_tips"):
+        if getattr(args, flag) and args.controller is not None:
+            raise ValueError(f"--{flag.replace('_', '-')} is for the statics gait, not a "
+                             "--controller file")
     if args.controller is None:
         settings = default_settings(structure)
         if args.cached_plans:
             settings = dataclasses.replace(settings, cache=True)
+        if args.searched_tips:
+            settings = searched(settings)
         result, summary = roll(structure, args.duration or ROLL_DURATION,
                                heading_deg=args.heading or 0.0, goal=goal,
                                world=world_from_args(args), turn_deg=args.turn,
@@ -320,7 +326,9 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
         first = summary["first_roll_s"]
         print(f"{summary['rocks_back']} of the {summary['rolls']} rolls went back to the face "
               "before; first roll after " + ("none" if first is None else f"{first:.2f} s")
-              + f"; {summary['plans']} plans ({summary['plans_made']} made from statics)")
+              + ("" if summary["plans"] is None else
+                 f"; {summary['plans']} plans ({summary['plans_made']} made from statics)")
+              + f"; {summary['ends_on_ground']} of {summary['ends']} rod ends on the ground")
     return summary
 
 
@@ -369,6 +377,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cached-plans", action="store_true",
                    help="roll: make each tip plan once per support face and edge and share it "
                         "through the robot's symmetry (RollSettings(cache=True))")
+    p.add_argument("--searched-tips", action="store_true",
+                   help="roll: where statics cannot plan a tip (a 3-bar's far edges), use the "
+                        "quickest of constant commands tried in simulation, cached through the "
+                        "symmetry; rest on each face until the cables are back at their built "
+                        "rest lengths (tensim.control.rolling.searched)")
     add_world_options(p)
     add_controller_option(p)
     p.add_argument("--robot", default=None, metavar="FILE.yaml",
@@ -393,6 +406,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cases", default=None, metavar="NAME,...",
                    help="laws: tetraspine3, superball, three_bar, twelve_bar (default all "
                         "but twelve_bar), tetraspine3_soft, tetraspine3_free_motors")
+    p.add_argument("--laws", default=None, metavar="LAW,...",
+                   help="laws: explicit, implicit, implicitfast (the default: all three), "
+                        "split (the implicit law split by cable at --split-margin, default 4; "
+                        "the explicit reference runs whatever is asked)")
     p.add_argument("--ntrt", default=None, metavar="NTRTSIM_DIR",
                    help="laws: a checkout of the original toolkit, for its 12-bar cube")
     p.add_argument("--cpu", action="store_true", help="laws: print the CPU time per step")
@@ -402,8 +419,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.cached_plans and args.name != "roll":
-        raise ValueError(f"--cached-plans is for the roll experiment, not {args.name!r}")
+    for flag in ("cached_plans", "searched_tips"):
+        if getattr(args, flag) and args.name != "roll":
+            raise ValueError(f"--{flag.replace('_', '-')} is for the roll experiment, not "
+                             f"{args.name!r}")
     for option in ("model", "heading", "goal", "turn"):
         if getattr(args, option) is not None and args.name != "roll":
             what = "a robot argument" if option == "model" else f"--{option}"
@@ -414,7 +433,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--target is for the goal experiment, not {args.name!r}")
     for option, names in (("push", ("disturbance",)), ("hold", ("disturbance",)),
                           ("peak_force", ("disturbance",)), ("tow", ("drag",)),
-                          ("cases", ("laws",)), ("ntrt", ("laws",))):
+                          ("cases", ("laws",)), ("ntrt", ("laws",)), ("laws", ("laws",))):
         if getattr(args, option) is not None and args.name not in names:
             raise ValueError(f"--{option.replace('_', '-')} is for the {names[0]} experiment, "
                              f"not {args.name!r}")

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 from scipy.spatial import ConvexHull
@@ -156,10 +157,16 @@ class PlanCache:
         gravity: [m/s^2].
         symmetric: share plans between faces the robot's symmetries relate (else every face
             and edge is planned from statics).
+        dynamic: called as dynamic(pose, feet, edge, statics rest lengths) where the statics
+            plan falls short of the margin: the rest lengths of a tip found otherwise (in
+            simulation, :func:`tensim.experiments.roll_search.search_tip`), or None.
     """
 
     def __init__(self, structure: Structure, built: np.ndarray, settings: RollSettings,
-                 gravity: float = GRAVITY, symmetric: bool = True) -> None:
+                 gravity: float = GRAVITY, symmetric: bool = True,
+                 dynamic: Callable[[Structure, tuple[str, ...], tuple[str, str], np.ndarray],
+                                   np.ndarray | None] | None = None) -> None:
+        self.dynamic = dynamic
         self.structure, self.built = structure, np.asarray(built, dtype=float)
         self.settings, self.gravity = settings, gravity
         self.faces = hull_faces({n.name: np.asarray(n.position, dtype=float)
@@ -225,6 +232,10 @@ class PlanCache:
         start = settle(explicit, feet, self.gravity, sliding=self.settings.sliding)
         plan = plan_edge(pose, explicit, start, self.built, self.built, line, feet,
                          self.settings, self.gravity)
+        if plan.margin < self.settings.margin and self.dynamic is not None:
+            found = self.dynamic(pose, feet, edge, plan.rest_lengths)
+            if found is not None:  # a tip found in simulation: it crosses the edge
+                return found, self.settings.margin
         return plan.rest_lengths, plan.margin
 
 

@@ -59,6 +59,27 @@ class RollSettings:
             preset: 2 kN motors, about 40 N on each foot) friction holds far less than the
             cables pull; off by default (docs/rolling.md: it tips the preset over its far
             edge once, but does not roll it faster).
+        still_speed: with a value > 0, the rest on a new face lasts (beyond ``settle_s``, at
+            most ``push_s`` longer) until the motors have wound the cables back to their
+            built rest lengths and the centre of mass moves slower than this [m/s], so that
+            each plan starts from the build shape at rest; 0: rest ``settle_s`` only.
+        barrier: step the rest lengths down the gradient of the work that tips the rigid
+            robot over the edge from the static pose, M g (sqrt(d^2 + h^2) - h) (d short of
+            the edge, h up), rather than up the gradient of the margin alone: a pose that
+            flattens (h falls) as its centre of mass nears the edge costs more to tip.
+        fold_deg: with a value > 0, hull faces that meet the support face at an edge with
+            their normals less than this apart [deg] make one *fold* with it (a 3-bar's side
+            faces pair up so across a shallow edge, 31 degrees on the ``three_bar`` preset,
+            while its other edges are 84-91 degrees): the gait counts a fold as one face
+            (a rock between its two faces starts no new plan), and where the edge the
+            heading points through is the fold's, it plans the tip over the next edge on the
+            pose rolled rigidly onto the fold's other face (:func:`fold_pose`) and commands it
+            at once, so that one push carries the robot across the fold and over the edge
+            after it. 0: off.
+        search: with a value > 0 (and ``cache``), a cached plan whose static centre of mass
+            stays short of the margin is replaced by the best of this many constant commands
+            tried in simulation from the face's canonical pose
+            (:func:`tensim.experiments.roll_search.search_tip`), where one tips the robot.
         cache: make each plan once per support face and edge of the build pose's hull,
             from the face's canonical pose with the built rest lengths, and share it between
             faces the robot's symmetry relates (:mod:`tensim.control.roll_plans`); a plan
@@ -80,15 +101,23 @@ class RollSettings:
     pump: bool = False
     sliding: bool = False
     cache: bool = False
+    still_speed: float = 0.0
+    barrier: bool = False
+    fold_deg: float = 0.0
+    search: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("shorten", "lengthen", "margin", "settle_s", "push_s", "period_s"):
+        for name in ("shorten", "lengthen", "margin", "settle_s", "push_s", "period_s",
+                     "still_speed", "fold_deg"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"roll setting {name} must be a finite number >= 0, got "
                                  f"{value!r}")
         if not self.shorten < 1:
             raise ValueError(f"roll setting shorten must be < 1 (a share), got {self.shorten}")
+        if not (isinstance(self.search, int) and self.search >= 0):
+            raise ValueError(f"roll setting search must be an integer >= 0, got "
+                             f"{self.search!r}")
         if not (isinstance(self.steps, int) and self.steps >= 1):
             raise ValueError(f"roll setting steps must be an integer >= 1, got {self.steps!r}")
         if not self.period_s > 0:
@@ -99,6 +128,21 @@ class RollSettings:
 # edge (the prism flattens first): it tips dynamically instead, with a larger travel and no rest
 # between tips, so that the momentum of one tip carries into the next.
 PRISM_SETTINGS = RollSettings(shorten=0.7, lengthen=0.5, settle_s=0.0, push_s=1.0)
+
+
+SEARCH_TRIES = 100  # constant commands a searched tip tries (RollSettings.search)
+STILL_SPEED = 0.3  # m/s: with searched tips, the rest on a face ends below this speed
+
+
+def searched(settings: RollSettings) -> RollSettings:
+    """``settings`` with tips searched in simulation where statics falls short
+    (``search``), plans cached through the symmetry (``cache``, which the search needs) and a
+    rest on each new face until the cables are back at their built rest lengths and the
+    centre of mass moves slower than :data:`STILL_SPEED` (``still_speed``): a searched tip
+    is found from the face's pose at rest with the built rest lengths, and works from
+    there."""
+    return dataclasses.replace(settings, cache=True, search=SEARCH_TRIES,
+                               still_speed=STILL_SPEED)
 
 
 def default_settings(structure: Structure) -> RollSettings:
@@ -332,8 +376,14 @@ def plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.n
             normal = edge[:2]
         if normal @ _com(lin)[:2] + edge[2] >= settings.margin:
             break
-        rate = normal @ (_com_jacobian(lin)
-                         @ _sensitivity(lin, structure, settings.sliding))[:2]
+        moves = _com_jacobian(lin) @ _sensitivity(lin, structure, settings.sliding)
+        rate = normal @ moves[:2]
+        if settings.barrier:  # descend the rigid tip's barrier sqrt(d^2 + h^2) - h instead
+            short = -(normal @ _com(lin)[:2] + edge[2])
+            height = _com(lin)[2] - min(lin.pose.position(f)[2]  # type: ignore[attr-defined]
+                                        for f in feet)
+            reach = math.hypot(short, height)
+            rate = -((-short * rate + height * moves[2]) / reach - moves[2])
         useful = np.abs(rate) >= 0.2 * np.abs(rate).max()
         planned = np.clip(planned + np.where(useful, np.sign(rate) * step, 0.0), lower, upper)
         try:
@@ -359,3 +409,50 @@ def _edge_through(lin: object, pair: list[str], normal: np.ndarray) -> np.ndarra
     out = np.array([along[1], -along[0]])
     out = out if out @ normal >= 0 else -out
     return np.array([out[0], out[1], -float(out @ a)])
+
+
+
+def folds(positions: dict[str, np.ndarray], fold_deg: float
+          ) -> dict[tuple[str, ...], tuple[tuple[str, ...], tuple[str, ...]]]:
+    """The hull's folds: each face of the convex hull of ``positions`` whose nearest
+    neighbour across an edge has its outward normal less than ``fold_deg`` apart, mapped to
+    (the nodes of the two faces, the edge they share); faces sorted by node name.
+
+    Args:
+        positions: node name -> (3,) position [m] (the build pose).
+        fold_deg: [deg].
+    """
+    names = list(positions)
+    hull = ConvexHull(np.array([positions[n] for n in names]))
+    faces = [frozenset(names[i] for i in simplex) for simplex in hull.simplices]
+    cos = math.cos(math.radians(fold_deg))
+    out: dict[tuple[str, ...], tuple[tuple[str, ...], tuple[str, ...]]] = {}
+    for k, face in enumerate(faces):
+        near = [(float(hull.equations[k, :3] @ hull.equations[j, :3]), j)
+                for j, other in enumerate(faces) if j != k and len(face & other) == 2]
+        best, j = max(near)
+        if best >= cos:
+            out[tuple(sorted(face))] = (tuple(sorted(face | faces[j])),
+                                        tuple(sorted(face & faces[j])))
+    return out
+
+
+def fold_pose(positions: dict[str, np.ndarray], face: tuple[str, ...], shared: tuple[str, ...],
+              heading: np.ndarray) -> dict[str, np.ndarray] | None:
+    """Where the edge of the support ``face`` that best leads toward ``heading`` is ``shared``
+    (the edge of its fold, :func:`folds`), the node positions rolled rigidly over it onto the
+    fold's other face (:func:`tip_rotation`); None where it is not (the robot stands on the
+    fold's forward face)."""
+    feet = np.array([positions[f] for f in face])
+    try:
+        edge = ahead_edges(feet[:, :2], face, heading)[0]
+    except DesignError:
+        return None
+    on_edge = {face[i] for i in np.argsort(np.abs(feet[:, :2] @ edge[:2] + edge[2]))[:2]}
+    if on_edge != set(shared):
+        return None
+    names = list(positions)
+    points = np.array([positions[n] for n in names])
+    rotation, anchor = tip_rotation(points, feet, edge)
+    rolled = (points - anchor) @ rotation.T + anchor
+    return dict(zip(names, rolled, strict=True))

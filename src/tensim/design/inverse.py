@@ -196,13 +196,23 @@ def _newton_step(lin: _Linear) -> np.ndarray:
                             keep @ lin.force)
 
 
+def _posed(structure: Structure, start: Structure) -> Structure:
+    """``structure`` (its cables and rest lengths) with the node positions of ``start``."""
+    names = [n.name for n in structure.nodes]
+    if [n.name for n in start.nodes] != names:
+        raise DesignError(f"{structure.name}: the start pose {start.name!r} has other nodes "
+                          "than the structure; expected the same nodes in the same order")
+    return dataclasses.replace(structure, nodes=start.nodes)
+
+
 @one_blas_thread
 def settle(structure: Structure, pinned: tuple[str, ...], gravity: float = GRAVITY,
            iterations: int = 100, loads: dict[str, np.ndarray] | None = None,
            start: Structure | None = None, sliding: bool = False) -> _Linear:
     """The static pose of ``structure`` (explicit rest lengths) with ``pinned`` nodes held
     where ``structure`` has them, under gravity and external node ``loads`` (node -> (3,)
-    world-frame force [N]); Newton's method from ``start`` (default: ``structure``).
+    world-frame force [N]); Newton's method from the node positions of ``start`` (default:
+    ``structure``'s). The rest lengths are always ``structure``'s: ``start`` lends its pose only.
 
     With ``sliding``, the pinned nodes are feet on frictionless ground: each is held only in
     height, except that the first is also held across the ground and the second across the
@@ -215,7 +225,7 @@ def settle(structure: Structure, pinned: tuple[str, ...], gravity: float = GRAVI
     """
     anchors = {n: structure.position(n) for n in pinned}
     held = _sliding_feet(anchors) if sliding else None
-    pose = structure if start is None else start
+    pose = structure if start is None else _posed(structure, start)
     size = float(np.ptp([n.position for n in structure.nodes], axis=0).max())
     for _ in range(iterations):
         lin = _linearise(pose, anchors, gravity, loads, held)

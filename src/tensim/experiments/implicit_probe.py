@@ -1,7 +1,7 @@
 """Measurements behind the implicit cable law's choice (docs/speed.md, docs/architecture.md):
 what sets the disturbance test's error at long steps, and what a law that solved its own cables'
 implicit step, with nothing handed to MuJoCo's metric, would give
-(``python -m tensim.experiments.implicit_probe loop-gain|peak|contacts|own-solve``).
+(``python -m tensim.experiments.implicit_probe loop-gain|peak|contacts|own-solve|spread``).
 
 - :func:`loop_gain`: ``h rho(diag(D) J M^-1 J^T)`` at a settled state, for the cables' own
   damping ``b`` and for the impedance laws' damping gains ``B`` (the gain of the explicit step's
@@ -12,6 +12,8 @@ implicit step, with nothing handed to MuJoCo's metric, would give
   without the impedance laws' damping gains, and on MuJoCo's elliptic friction cones: the
   worst cable and the share of the push's samples in which the cables' length rates jump away
   from the reference's (:func:`velocity_jumps`).
+- :func:`spread_study`: how far changes at the level of rounding (every cable's stiffness
+  changed by 1e-9 or 1e-7 of itself) move the disturbance test's figure under each law.
 - :func:`own_solve`: a probe, not a law of tensim: each step the cable forces of a robot with
   fixed or speed-limited rest lengths are computed in Python from a linearly implicit update of
   the cables alone and applied to MuJoCo's Euler step as plain forces (the robot of
@@ -328,6 +330,27 @@ def contact_study(dt: float = 4e-3, cable_laws: Sequence[str] = ("explicit", "im
     return lines
 
 
+SPREAD_SCALES = (0.0, 1e-9, 1e-7)  # relative changes of every cable's stiffness
+
+
+def spread_study(steps_ms: Sequence[float] = (1.0, 2.0, 4.0),
+                 rows: Sequence[str] = ("explicit", "implicit", laws.SPLIT),
+                 scales: Sequence[float] = SPREAD_SCALES) -> list[str]:
+    """The disturbance test's figure (the worst cable's max-tension change against the 0.05 ms
+    explicit reference of the robot as built, [%]) per row of ``tensim experiment laws`` and
+    step, with every cable's stiffness changed by each of ``scales`` (relative): how far changes
+    at the level of rounding move it, against which the rows' differences are read."""
+    reference = laws._tetraspine3(WorldOptions(timestep=5e-5))
+    runs = {scale: laws._tetraspine3_variant(stiffness_scale=1.0 + scale) for scale in scales}
+    lines = []
+    for row in rows:
+        for ms in steps_ms:
+            world = laws.row_world(row, ms / 1e3)
+            figures = [laws.compare(run(world), reference)[0] for run in runs.values()]
+            lines.append(f"  {row:<9} {ms:>3g} ms: " + " ".join(f"{f:+6.2f} %" for f in figures))
+    return lines
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     """The command line: ``loop-gain``, ``peak DT_MS LAW``, ``contacts``,
     ``own-solve CASE [MODES]``."""
@@ -335,6 +358,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     sub = parser.add_subparsers(dest="what", required=True)
     sub.add_parser("loop-gain")
     sub.add_parser("contacts")
+    sub.add_parser("spread")
     peak = sub.add_parser("peak")
     peak.add_argument("dt_ms", type=float)
     peak.add_argument("law")
@@ -354,6 +378,12 @@ def main(argv: Sequence[str] | None = None) -> None:
         print("tetraspine3 at 4 ms against its 0.05 ms explicit reference; a jump: a cable's "
               "length rate more than 5 mm/s from the reference's, over the push (30-45 s)")
         for line in contact_study():
+            print(line)
+    elif args.what == "spread":
+        print("tetraspine3: worst cable's max-tension change against the 0.05 ms explicit "
+              "reference, with every cable's stiffness changed by " + ", ".join(
+                  f"{scale:g}" for scale in SPREAD_SCALES))
+        for line in spread_study():
             print(line)
     elif args.what == "peak":
         r = peak_study(args.dt_ms / 1e3, args.law)

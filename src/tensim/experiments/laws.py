@@ -16,12 +16,14 @@ Cases:
   (docs/speed.md).
 
 Each case runs under each law (``explicit``, ``implicit``, ``implicitfast``; see
-docs/architecture.md) at each step; a line gives the worst cable's change of maximum tension
-against the reference (per cent of that cable's reference peak), the largest distance of the
-centre of mass from the reference's at the same time (mm, and per cent of the distance the
-reference's centre of mass travels), and the CPU time per step of the whole run (it varies
-with the machine and its load; the other figures do not). A run that fails its stability check
-is reported as unstable.
+docs/architecture.md) at each step, and where asked for (``laws``) under ``split``: the
+implicit law split by cable at ``WorldOptions.split_margin`` 4 or as asked (its lines also say
+how many cables are handed to the integrator at that step); a line gives the worst cable's
+change of maximum tension against the reference (per cent of that cable's reference peak),
+the largest distance of the centre of mass from the reference's at the same time (mm, and per
+cent of the distance the reference's centre of mass travels), and the CPU time per step of
+the whole run (it varies with the machine and its load; the other figures do not). A run that
+fails its stability check is reported as unstable.
 """
 
 from __future__ import annotations
@@ -40,7 +42,8 @@ from tensim.control.impedance import ImpedanceController
 from tensim.control.rest import RestCommand
 from tensim.experiments.disturbance import run_disturbance
 from tensim.model import WorldOptions, compile_structure
-from tensim.model._law_layout import CABLE_LAWS
+from tensim.model._law_layout import CABLE_LAWS, LAW_IMPLICIT, implicit
+from tensim.model._split import MARGIN
 from tensim.models import preset
 from tensim.sim import COM, SimulationError, SimulationResult, ramp_hold_release, simulate
 from tensim.structure import Cable, Motor, Node, Rod, Structure
@@ -48,6 +51,15 @@ from tensim.structure import Cable, Motor, Node, Rod, Structure
 STEPS_MS = (0.5, 1.0, 2.0, 4.0, 10.0)
 REFERENCE_MS = 0.05
 LAWS = CABLE_LAWS
+SPLIT = "split"  # the implicit law split by cable (at split_margin MARGIN unless asked)
+ROWS = (*CABLE_LAWS, SPLIT)
+
+
+def row_world(law: str, timestep: float, split_margin: float = MARGIN) -> WorldOptions:
+    """The world of a row of the study (a name of ``ROWS``) at ``timestep`` [s]."""
+    if law == SPLIT:
+        return WorldOptions(timestep=timestep, cable_law=LAW_IMPLICIT, split_margin=split_margin)
+    return WorldOptions(timestep=timestep, cable_law=law)
 CASES = ("tetraspine3", "superball", "three_bar")  # twelve_bar: with a checkout of the toolkit
 RECORD_DT = 0.02  # s: a whole number of every step above
 
@@ -88,11 +100,17 @@ def _tetraspine3(world: WorldOptions) -> SimulationResult:
     return run_disturbance(dt=world.timestep, world=world)[0]
 
 
-def _tetraspine3_variant(damping_scale: float = 1.0, max_speed: float | None = None) -> Run:
-    """The disturbance test with the impedance laws' B scaled by ``damping_scale`` and every
-    motor's speed limit set to ``max_speed`` [m/s] (None: as built)."""
+def _tetraspine3_variant(damping_scale: float = 1.0, max_speed: float | None = None,
+                         stiffness_scale: float = 1.0) -> Run:
+    """The disturbance test with the impedance laws' B scaled by ``damping_scale``, every
+    motor's speed limit set to ``max_speed`` [m/s] (None: as built) and every cable's stiffness
+    scaled by ``stiffness_scale``."""
     model = preset("tetraspine3")
     structure = model.build()
+    if stiffness_scale != 1.0:
+        structure = dataclasses.replace(structure, cables=tuple(
+            dataclasses.replace(c, stiffness=c.stiffness * stiffness_scale)
+            for c in structure.cables))
     if max_speed is not None:
         structure = dataclasses.replace(structure, cables=tuple(
             dataclasses.replace(c, motor=dataclasses.replace(c.motor, max_speed=max_speed))
@@ -128,10 +146,7 @@ def _three_bar(world: WorldOptions) -> SimulationResult:
 
 
 def _twelve_bar(ntrt: Path) -> Run:
-    from tensim.io import import_ntrt
-
-    structure = import_ntrt(ntrt / "src/dev/mcdaly/12BarTensegrity/12BarCube.yaml", "dm",
-                            clearance=0.01).structure
+    structure = _twelve_bar_structure(ntrt)
 
     def run(world: WorldOptions) -> SimulationResult:
         return simulate(compile_structure(structure, world), 3.0, record_dt=RECORD_DT)
@@ -170,14 +185,24 @@ def timed(run: Run, world: WorldOptions) -> tuple[SimulationResult | None, float
     return result, (time.process_time() - start) / steps * 1e6, None
 
 
-def study(name: str, run: Run, announce: Callable[[str], None] | None = None
-          ) -> dict[str, Any]:
-    """One case under each law and step, against its reference (JSON-ready).
+def handed_over(structure: Structure, world: WorldOptions) -> int:
+    """How many of ``structure``'s cables MuJoCo's integrator is handed in ``world``."""
+    compiled = compile_structure(structure, world)
+    return int(implicit(compiled.model)[:compiled.n_cables].sum())
+
+
+def study(name: str, run: Run, announce: Callable[[str], None] | None = None,
+          laws: tuple[str, ...] = LAWS, structure: Structure | None = None,
+          split_margin: float = MARGIN) -> dict[str, Any]:
+    """One case under each of ``laws`` (names of ``ROWS``) and step, against its reference
+    (JSON-ready); ``structure``, the case's robot, for the split's count of cables, and the
+    split's ``split_margin``.
 
     Returns:
         ``reference`` (max tension [N], the centre of mass's travel [m]) and ``runs``: per law
         and step [ms], the worst cable's max-tension change [%], the largest distance of the
-        centre of mass [m] and the CPU time per step [us], or the run's ``error``.
+        centre of mass [m] and the CPU time per step [us], or the run's ``error``; the split
+        also the cables handed to the integrator and the cables.
     """
     if announce:
         announce(f"{name}: the {REFERENCE_MS} ms reference")
@@ -186,29 +211,44 @@ def study(name: str, run: Run, announce: Callable[[str], None] | None = None
         raise SimulationError(f"{name}: the reference failed: {error}")
     moved = travel(reference)
     runs: dict[str, dict[str, dict[str, Any]]] = {}
-    for law in LAWS:
+    for law in laws:
         for ms in STEPS_MS:
             if announce:
                 announce(f"{name}: {law} at {ms:g} ms")
-            result, us, error = timed(run, WorldOptions(timestep=ms / 1e3, cable_law=law))
+            world = row_world(law, ms / 1e3, split_margin)
+            count = {} if law != SPLIT or structure is None else {
+                "handed_over": handed_over(structure, world), "cables": len(structure.cables)}
+            result, us, error = timed(run, world)
             if result is None:
-                runs.setdefault(law, {})[f"{ms:g}"] = {"error": error}
+                runs.setdefault(law, {})[f"{ms:g}"] = {"error": error, **count}
                 continue
             tension, path = compare(result, reference)
             runs.setdefault(law, {})[f"{ms:g}"] = {
                 "max_tension_change_percent": round(tension, 4), "com_distance_m": round(path, 6),
-                "cpu_us_per_step": round(us, 2)}
+                "cpu_us_per_step": round(us, 2), **count}
     return {"reference": {"max_tension_N": round(float(reference.peak_tension.max()), 4),
                           "com_travel_m": round(moved, 6)}, "runs": runs}
 
 
+def _twelve_bar_structure(ntrt: Path) -> Structure:
+    from tensim.io import import_ntrt
+
+    return import_ntrt(ntrt / "src/dev/mcdaly/12BarTensegrity/12BarCube.yaml", "dm",
+                       clearance=0.01).structure
+
+
 def run_law_study(cases: tuple[str, ...] = CASES, ntrt: Path | None = None,
-                  announce: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """The study over ``cases`` (``twelve_bar`` needs ``ntrt``); its summary, JSON-ready.
+                  announce: Callable[[str], None] | None = None,
+                  laws: tuple[str, ...] = LAWS, split_margin: float = MARGIN) -> dict[str, Any]:
+    """The study over ``cases`` (``twelve_bar`` needs ``ntrt``) and ``laws`` (names of
+    ``ROWS``; ``split`` at ``split_margin``); its summary, JSON-ready.
 
     Raises:
-        ValueError: an unknown case, or twelve_bar without ``ntrt``.
+        ValueError: an unknown case or law, or twelve_bar without ``ntrt``.
     """
+    for law in laws:
+        if law not in ROWS:
+            raise ValueError(f"unknown law {law!r}; laws: {', '.join(ROWS)}")
     runners: dict[str, Run] = {"tetraspine3": _tetraspine3, "superball": _superball,
                                "three_bar": _three_bar,
                                "tetraspine3_soft": _tetraspine3_variant(damping_scale=0.2),
@@ -219,9 +259,20 @@ def run_law_study(cases: tuple[str, ...] = CASES, ntrt: Path | None = None,
         if name not in runners:
             raise ValueError(f"unknown case {name!r}; cases: {', '.join(runners)}"
                              + ("" if ntrt else " (twelve_bar with a checkout of the toolkit)"))
+    tetraspine3 = preset("tetraspine3").build
+    structures: dict[str, Callable[[], Structure]] = {
+        "tetraspine3": tetraspine3, "tetraspine3_soft": tetraspine3,
+        "tetraspine3_free_motors": tetraspine3, "superball": preset("superball").build,
+        "three_bar": three_bar}
+    if ntrt is not None:
+        structures["twelve_bar"] = lambda: _twelve_bar_structure(ntrt)
+    counted = SPLIT in laws
+    WorldOptions(cable_law=LAW_IMPLICIT, split_margin=split_margin)  # refuses a bad margin
     return {"experiment": "laws", "reference_ms": REFERENCE_MS, "steps_ms": list(STEPS_MS),
-            "laws": list(LAWS), "cases": {name: study(name, runners[name], announce)
-                                          for name in cases}}
+            "laws": list(laws), **({"split_margin": split_margin} if counted else {}),
+            "cases": {name: study(name, runners[name], announce, laws,
+                                  structures[name]() if counted else None, split_margin)
+                      for name in cases}}
 
 
 def format_law_study(summary: dict[str, Any], cpu: bool = False) -> list[str]:
@@ -236,12 +287,15 @@ def format_law_study(summary: dict[str, Any], cpu: bool = False) -> list[str]:
         for law, steps in case["runs"].items():
             for ms, run in steps.items():
                 head = f"  {law:<12} {float(ms):>4g} ms:"
+                handed = f", {run['handed_over']} of {run['cables']} cables handed over" \
+                    if "handed_over" in run else ""
                 if "error" in run:
-                    lines.append(f"{head} {run['error']}")
+                    lines.append(f"{head} {run['error']}{handed}")
                     continue
                 path = run["com_distance_m"]
                 lines.append(f"{head} max tension {run['max_tension_change_percent']:+7.2f} %, "
                              f"centre of mass {path * 1e3:7.1f} mm "
                              f"({100 * path / moved:5.1f} % of its travel)"
-                             + (f", {run['cpu_us_per_step']:6.1f} us/step" if cpu else ""))
+                             + (f", {run['cpu_us_per_step']:6.1f} us/step" if cpu else "")
+                             + handed)
     return lines

@@ -15,6 +15,7 @@ number of rolls. With ``turn_deg`` the gait turns the robot in place instead (:f
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import time
 from collections.abc import Callable
@@ -29,6 +30,8 @@ from tensim.control.rolling import (
     RollSettings,
     TipPlan,
     default_settings,
+    fold_pose,
+    folds,
     heading_error_deg,
     heading_vector,
     plan_tip,
@@ -77,7 +80,8 @@ class _Gait:
     goal: tuple[float, float] | None
     origin: np.ndarray
     length: float
-    face: tuple[str, ...] = ()
+    face: tuple[str, ...] = ()  # the face (or with settings.fold_deg, the fold) planned on
+    stood: tuple[str, ...] = ()  # the support face stood on
     seen: tuple[str, ...] = ()
     since: float = 0.0
     pushing: bool = False
@@ -96,6 +100,8 @@ class _Gait:
     released: bool = False  # pumping: the plan let go while the robot swings back
     cache: PlanCache | None = None  # the plans made so far (None: plan every tip afresh)
     stuck: bool = False  # a plan on this face timed out: plan afresh from where it stands
+    folds: dict[tuple[str, ...], tuple[tuple[str, ...], tuple[str, ...]]] = \
+        dataclasses.field(default_factory=dict)  # settings.fold_deg: the build hull's folds
 
     def _turn_heading(self, positions: dict[str, np.ndarray]) -> np.ndarray | None:
         """Turning in place: the outward normal of the next edge of the walk of rigid-hull
@@ -151,19 +157,26 @@ class _Gait:
         self.com_now = sim.data.subtree_com[0].copy()
         com = self.com_now[:2].copy()
         before, self.com_before = self.com_before, com
-        if face != self.face:
-            if held or not self.faces:
-                self.face, self.since, self.pushing = face, sim.time, False
-                self.stuck = False
-                self.faces.append(face)
-                if len(self.faces) == 2:
-                    self.first_roll_s = sim.time
-                self.released = False
-                if self.settings.release:
-                    sim.drive.rest_command[self.motorised] = self.built[self.motorised]
+        if face != self.stood:
+            if not (held or not self.faces):
+                return
+            self.stood = face
+            self.faces.append(face)
+            if len(self.faces) == 2:
+                self.first_roll_s = sim.time
+            key = self.folds[face][0] if face in self.folds else face
+            if key == self.face:  # a rock within the fold: the push goes on
+                return
+            self.face, self.since, self.pushing = key, sim.time, False
+            self.stuck = False
+            self.released = False
+            if self.settings.release:
+                sim.drive.rest_command[self.motorised] = self.built[self.motorised]
             return
         waited = sim.time - self.since
-        if not self.pushing and waited >= self.settings.settle_s:
+        if not self.pushing and waited >= self.settings.settle_s and (
+                waited >= self.settings.settle_s + self.settings.push_s
+                or self._still(sim, com, before)):
             self._push(sim, positions)
         elif self.pushing and waited >= self.settings.settle_s + self.settings.push_s:
             self.since, self.pushing = sim.time, False  # stuck: rest and plan again
@@ -173,6 +186,18 @@ class _Gait:
               and self.plan.margin < self.settings.margin
               and before is not None):
             self._pump(sim, float(self.plan.direction @ (com - before)), waited)
+
+    def _still(self, sim: Simulation, com: np.ndarray, before: np.ndarray | None) -> bool:
+        """Whether the rest on this face is over (``settings.still_speed``): the cables back
+        at their built rest lengths, the centre of mass slower than ``still_speed``."""
+        limit = self.settings.still_speed
+        if limit <= 0:
+            return True
+        if before is None:
+            return False
+        wound = np.abs(sim.drive.rest[self.motorised] - self.built[self.motorised])
+        speed = float(np.linalg.norm(com - before)) / self.settings.period_s
+        return bool(wound.max(initial=0.0) < 1e-3 and speed < limit)
 
     def _pump(self, sim: Simulation, rate: float, waited: float) -> None:
         """A tip that statics cannot make: let go while the robot swings back from the edge,
@@ -197,10 +222,19 @@ class _Gait:
         if heading is None or self.turned:
             sim.drive.rest_command[self.motorised] = self.built[self.motorised]
             return
+        face = support_face(positions)
+        if face in self.folds:
+            rolled = fold_pose(positions, face, self.folds[face][1], heading)
+            if rolled is not None:  # plan from the fold's forward face, push across both
+                pose = self._pose(rolled)
+        rest = sim.drive.rest.copy()
         try:
-            plan = (plan_tip(pose, sim.drive.rest.copy(), self.built, heading, self.settings)
+            plan = (plan_tip(pose, rest, self.built, heading, self.settings)
                     if self.cache is None or self.stuck else
-                    self.cache.plan(pose, sim.drive.rest.copy(), heading))
+                    # without the release, the cables a cached plan does not move go back
+                    # to their built rest lengths as the next plan winds the others
+                    self.cache.plan(pose, rest if self.settings.release else self.built,
+                                    heading))
         except DesignError:
             return
         self.plans += 1
@@ -254,9 +288,19 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
     gait = _Gait(compiled.structure, built, motorised, settings, heading_deg, goal,
                  sim.data.subtree_com[0][:2].copy(), body_length(structure))
-    if settings.cache and settings.release:
+    if settings.fold_deg > 0:
+        gait.folds = folds({n.name: np.asarray(n.position) for n in compiled.structure.nodes},
+                           settings.fold_deg)
+    if settings.cache and (settings.release or settings.fold_deg > 0):
+        dynamic = None
+        if settings.search > 0:
+            from functools import partial
+
+            from tensim.experiments.roll_search import search_tip
+
+            dynamic = partial(search_tip, built=built, settings=settings, world=world)
         gait.cache = plans or PlanCache(compiled.structure, built, settings,
-                                        -float(compiled.model.opt.gravity[2]))
+                                        -float(compiled.model.opt.gravity[2]), dynamic=dynamic)
     if turn_deg is not None:
         gait.turn = math.radians(turn_deg)
     chunks: list[TimeSeries] = []
@@ -288,12 +332,75 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                "rocks_back": rocks_back(gait.faces),
                "first_roll_s": None if gait.first_roll_s is None
                else round(gait.first_roll_s, 6)}
+    nodes = node_bodies(compiled.index)
+    summary.update(ground_summary(trajectory, nodes))
     if turn_deg is not None:
-        bodies = dict(zip((int(b) for b in sim.index.body), sim.index.bodies, strict=True))
-        nodes = {n: (bodies[b], sim.index.node_local[n])
-                 for n, b in sim.index.node_body.items() if b in bodies}
         summary.update(turn_summary(trajectory, turn_deg, body_length(structure), nodes))
     return result, summary
+
+
+def node_bodies(index: Any) -> dict[str, tuple[str, np.ndarray]]:
+    """Node name -> (its body's name, its position in the body's frame [m]), for the nodes
+    on the robot's rigid bodies."""
+    bodies = dict(zip((int(b) for b in index.body), index.bodies, strict=True))
+    return {n: (bodies[b], index.node_local[n])
+            for n, b in index.node_body.items() if b in bodies}
+
+
+def node_paths(trajectory: TimeSeries, nodes: dict[str, tuple[str, np.ndarray]]
+               ) -> np.ndarray:
+    """(T, n, 3) the recorded paths of ``nodes`` (node name -> (its body's name, its position
+    in the body's frame [m])), from the bodies' ``pos_*`` and ``quat_*`` channels [m]."""
+    out = []
+    for body, local in nodes.values():
+        quat = np.stack([trajectory[f"quat_{a}/{body}"] for a in "wxyz"], axis=1)
+        quat = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+        w, x, y, z = quat.T
+        rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+        pos = np.stack([trajectory[f"pos_{a}/{body}"] for a in "xyz"], axis=1)
+        out.append(pos + np.einsum("ijt,j->ti", rot, np.asarray(local, dtype=float)))
+    return np.stack(out, axis=1)
+
+
+def held_faces(faces: list[tuple[str, ...]], hold: int = 2) -> tuple[list[tuple[str, ...]],
+                                                                         int | None]:
+    """The support faces stood on, in order, from one face per look (``faces``): a new face
+    counts once seen on ``hold`` looks running, as the statics gait counts it.
+
+    Returns:
+        The faces stood on, and the index of the look at which the second was first counted
+        (None where the robot never left its first face).
+    """
+    out: list[tuple[str, ...]] = []
+    first: int | None = None
+    for i, face in enumerate(faces):
+        if not out:
+            out.append(face)
+        elif face != out[-1] and i + 1 >= hold and all(f == face
+                                                      for f in faces[i + 1 - hold:i + 1]):
+            out.append(face)
+            if first is None:
+                first = i
+    return out, first
+
+
+def ground_summary(trajectory: TimeSeries, nodes: dict[str, tuple[str, np.ndarray]]
+                   ) -> dict[str, Any]:
+    """Whether a run rolled, from its recorded rod poses, as ``tensim rl evaluate`` says it:
+    the support face (:func:`tensim.rl.evaluate.support_faces`) at every recorded sample.
+
+    Returns:
+        ``support_changes`` (samples whose support face differs from the sample before),
+        ``ends_on_ground`` (the nodes that were ever in the support face) and ``ends`` (the
+        nodes).
+    """
+    from tensim.rl.evaluate import support_faces
+
+    faces = support_faces(node_paths(trajectory, nodes))
+    return {"support_changes": int(sum(a != b for a, b in itertools.pairwise(faces))),
+            "ends_on_ground": len(set().union(*faces)), "ends": len(nodes)}
 
 
 def turn_summary(trajectory: TimeSeries, turn_deg: float, length: float,
@@ -314,28 +421,13 @@ def turn_summary(trajectory: TimeSeries, turn_deg: float, length: float,
         ``displacement_body_lengths``.
     """
 
-    def points(i: int) -> np.ndarray:
-        out = []
-        for body, local in nodes.values():
-            w, x, y, z = (trajectory[f"quat_{a}/{body}"][i] for a in "wxyz")
-            out.append(np.array([trajectory[f"pos_{a}/{body}"][i] for a in "xyz"])
-                       + _rotation(np.array([w, x, y, z])) @ local)
-        return np.array(out)
-
-    yaw = yaw_between(points(0), points(-1))
+    paths = node_paths(trajectory, nodes)
+    yaw = yaw_between(paths[0], paths[-1])
     moved = float(np.hypot(trajectory[f"pos_x/{COM}"][-1] - trajectory[f"pos_x/{COM}"][0],
                            trajectory[f"pos_y/{COM}"][-1] - trajectory[f"pos_y/{COM}"][0]))
     return {"turn_deg": turn_deg, "yaw_deg": round(math.degrees(yaw), 3),
             "displacement_m": round(moved, 6),
             "displacement_body_lengths": round(moved / length, 6)}
-
-
-def _rotation(quat: np.ndarray) -> np.ndarray:
-    """(3, 3) the rotation of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = quat / np.linalg.norm(quat)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def play(structure: Structure, config: ControllerConfig, duration: float, *,
@@ -346,8 +438,11 @@ def play(structure: Structure, config: ControllerConfig, duration: float, *,
     """Rolls ``structure`` under a controller file's gait for ``duration`` seconds and scores
     the run along a heading (or toward a goal point) as :func:`roll` does.
 
-    The gait plays open loop (it does not look where it goes), so ``faces_visited`` and
-    ``rolls`` are None; the heading only scores the run.
+    The gait plays open loop (it does not look where it goes); the heading only scores the
+    run. ``faces_visited``, ``rolls``, ``rocks_back`` and ``first_roll_s`` are counted as the
+    statics gait counts them, from the support faces of the recorded rod poses
+    (:func:`tensim.rl.evaluate.support_faces`) looked at every control period of the statics
+    gait (:func:`held_faces`); ``plans`` and ``plans_made`` are None.
 
     Args:
         structure: the robot.
@@ -368,11 +463,22 @@ def play(structure: Structure, config: ControllerConfig, duration: float, *,
     result = simulate(compiled, duration, controller=controller, record_dt=record_dt,
                       progress=progress)
     direction = heading_vector(heading_deg) if goal is None else None
+    nodes = node_bodies(compiled.index)
+    ts = result.trajectory
+    every = max(1, round(RollSettings().period_s / record_dt))  # the statics gait's looks
+    looks = np.arange(0, len(ts.time), every)
+    from tensim.rl.evaluate import support_faces
+
+    faces, first = held_faces(support_faces(node_paths(ts, nodes)[looks]))
     summary = {**result.summary(), **world_record(compiled.world),
-               **roll_summary(result.trajectory, body_length(structure), direction, goal),
+               **roll_summary(ts, body_length(structure), direction, goal),
                "heading_deg": heading_deg if goal is None else None,
                "goal_xy_m": list(goal) if goal is not None else None,
-               "faces_visited": None, "rolls": None}
+               "faces_visited": len(set(faces)), "rolls": len(faces) - 1,
+               "plans": None, "plans_made": None, "rocks_back": rocks_back(faces),
+               "first_roll_s": None if first is None
+               else round(float(ts.time[looks[first]] - ts.time[0]), 6),
+               **ground_summary(ts, nodes)}
     return result, summary
 
 

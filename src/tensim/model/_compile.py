@@ -38,7 +38,9 @@ from tensim.model._law_layout import (
     biasprm,
     dynprm,
     gainprm,
+    implicit,
 )
+from tensim.model._split import split_cables
 from tensim.structure import Cable, Rod, Structure, mass_properties
 from tensim.structure._mass import MassProperties
 from tensim.terrain import Flat, Terrain, add_terrain, place_on_terrain, restitution_dampratio
@@ -102,6 +104,14 @@ class WorldOptions:
             ``"implicitfast"`` (the same term under MuJoCo's cheaper ``implicitfast``, which
             takes only the damping, and only each body's own share of it: right for cables
             anchored to the world, poor for cables between free bodies); docs/speed.md.
+        split_margin: under ``cable_law="implicit"``, keep on the explicit law the cables
+            that the explicit step integrates stably with this margin [-]: in order of each
+            cable's own explicit step bound, the longest first, as many as keep the explicit
+            bound of them all together at least ``split_margin`` times the step, at the
+            build pose (:mod:`tensim.model._split`); the rest are handed to MuJoCo's
+            ``discrete`` step, whose cost grows with the cables it is handed. A model with no
+            cable handed over runs MuJoCo's Euler step, as the explicit law does. 0 (the
+            default): every cable handed over. The other laws ignore it.
     """
 
     timestep: float = 1e-3
@@ -119,6 +129,7 @@ class WorldOptions:
     torsional_friction: float = 0.005
     rolling_friction: float = 0.0001
     cable_law: str = LAW_EXPLICIT
+    split_margin: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0 < self.timestep <= 0.05:
@@ -134,6 +145,11 @@ class WorldOptions:
         if self.cable_law not in CABLE_LAWS:
             raise ValueError(f"cable_law must be one of {', '.join(CABLE_LAWS)}, got "
                              f"{self.cable_law!r}"[:200])
+        margin = self.split_margin
+        if not (isinstance(margin, int | float) and not isinstance(margin, bool)
+                and math.isfinite(margin) and (margin == 0 or margin >= 1)):
+            raise ValueError("split_margin must be 0 (every cable handed to the implicit law's "
+                             f"integrator) or a finite number >= 1, got {margin!r}"[:200])
         if self.cone not in _CONES:
             raise ValueError(f"cone must be 'pyramidal' or 'elliptic', got {self.cone!r}")
         if isinstance(self.noslip_iterations, bool) or not isinstance(
@@ -442,11 +458,34 @@ def compile_structure(structure: Structure, world: WorldOptions | None = None,
            for v in (r,) + (0.0,) * ((ACTDIM if c.motor.dc is None else DC_ACTDIM) - 1) + pull]
     spec.add_key(name=BUILD_KEY, act=act, ctrl=rest + [0.0] * (3 * len(load_nodes)))
     model = _compile_spec(spec)
+    if world.cable_law == LAW_IMPLICIT and world.split_margin > 0:
+        model = _split_cables(spec, model, world)
     _check_wraps(structure, model)
     _relax_pd_targets(structure, spec, model)
     return dataclasses.replace(
         _assemble(structure, world, model, node_body, node_local, tuple(adjusted), load_nodes),
         spec=spec)
+
+
+def _split_cables(spec: mujoco.MjSpec, model: mujoco.MjModel,
+                  world: WorldOptions) -> mujoco.MjModel:
+    """The model with the cables that :func:`tensim.model._split.split_cables` keeps explicit
+    on the explicit law (their pull dropped from the keyframe), on MuJoCo's Euler step where
+    none is handed over; ``model`` itself where every cable is."""
+    cables = np.flatnonzero(implicit(model))
+    explicit = split_cables(model, model.key(BUILD_KEY).id, cables, world.timestep,
+                            world.split_margin)
+    if not explicit.any():
+        return model
+    key = spec.key(BUILD_KEY)
+    act = list(key.act)
+    for i in sorted(cables[explicit], reverse=True):  # the pull is each cable's last slot
+        _set_law(spec.actuators[i], LAW_EXPLICIT)
+        del act[model.actuator_actadr[i] + model.actuator_actnum[i] - 1]
+    key.act = act
+    if explicit.all():
+        spec.option.integrator = INTEGRATORS[LAW_EXPLICIT]
+    return _compile_spec(spec)
 
 
 def _relax_pd_targets(structure: Structure, spec: mujoco.MjSpec,
@@ -583,17 +622,12 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float,
                                   cable.motor.pd_damping)
     actuator.gainprm[0] = GAIN
     actuator.biastype = mujoco.mjtBias.mjBIAS_USER
-    implicit = law != LAW_EXPLICIT
-    actuator.gaintype = mujoco.mjtGain.mjGAIN_AFFINE if implicit else mujoco.mjtGain.mjGAIN_FIXED
-    if implicit:
-        actuator.actearly = True
-        actuator.forcelimited = True
-        actuator.forcerange = [-np.inf, 0.0]
     motor, dc = cable.motor, cable.motor.dc
     actuator.dynprm[:] = dynprm(MODE_PD if motor.pd else MODE_REST, motor.max_speed,
                                 motor.max_tension, motor.min_rest_length, motor.min_length,
                                 0.0, 0.0, 0.0, rest_length)
-    actuator.actdim = (ACTDIM if dc is None else DC_ACTDIM) + (IMPLICIT_EXTRA if implicit else 0)
+    actuator.actdim = ACTDIM if dc is None else DC_ACTDIM
+    _set_law(actuator, law)
     slots = None
     if dc is not None:
         line = dc.line()
@@ -603,6 +637,19 @@ def _add_cable_actuator(spec: mujoco.MjSpec, cable: Cable, rest_length: float,
                  "back_drivable": 1.0 if dc.back_drivable else 0.0}
     actuator.biasprm[:] = biasprm({**(slots or {}), "lag_time": motor.lag_time,
                                    "saturate": 1.0 if motor.saturate else 0.0})
+
+
+def _set_law(actuator: mujoco.MjsActuator, law: str) -> None:
+    """Puts a cable actuator (its ``actdim`` already set) on ``law``: the explicit law's fixed
+    gain, or the implicit laws' affine gain, tension-only force range and pull activation."""
+    implicit = law != LAW_EXPLICIT
+    was = actuator.gaintype == mujoco.mjtGain.mjGAIN_AFFINE
+    actuator.gaintype = mujoco.mjtGain.mjGAIN_AFFINE if implicit else mujoco.mjtGain.mjGAIN_FIXED
+    actuator.actearly = implicit
+    # the explicit law keeps MjSpec's defaults (no force range)
+    actuator.forcelimited = True if implicit else mujoco.mjtLimited.mjLIMITED_AUTO
+    actuator.forcerange = [-np.inf, 0.0] if implicit else [0.0, 0.0]
+    actuator.actdim += IMPLICIT_EXTRA * (int(implicit) - int(was))
 
 
 def _add_bead_springs(spec: mujoco.MjSpec, structure: Structure, world: WorldOptions,

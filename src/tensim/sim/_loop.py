@@ -91,6 +91,13 @@ def record_loop(backend: Backend, n_samples: int, record_steps: int, dt: float,
                 on_record: Callable[[], None] | None = None) -> None:
     """Runs ``n_samples`` records of ``record_steps`` steps, the first sample taken before.
 
+    A back-end may also offer ``records(k, stop) -> (next k, check)``: records k .. stop - 1
+    taken at once, each advanced and sampled and, where the loop checks after it, checked
+    for what needs no Python; it stops early after a record whose check does (``check``: the
+    loop then calls ``check``), and takes none (next k = k) where it cannot, which leaves the
+    rest of the run to ``advance`` and ``take``. The loop uses it where no ``on_record`` is
+    given.
+
     Args:
         backend: the worlds.
         n_samples: records after the first sample.
@@ -102,7 +109,21 @@ def record_loop(backend: Backend, n_samples: int, record_steps: int, dt: float,
     """
     backend.take()
     every = max(1, round(1.0 / (record_steps * dt)))
-    for k in range(n_samples):
+    stretch = getattr(backend, "records", None) if on_record is None else None
+    k = 0
+    while k < n_samples:
+        if stretch is not None:  # records at once, up to the next progress report at most
+            stop = n_samples if progress is None else min(n_samples, (k // every + 1) * every)
+            reached, check = stretch(k, stop)
+            if reached == k:  # it cannot: the rest of the run one record at a time
+                stretch = None
+            else:
+                if check:
+                    backend.check()
+                k = reached
+                if progress is not None and k % every == 0:
+                    progress(k * record_steps * dt, duration)
+                continue
         if not backend.advance(k, record_steps):
             break
         backend.take()
@@ -112,6 +133,7 @@ def record_loop(backend: Backend, n_samples: int, record_steps: int, dt: float,
             on_record()
         if progress is not None and (k + 1) % every == 0:
             progress((k + 1) * record_steps * dt, duration)
+        k += 1
 
 
 def whole_steps(period: float, dt: float, what: str) -> int:

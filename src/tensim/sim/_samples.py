@@ -155,16 +155,18 @@ def _flat_view(fields: list[np.ndarray]) -> tuple[np.ndarray, list[int]]:
             first (MuJoCo built with another ``mjtNum``).
     """
     held = [f for f in fields if f.size] or [np.zeros(1)]  # an empty field has no place
-    first = min(held, key=lambda f: f.ctypes.data)
-    base = first.ctypes.data
-    end = max(f.ctypes.data + f.nbytes for f in held)
-    for f in held:
-        if f.dtype != np.float64 or not f.flags.c_contiguous or (f.ctypes.data - base) % 8:
+    address = [f.ctypes.data for f in held]  # (each .ctypes builds an object: once each)
+    base = min(address)
+    first = held[address.index(base)]
+    end = max(a + f.nbytes for a, f in zip(address, held, strict=True))
+    for a, f in zip(address, held, strict=True):
+        if f.dtype != np.float64 or not f.flags.c_contiguous or (a - base) % 8:
             raise ValueError("MjData's sampled fields must be contiguous float64 arrays in one "
                              "buffer")
     flat = np.lib.stride_tricks.as_strided(first.reshape(-1), shape=((end - base) // 8,),
                                            strides=(8,), writeable=False)
-    return flat, [(f.ctypes.data - base) // 8 if f.size else 0 for f in fields]
+    at = iter(address)
+    return flat, [(next(at) - base) // 8 if f.size else 0 for f in fields]
 
 
 def sample_channels(samples: SampleBuffers, index: ModelIndex, dynprm: np.ndarray,
@@ -188,18 +190,17 @@ def sample_channels(samples: SampleBuffers, index: ModelIndex, dynprm: np.ndarra
     setpoint = np.where(p[:, layout.P_MODE] == layout.MODE_IMPEDANCE, setpoint, np.nan)
     cables = {"tension": tension, "setpoint": setpoint, "applied": applied, "length": x,
               "velocity": v, "rest_length": samples.rest}
+    # each quantity copied once with its samples last: every channel a contiguous row of it
     channels: dict[str, np.ndarray] = {}
     for q in CABLE_QUANTITIES:
-        values = cables[q]
-        for i, name in enumerate(index.cables):
-            channels[f"{q}/{name}"] = values[:, i].copy()
-    for i, name in enumerate((*index.bodies, COM)):
-        for a, axis in enumerate("xyz"):
-            channels[f"pos_{axis}/{name}"] = samples.pos[:, i, a].copy()
-    for i, name in enumerate(index.bodies):
-        for a, axis in enumerate("wxyz"):
-            channels[f"quat_{axis}/{name}"] = samples.quat[:, i, a].copy()
-    for i, name in enumerate(index.beads):  # contact cables' beads: for drawing replays
-        for a, axis in enumerate("xyz"):
-            channels[f"bead_{axis}/{name}"] = samples.bead[:, i, a].copy()
+        channels.update(zip([f"{q}/{name}" for name in index.cables],
+                            np.ascontiguousarray(cables[q].T), strict=True))
+    for prefix, axes, names, values in (
+            ("pos", "xyz", (*index.bodies, COM), samples.pos),
+            ("quat", "wxyz", index.bodies, samples.quat),
+            ("bead", "xyz", index.beads, samples.bead)):  # beads: for drawing replays
+        rows = np.ascontiguousarray(np.moveaxis(values, 0, -1))  # (items, axes, samples)
+        for name, item in zip(names, rows, strict=True):
+            channels.update(zip([f"{prefix}_{axis}/{name}" for axis in axes], item,
+                                strict=True))
     return TimeSeries(samples.time.copy(), channels)

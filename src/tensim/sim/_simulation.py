@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 
 from tensim.model import BUILD_KEY, CompiledModel, ModelIndex
+from tensim.sim import _record_native
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._drive import CableDrive, InputPlan, changes
 from tensim.sim._law import install, release, use_reference_law
@@ -135,6 +136,8 @@ class Simulation:
         self._energy = Energy(compiled)  # and the energy at each check, for its growth
         self._energies = EnergyHistory(1, self._energy.scale
                                        + self._energy.load_allowance(self._loads))
+        self._native: _record_native.NativeRecords | None = None
+        self._native_made = False
         if controller is not None:
             controller.configure(self)
         self._advance(1)  # the motor update at t = 0
@@ -207,6 +210,15 @@ class Simulation:
             count = min(block, nstep - first)
             _Segments(plan.control(self._next_step(), count)).run(self, 0, count)
 
+    def _native_records(self) -> _record_native.NativeRecords | None:
+        """The compiled record loop of this simulation's runs, made at the first (None where
+        runs record in Python, see :func:`~tensim.sim._record_native.usable`)."""
+        if not self._native_made:
+            self._native = _record_native.NativeRecords(self) \
+                if _record_native.usable(self) else None
+            self._native_made = True
+        return self._native
+
     def push_forces(self) -> None:
         """Keeps the cable forces of the step just taken for the ringing check."""
         self._forces.push(slice(0, 1), self._cable_force)
@@ -258,14 +270,20 @@ class Simulation:
                                        getattr(self, "_peak_seen", None)))
 
 
-    def _check_energy(self) -> None:
+    def _check_energy(self, fields: tuple[np.ndarray, ...] | None = None,
+                      time: float | None = None) -> None:
         """Raises :class:`SimulationError` where the mechanical energy grows geometrically
-        (:func:`~tensim.sim._loop.energy_growing`), naming what holds most of it."""
-        fields = self._energy_fields
+        (:func:`~tensim.sim._loop.energy_growing`), naming what holds most of it.
+
+        Args:
+            fields: qvel, xpos, ten_length and act, (1, ...), of a state the compiled record
+                loop kept at the time [s] ``time`` (default: the data's now).
+        """
+        fields = fields or self._energy_fields
         if self._energies.push(slice(None), self._energy.total(*fields))[0]:
             excess = self._energies.energy[0] - self._energies.lowest[0]
             raise SimulationError(energy_message(self._energy.largest(*fields), excess,
-                                                 self.time, self.dt))
+                                                 self.time if time is None else time, self.dt))
 
 
 def diagnose(m: mujoco.MjModel, d: mujoco.MjData, index: ModelIndex, limits: StabilityLimits,
@@ -319,6 +337,7 @@ class _Segments:
     def __init__(self, control: np.ndarray):
         self.control = control
         self.cuts = [*changes(control).tolist(), control.shape[0]]
+        self.cut_array = np.array(self.cuts, dtype=np.int64)  # for the compiled loop
         self._i = 0
 
     def run(self, sim: Simulation, start: int, stop: int) -> None:
@@ -343,12 +362,35 @@ class _SingleRun:
         self.plan = sim.inputs()
         self.per_block = max(1, _block_steps(self.plan.nu) // sim.record_steps)
         self.segments, self.done = _Segments(np.zeros((0, 0))), 0
+        self.native = sim._native_records()
+        if self.native is not None:
+            self.native.begin(self.recorder.rows, n_samples, sim.limits)
 
-    def advance(self, k: int, nstep: int) -> bool:
+    def _block(self, k: int, nstep: int) -> None:
         if k % self.per_block == 0:  # the inputs of the next records
             count = min(self.per_block, self.n_samples - k) * nstep
             self.segments = _Segments(self.plan.control(self.sim._next_step(), count))
             self.done = 0
+
+    def records(self, k: int, stop: int) -> tuple[int, bool]:
+        """Records k .. stop - 1 (to the end of their block of inputs at most) in the
+        compiled loop (:mod:`tensim.sim._record_native`); none without it."""
+        if self.native is None:
+            return k, False
+        self._block(k, self.sim.record_steps)
+        control = self.segments.control
+        if control.dtype != np.float64 or not control.flags.c_contiguous \
+                or control.shape[1] != self.sim._ctrl.size:
+            return k, False
+        stop = min(stop, (k // self.per_block + 1) * self.per_block)
+        status, reached, self.done, self.segments._i = self.native.run(
+            self.sim, k, stop, control, self.segments.cut_array, self.done, self.segments._i)
+        if status == _record_native.NO_HANDLER:
+            self.native = self.sim._native = None
+        return reached, status == _record_native.CHECK
+
+    def advance(self, k: int, nstep: int) -> bool:
+        self._block(k, nstep)
         if not watched(k, self.n_samples, nstep):
             self.segments.run(self.sim, self.done, self.done + nstep)
             self.done += nstep

@@ -210,6 +210,7 @@ def _world(summary: dict[str, Any], folder: Path) -> WorldOptions:
             rolling_friction=float(summary.get("rolling_friction_m",
                                                defaults.rolling_friction)),
             cable_law=str(summary.get("cable_law", defaults.cable_law)),
+            split_margin=float(summary.get("split_margin", defaults.split_margin)),
             min_inertia_ratio=float(summary.get("min_inertia_ratio",
                                                 defaults.min_inertia_ratio)))
     except (TypeError, ValueError, OverflowError) as err:
