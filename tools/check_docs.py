@@ -19,7 +19,7 @@ Each transcript runs in a fresh temporary folder that sees the repository's ``ex
 ``--out runs/...`` never touches the working tree. It runs under ``bash -o pipefail``, so a
 command that fails is seen even when it is piped into ``head`` or ``tail``.
 
-Usage: python tools/check_docs.py [--only TEXT] [--list]
+Usage: python tools/check_docs.py [--only TEXT] [--page PATH ...] [--list]
 """
 
 from __future__ import annotations
@@ -165,9 +165,12 @@ def check(transcript: Transcript) -> list[str]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only", default=None, help="only commands containing this text")
+    parser.add_argument("--page", nargs="+", default=None, metavar="PATH",
+                        help="only the transcripts of these pages (e.g. docs/rl.md README.md)")
     parser.add_argument("--list", action="store_true", help="list the transcripts and stop")
     args = parser.parse_args()
-    chosen = [t for t in transcripts() if args.only is None or args.only in t.command]
+    chosen = [t for t in transcripts() if (args.only is None or args.only in t.command)
+              and (args.page is None or str(t.page) in args.page)]
     failed = 0
     for t in chosen:
         where = f"{t.page}:{t.line}: {t.command}"
