@@ -30,6 +30,7 @@ from tensim.sim import (
     simulate,
 )
 from tensim.structure import Cable, Node, PointMass, Structure
+from test_implicit_law import assert_compiled_matches_python
 
 MASS = 1.0  # kg
 STIFF, STIFF_B = 1e6, 2e3  # N/m, N s/m: w0 = 1000 rad/s on the bob, critically damped
@@ -183,15 +184,7 @@ def _mixed():
 
 @pytest.mark.skipif(not compiled_available(), reason="compiled cable callback not built")
 def test_compiled_law_matches_the_reference_on_a_split_robot():
-    p = preset("tetraspine3")
-    compiled = _mixed()
-    push = ramp_hold_release("s2_tip", (0.0, 1.0, 0.5), 8.0, 0.2, 0.3, 0.4, 0.3)
-    a, b = (simulate(compiled, 1.0, controller=p.controller(), loads=(push,), backend=backend)
-            for backend in ("compiled", "python"))
-    for q in ("tension", "length", "rest_length", "pos_y"):
-        x, y = a.trajectory.matrix(q), b.trajectory.matrix(q)
-        assert np.abs(x - y).max() <= 1e-9 * np.abs(x).max(), q
-    assert np.ptp(a.trajectory["pos_y/com"]) > 1e-3  # the push moved it
+    assert_compiled_matches_python(_mixed())
 
 
 def test_each_batch_trial_of_a_split_robot_equals_its_single_run_bit_for_bit():

@@ -102,3 +102,15 @@ def test_a_relative_pythonpath_reaches_the_commands_as_the_caller_meant(monkeypa
     folder = tmp_path / "elsewhere"
     folder.mkdir()
     assert check_docs.run(transcript, folder) == [str((tmp_path / "src").resolve())]
+
+
+def test_page_lists_the_named_pages_transcripts_only(monkeypatch, capsys):
+    """``--page`` keeps exactly the transcripts whose page is named, in page order."""
+    everything = check_docs.transcripts()
+    named = ("docs/speed.md", "README.md")
+    monkeypatch.setattr(sys, "argv", ["check_docs", "--list", "--page", *named])
+    assert check_docs.main() == 0
+    listed = capsys.readouterr().out.splitlines()
+    expected = [f"{t.page}:{t.line}: {t.command}" for t in everything if t.page in named]
+    assert listed == expected and {t.page for t in everything if t.page in named} == set(named)
+    assert {t.page for t in everything} - set(named)  # other pages were left out

@@ -35,7 +35,8 @@ from tensim.sim import (
     run_batch,
 )
 from tensim.sim._loop import ForceHistory
-from tensim.structure import CableContact, DCMotor, load_structure
+from tensim.structure import load_structure
+from test_recorder import _robots as recorder_robots
 
 pytestmark = pytest.mark.skipif(not _record_native.available() or not compiled_available(),
                                 reason="the compiled record loop or cable law is not built")
@@ -53,19 +54,12 @@ def _both(run: Callable[[], T]) -> tuple[T, T]:
 
 
 def _robots() -> dict[str, tuple[tensim.Structure, Controller | None, tuple[NodeLoad, ...]]]:
+    """The recorder tests' robots (no loads), the six-bar, and Tetraspine3 pushed."""
+    robots = {name: (s, ctrl, ()) for name, (s, ctrl) in recorder_robots().items()}
     p = preset("tetraspine3")
     s = p.build()
-    dc = dataclasses.replace(s, cables=tuple(
-        dataclasses.replace(c, motor=dataclasses.replace(c.motor, dc=DCMotor(stall_torque=0.3)))
-        if k % 2 else c for k, c in enumerate(s.cables)))
-    beads = dataclasses.replace(s, cables=tuple(
-        dataclasses.replace(c, contact=CableContact(spacing=0.03)) if k < 2 else c
-        for k, c in enumerate(s.cables)))
-    bare = dataclasses.replace(preset("six_bar").build(), cables=())
     push = ramp_hold_release(s.nodes[0].name, (1.0, 0.0, 0.0), 20.0, 0.1, 0.2, 0.2, 0.2)
-    return {"impedance": (s, p.controller(), ()), "dc motors": (dc, p.controller(), ()),
-            "contact beads": (beads, None, ()), "no cables": (bare, None, ()),
-            "six-bar": (preset("six_bar").build(), None, ()),
+    return {**robots, "six-bar": (preset("six_bar").build(), None, ()),
             "a push": (s, p.controller(), (push,))}
 
 
