@@ -114,3 +114,14 @@ def test_page_lists_the_named_pages_transcripts_only(monkeypatch, capsys):
     expected = [f"{t.page}:{t.line}: {t.command}" for t in everything if t.page in named]
     assert listed == expected and {t.page for t in everything if t.page in named} == set(named)
     assert {t.page for t in everything} - set(named)  # other pages were left out
+
+
+def test_a_page_without_transcripts_is_refused(monkeypatch, capsys):
+    monkeypatch.setattr(sys, "argv", ["check_docs", "--list", "--page", "docs/nowhere.md"])
+    try:
+        check_docs.main()
+    except SystemExit as stop:
+        assert stop.code == 2
+    else:
+        raise AssertionError("an unknown page was accepted")
+    assert "--page: no transcripts on docs/nowhere.md" in capsys.readouterr().err

@@ -169,7 +169,12 @@ def main() -> int:
                         help="only the transcripts of these pages (e.g. docs/rl.md README.md)")
     parser.add_argument("--list", action="store_true", help="list the transcripts and stop")
     args = parser.parse_args()
-    chosen = [t for t in transcripts() if (args.only is None or args.only in t.command)
+    found = transcripts()
+    unknown = sorted(set(args.page or ()) - {str(t.page) for t in found})
+    if unknown:
+        parser.error(f"--page: no transcripts on {', '.join(unknown)}; expected pages such as "
+                     "docs/rl.md or README.md (see --list)")
+    chosen = [t for t in found if (args.only is None or args.only in t.command)
               and (args.page is None or str(t.page) in args.page)]
     failed = 0
     for t in chosen:
