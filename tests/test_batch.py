@@ -26,6 +26,19 @@ pytestmark = pytest.mark.skipif(not compiled_available(),
 DURATION = 1.5  # s
 
 
+@pytest.fixture(params=["alone", "chunks"])
+def engine(request, monkeypatch):
+    """Both ways a batch runs its trials: each alone in the compiled record loop (where it is
+    built), or chunks of trials as one-thread ``mujoco.batch`` batches (without it)."""
+    from tensim.sim import _batch
+
+    if request.param == "alone" and not _batch.solo_available():
+        pytest.skip("the compiled record loop is not built")
+    if request.param == "chunks":
+        monkeypatch.setattr(_batch, "solo_available", lambda: False)
+    return request.param
+
+
 @pytest.fixture(scope="module")
 def robot():
     p = preset("tetraspine3")
@@ -51,7 +64,7 @@ def _assert_identical(single, trial) -> None:
     np.testing.assert_array_equal(single.peak_tension, batch.peak_tension)
 
 
-def test_each_trial_equals_its_single_run_bit_for_bit(robot):
+def test_each_trial_equals_its_single_run_bit_for_bit(robot, engine):
     p, structure, compiled = robot
     cases = [Trial(p.controller()),
              Trial(_gait(structure, compiled, "tetraspine3_cpg")),
@@ -66,14 +79,15 @@ def test_each_trial_equals_its_single_run_bit_for_bit(robot):
     assert min(moved[1:]) > 1e-3  # the gaits and the push do move the robot
 
 
-def test_one_thread_equals_two_and_repeats_exactly(robot):
+def test_one_thread_equals_two_and_repeats_exactly(robot, engine):
     _, structure, compiled = robot
     trials = [Trial(_gait(structure, compiled, "tetraspine3_cpg"),
                     physics=PhysicsScale(friction=f)) for f in np.linspace(0.5, 1.5, 6)]
     reference = run_batch(compiled, trials, 0.3, threads=1)
     finals = {tuple(r.result.trajectory["pos_x/com"][-1:]) for r in reference}
     assert len(finals) > 1  # the trials differ from each other
-    for _ in range(50):  # no races: every 2-thread batch gives the same numbers
+    for _ in range(50 if engine == "chunks" else 20):  # no races: every 2-thread batch
+        # gives the same numbers
         again = run_batch(compiled, trials, 0.3, threads=2)
         for a, b in zip(reference, again, strict=True):
             _assert_identical(a.result, b)
@@ -93,7 +107,7 @@ def _modified(structure, stiffness=1.0, damping=1.0, friction=1.0, motor_speed=1
 @pytest.mark.parametrize("scale", [
     {"stiffness": 1.1}, {"damping": 0.7}, {"friction": 1.3}, {"motor_speed": 0.8},
 ])
-def test_physics_scales_equal_recompiled_structures(robot, scale):
+def test_physics_scales_equal_recompiled_structures(robot, engine, scale):
     _, structure, compiled = robot
     gait = _gait(structure, compiled, "tetraspine3_cpg")
     rebuilt = compile_structure(_modified(structure, **scale))
@@ -123,7 +137,7 @@ def test_mass_scale_equals_a_heavier_robot(robot):
                                    rtol=1e-7, atol=1e-9, err_msg=name)
 
 
-def test_a_bad_trial_fails_alone_with_a_message(robot):
+def test_a_bad_trial_fails_alone_with_a_message(robot, engine):
     p, _, compiled = robot
     names = list(compiled.index.cables)
 
@@ -154,7 +168,7 @@ def test_a_batch_too_large_to_hold_is_refused_up_front(robot):
         run_batch(robot[2], [Trial()] * 1000, 1e5)
 
 
-def test_starting_from_a_snapshot_equals_continuing(robot):
+def test_starting_from_a_snapshot_equals_continuing(robot, engine):
     from tensim.sim import Simulation
 
     _, structure, compiled = robot
@@ -193,7 +207,7 @@ def test_the_rollout_benchmark_replays_exactly_the_batch_trials():
 
 
 @pytest.mark.parametrize("threads", [1, 2, 3])
-def test_chunks_on_any_thread_count_equal_single_runs_and_name_their_trials(robot, threads):
+def test_chunks_on_any_thread_count_equal_single_runs_and_name_their_trials(robot, engine, threads):
     """Trials cut into chunks that threads take as they finish: every trial still equals its
     single run bit for bit, and a failure names its place in the whole batch."""
     p, structure, compiled = robot
@@ -207,3 +221,21 @@ def test_chunks_on_any_thread_count_equal_single_runs_and_name_their_trials(robo
         scaled = _modified(structure, friction=trial.physics.friction)
         single = simulate(compile_structure(scaled), 0.3, controller=gait)
         _assert_identical(single, results[k])
+
+
+def test_a_batch_runs_each_trial_alone_where_the_compiled_record_loop_is_built(robot,
+                                                                               monkeypatch):
+    """The trials of a batch are single runs in the compiled loop, not MuJoCo batch rows,
+    wherever that loop is built: ``mujoco.batch`` is not even set up."""
+    from tensim.sim import _batch
+
+    if not _batch.solo_available():
+        pytest.skip("the compiled record loop is not built")
+
+    def never(*args, **kwargs):
+        raise AssertionError("a mujoco.batch chunk was set up")
+
+    monkeypatch.setattr(_batch, "_BatchRun", never)
+    p, _, compiled = robot
+    [trial] = run_batch(compiled, [Trial(p.controller())], 0.2)
+    _assert_identical(simulate(compiled, 0.2, controller=p.controller()), trial)

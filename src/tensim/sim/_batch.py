@@ -1,16 +1,20 @@
-"""Many trials of one robot in one call, on threads: MuJoCo's batch engine with the cable law.
+"""Many trials of one robot in one call, on threads, each run to its end by one thread.
 
-Every trial is a row of MuJoCo state in a :class:`mujoco.batch.Batch` and steps its own copy
-of the model: its controller writes the law's parameters there and its commands into its
-``ctrl`` rows, its physics multipliers scale that copy's fields (or it brings a compiled model
-of its own), and the stateless compiled law runs inside MuJoCo's step.
+Every trial steps its own copy of the model: its controller writes the law's parameters
+there and its commands into its ``ctrl``, its physics multipliers scale that copy's fields
+(or it brings a compiled model of its own), and the stateless compiled law runs inside
+MuJoCo's step. Without the compiled record loop, a trial is a row of MuJoCo state in a
+:class:`mujoco.batch.Batch` (MuJoCo's batch engine).
 A trial here is bit-identical to the same trial run alone with :class:`~tensim.sim.Simulation`,
 at any thread count.
 
-Threads never wait for each other: the trials are cut into chunks of a few each, every chunk
-a one-thread ``Batch`` run to its end by the record loop, and each thread takes the next chunk
-left when it finishes one (work stealing). A thread that the machine deschedules delays only
-its own chunk, where a lock-step batch would hold every thread at each record's barrier.
+Threads never wait for each other: each thread takes the next job left when it finishes one
+(work stealing), so a thread that the machine deschedules delays only its own job, where a
+lock-step batch would hold every thread at each record's barrier. Where the compiled record
+loop is built (the common case), a job is one trial run alone to its end, a single run on the
+batch's thread (:mod:`tensim.sim._solo`: one model and one ``MjData`` stepped from start to
+end, as ``mujoco.rollout`` steps each simulation); otherwise the trials are cut into chunks of
+a few each, every chunk a one-thread ``Batch`` run to its end by the record loop.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import math
 import threading
 import time as _time
 from collections.abc import Callable, Sequence
+from typing import Protocol
 
 import mujoco
 import numpy as np
@@ -52,6 +57,7 @@ from tensim.sim._loop import (
 )
 from tensim.sim._samples import SampleBuffers
 from tensim.sim._simulation import diagnose
+from tensim.sim._solo import SoloTrial, solo_available
 from tensim.sim._trials import (
     PhysicsScale,
     Trial,
@@ -94,7 +100,7 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
         record_dt: recording period [s]; a whole number of physics steps.
         limits: the stability bounds.
         progress: called as progress(done_s, total_s) about every simulated second.
-        backend: ``"cpu"`` (MuJoCo's batch engine, bit-identical to single runs) or
+        backend: ``"cpu"`` (threads of this process, bit-identical to single runs) or
             ``"warp"`` (MuJoCo Warp, one world per trial, float32; ``tensim[gpu]``).
         device: the Warp device for ``backend="warp"`` (None: a GPU if there is one).
         force: run past :data:`tensim.limits.MAX_STEPS` physics steps (all trials together)
@@ -137,24 +143,46 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
                               n_samples=n_samples, limits=limits or StabilityLimits(),
                               progress=progress, device=device)
     _law.install("compiled")
-    runs = _chunks(compiled, trials, threads, record_steps, limits or StabilityLimits())
+    limits = limits or StabilityLimits()
+    runs: Sequence[_Job] = _solos(compiled, trials, record_dt, limits) if solo_available() \
+        else _chunks(compiled, trials, threads, record_steps, limits, n_samples)
     started = _time.perf_counter()
-    _run_stealing(runs, threads, n_samples, duration, progress)
+    _run_stealing(runs, threads, duration, progress)
     wall = _time.perf_counter() - started
     return [r for run in runs for r in run.results(duration, wall * len(run.trials)
                                                    / len(trials))]
 
 
+class _Job(Protocol):
+    """Trials a thread runs to their end: a trial alone, or a chunk as a one-thread batch."""
+
+    trials: Sequence[Trial]
+
+    def run(self, duration: float, progress: Callable[[float, float], None]) -> None:
+        """Runs the trials; ``progress`` hears their simulated time [s]."""
+
+    def results(self, duration: float, wall: float) -> list[TrialResult]:
+        """The trials' results, each given ``wall`` [s] as its wall time."""
+
+
+def _solos(compiled: CompiledModel, trials: Sequence[Trial], record_dt: float,
+           limits: StabilityLimits) -> list[SoloTrial]:
+    """Every trial alone, to run in the compiled record loop (see :mod:`tensim.sim._solo`)."""
+    compileds = trial_models(compiled, trials)
+    return [SoloTrial(own, trial, i, record_dt, limits)
+            for i, (own, trial) in enumerate(zip(compileds, trials, strict=True))]
+
+
 def _chunks(compiled: CompiledModel, trials: Sequence[Trial], threads: int, record_steps: int,
-            limits: StabilityLimits) -> list[_BatchRun]:
+            limits: StabilityLimits, n_samples: int) -> list[_BatchRun]:
     """The trials in chunks of consecutive ones, each set up as a one-thread batch (one chunk
-    on one thread)."""
+    on one thread): where the compiled record loop is not available."""
     n = len(trials)
     size = n if threads == 1 else max(math.ceil(n / (threads * _CHUNKS_PER_THREAD)),
                                       min(_MIN_CHUNK, math.ceil(n / threads)))
     compileds = trial_models(compiled, trials)
     return [_BatchRun(compiled, trials[first:first + size], record_steps, limits,
-                      compileds[first:first + size], first)
+                      compileds[first:first + size], n_samples, first)
             for first in range(0, len(trials), size)]
 
 
@@ -162,12 +190,12 @@ class _Abandoned(Exception):
     """A chunk stopped because another thread's failed or was interrupted."""
 
 
-def _run_stealing(runs: list[_BatchRun], threads: int, n_samples: int, duration: float,
+def _run_stealing(runs: Sequence[_Job], threads: int, duration: float,
                   progress: Callable[[float, float], None] | None) -> None:
-    """Runs every chunk to its end on ``threads`` threads (the caller's among them), each
-    thread taking the next chunk left; ``progress`` hears the trials' mean simulated time."""
+    """Runs every job to its end on ``threads`` threads (the caller's among them), each
+    thread taking the next job left; ``progress`` hears the trials' mean simulated time."""
     lock = threading.Lock()
-    queue = iter(runs)
+    queue = iter(enumerate(runs))
     done = [0.0] * len(runs)
     total = sum(len(run.trials) for run in runs)
     failures: list[BaseException] = []
@@ -185,12 +213,10 @@ def _run_stealing(runs: list[_BatchRun], threads: int, n_samples: int, duration:
         try:
             while not failures:
                 with lock:
-                    run = next(queue, None)
+                    k, run = next(queue, (-1, None))
                 if run is None:
                     return
-                k = runs.index(run)
-                run.run(n_samples, duration,
-                        lambda d, _t, k=k: report(k, d))  # type: ignore[misc]
+                run.run(duration, lambda d, _t, k=k: report(k, d))  # type: ignore[misc]
         except _Abandoned:
             return
         except BaseException as exc:  # raised in the caller's thread below
@@ -211,8 +237,10 @@ class _BatchRun:
     """The state of one :func:`run_batch` call."""
 
     def __init__(self, compiled: CompiledModel, trials: Sequence[Trial], record_steps: int,
-                 limits: StabilityLimits, compileds: Sequence[CompiledModel], first: int = 0):
+                 limits: StabilityLimits, compileds: Sequence[CompiledModel], n_samples: int,
+                 first: int = 0):
         self.compiled, self.trials, self.limits = compiled, trials, limits
+        self.n_samples = n_samples
         self.record_steps, self.dt = record_steps, float(compiled.model.opt.timestep)
         self.first = first  # the batch's number of this chunk's first trial, for messages
         n, m = len(trials), compiled.model
@@ -280,11 +308,10 @@ class _BatchRun:
         assert plan is not None
         return plan
 
-    def run(self, n_samples: int, duration: float,
-            progress: Callable[[float, float], None] | None) -> None:
-        self._start(n_samples)
-        self.n_samples, self.per_block = n_samples, max(1, _BLOCK_STEPS // self.record_steps)
-        record_loop(self, n_samples, self.record_steps, self.dt, duration, progress)
+    def run(self, duration: float, progress: Callable[[float, float], None] | None) -> None:
+        self._start(self.n_samples)
+        self.per_block = max(1, _BLOCK_STEPS // self.record_steps)
+        record_loop(self, self.n_samples, self.record_steps, self.dt, duration, progress)
 
     # the back-end of record_loop: the live trials' fields after their latest record
 

@@ -137,10 +137,16 @@ _checked: list[bool] = []  # whether MuJoCo's library found is the bindings' (ch
 
 
 def usable(sim: Simulation) -> bool:
-    """Whether ``sim`` can record with the compiled loop: it is built, ``sim`` runs the
-    compiled cable law, and the MuJoCo library found beside the bindings is the one they step
-    (its law callback is the one tensim installed through them)."""
-    if _LIB is None or sim.backend != "compiled" or RING_STEPS != 3:
+    """Whether ``sim`` can record with the compiled loop (see :func:`usable_backend`)."""
+    return usable_backend(sim.backend)
+
+
+def usable_backend(backend: str) -> bool:
+    """Whether a simulation on the cable law ``backend`` (resolved: ``"compiled"`` or
+    ``"python"``) can record with the compiled loop: it is built, the law is the compiled
+    one, and the MuJoCo library found beside the bindings is the one they step (its law
+    callback is the one tensim installed through them)."""
+    if _LIB is None or backend != "compiled" or RING_STEPS != 3:
         return False
     if not _checked:
         from tensim.sim import _law

@@ -116,20 +116,30 @@ def setup_trial(compiled: CompiledModel, model: mujoco.MjModel, trial: Trial,
     Raises:
         ValueError, KeyError, TypeError: the trial cannot run (the message says why).
     """
-    n = compiled.n_cables
     drive = CableDrive(compiled, model)
-    _scale(compiled, model, trial.physics)
+    scale(compiled, model, trial.physics)
     if trial.controller is not None:
         trial.controller.configure(_TrialSetup(compiled, drive, dt))
+    check_law(compiled, model)
+    if trial.initial_state is not None:
+        check_state(model, trial.initial_state)
+    return InputPlan(drive, trial.loads, compiled)
+
+
+def check_law(compiled: CompiledModel, model: mujoco.MjModel) -> None:
+    """Refuses a trial's model whose cable law parameters (as its controller left them) are
+    not all finite.
+
+    Raises:
+        ValueError: naming the first such cable.
+    """
+    n = compiled.n_cables
     bad = ~np.isfinite(model.actuator_dynprm[:n]).all(axis=1) | \
         ~np.isfinite(model.actuator_biasprm[:n]).all(axis=1) | \
         ~np.isfinite(model.actuator_gainprm[:n]).all(axis=1)
     if bad.any():
         raise ValueError(f"cable {compiled.index.cables[int(np.argmax(bad))]!r} has "
                          "non-finite law parameters")
-    if trial.initial_state is not None:
-        _check_state(model, trial.initial_state)
-    return InputPlan(drive, trial.loads, compiled)
 
 
 def trial_results(samples: SampleBuffers, count: np.ndarray, models: Sequence[mujoco.MjModel],
@@ -166,7 +176,7 @@ def trial_models(compiled: CompiledModel, trials: Sequence[Trial]) -> list[Compi
     return out
 
 
-def _scale(compiled: CompiledModel, model: mujoco.MjModel, physics: PhysicsScale) -> None:
+def scale(compiled: CompiledModel, model: mujoco.MjModel, physics: PhysicsScale) -> None:
     """Applies a trial's physics multipliers to its own model copy."""
     if physics == PhysicsScale():
         return
@@ -187,7 +197,8 @@ def _scale(compiled: CompiledModel, model: mujoco.MjModel, physics: PhysicsScale
         mujoco.mj_setConst(model, mujoco.MjData(model))  # the constants derived from masses
 
 
-def _check_state(model: mujoco.MjModel, state: np.ndarray) -> None:
+def check_state(model: mujoco.MjModel, state: np.ndarray) -> None:
+    """Refuses an initial state of the wrong size or with non-finite values (ValueError)."""
     size = mujoco.mj_stateSize(model, _STATE)
     if np.shape(state) != (size,):
         raise ValueError(f"initial_state must have {size} values (mjSTATE_INTEGRATION of this "
