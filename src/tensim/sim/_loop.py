@@ -216,14 +216,33 @@ def ringing(force: np.ndarray, band: np.ndarray | float = 0.0) -> np.ndarray:
     return ring & (first * second < 0) & (size > RING_SWING * np.abs(force).max(axis=1))
 
 
+_STRETCH: dict[int, tuple[Structure, tuple[float, ...]]] = {}  # see build_stretch
+_STRETCH_KEPT = 16  # structures whose stretches are kept
+
+
+def build_stretch(structure: Structure) -> tuple[float, ...]:
+    """Each cable's stretch past its rest length in the build pose, max(0, length - rest)
+    [m]; computed once per structure (frozen, so never changed in place) and kept for the next
+    simulations of it: a batch starts one per trial, and the cables' lookups cost more than a
+    short trial's other Python."""
+    hit = _STRETCH.get(id(structure))
+    if hit is not None and hit[0] is structure:
+        return hit[1]
+    stretch = tuple(max(0.0, structure.cable_length(c) - structure.rest_length(c))
+                    for c in structure.cables)
+    if len(_STRETCH) >= _STRETCH_KEPT:
+        _STRETCH.clear()
+    _STRETCH[id(structure)] = (structure, stretch)
+    return stretch
+
+
 def prestress_band(structure: Structure) -> np.ndarray:
     """(n_cables,) the tension scale [N] a cable's step-to-step change must pass to ring: its
     build tension, or the cables' mean build tension where that is larger (a cable slack or
     nearly slack at the build pose flickers harmlessly while its damper switches on and off at
     the slack point)."""
-    tension = np.array([c.stiffness * max(0.0, structure.cable_length(c)
-                                          - structure.rest_length(c))
-                        for c in structure.cables])
+    tension = np.array([c.stiffness * s
+                        for c, s in zip(structure.cables, build_stretch(structure), strict=True)])
     return np.maximum(tension, tension.mean()) if tension.size else tension
 
 
@@ -355,9 +374,9 @@ class Energy:
         weight = float(self.mass.sum() * np.linalg.norm(self.gravity))
         points = np.array([n.position for n in structure.nodes]) if structure.nodes else \
             np.zeros((1, 3))
-        build = np.array([c.stiffness * max(0.0, structure.cable_length(c)
-                                            - structure.rest_length(c)) ** 2 / 2
-                          for c in structure.cables])
+        build = np.array([c.stiffness * s ** 2 / 2
+                          for c, s in zip(structure.cables, build_stretch(structure),
+                                          strict=True)])
         # the energy a run of this robot moves about in: its prestress and its weight over
         # its size (J)
         self.size = max(float(np.ptp(points, axis=0).max()), 1e-3)  # [m]
