@@ -283,6 +283,7 @@ def test_a_batch_past_the_step_limit_is_refused_before_it_runs(monkeypatch):
         raise AssertionError("the batch was set up before its size was checked")
 
     monkeypatch.setattr(_batch, "_BatchRun", never)
+    monkeypatch.setattr(_batch, "SoloTrial", never)
     compiled = compile_structure(tetraspine3())
     with pytest.raises(InputError, match=r"4 trials of 100000 s at a physics step of 0.001 s: "
                                          r"physics steps: 4e\+08 is more than the limit"):

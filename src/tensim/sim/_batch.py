@@ -156,7 +156,9 @@ def run_batch(compiled: CompiledModel, trials: Sequence[Trial], duration: float,
 class _Job(Protocol):
     """Trials a thread runs to their end: a trial alone, or a chunk as a one-thread batch."""
 
-    trials: Sequence[Trial]
+    @property
+    def trials(self) -> Sequence[Trial]:
+        """The job's trials."""
 
     def run(self, duration: float, progress: Callable[[float, float], None]) -> None:
         """Runs the trials; ``progress`` hears their simulated time [s]."""
