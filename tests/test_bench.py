@@ -178,3 +178,15 @@ def test_the_cable_law_bench_shows_what_the_implicit_step_couples():
     assert laws["explicit"]["ratio_to_explicit"] == 1
     assert all(f["solver_iterations_per_step"] > 0 for f in laws.values())
     assert DISCRETE_EXPLICIT in format_laws(report)
+
+
+def test_no_cases_runs_only_the_batch_and_alone_is_refused(capsys):
+    from tensim.cli import main
+
+    assert main(["bench", "--no-cases"]) != 0
+    assert "--no-cases leaves nothing to run" in capsys.readouterr().err
+    assert main(["bench", "--no-cases", "--batch", "2", "--duration", "0.05",
+                 "--repeats", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "batch (tetraspine3 cpg, 2 trials of 0.05 s)" in out
+    assert "us per physics step" not in out  # no single-run case ran

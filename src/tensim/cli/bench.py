@@ -29,6 +29,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--process", action="store_true",
                    help="also whole commands as processes (experiment disturbance and cpg, "
                    "with and without figures): CPU time, peak memory, the figures' share")
+    p.add_argument("--no-cases", dest="cases_run", action="store_false",
+                   help="skip the single-run cases: only --learning, --batch or --process")
     p.add_argument("--busy", action="store_true",
                    help="run a busy loop on every core beside the benchmark, so that its "
                    "figures are taken on a loaded machine")
@@ -159,9 +161,14 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
     from tensim.benchmarks._machine import machine_note
     from tensim.benchmarks.engine import run_benchmarks
 
-    report = run_benchmarks(args.duration, args.repeats)
-    print(format_table(report["cases"], args.repeats))
-    print(machine_note(report["core_share"], report["load_average_before"]))
+    if not args.cases_run and not (args.learning or args.batch or args.process):
+        raise InputError("--no-cases leaves nothing to run: add --learning, --batch N or "
+                         "--process")
+    report: dict[str, Any] = {}
+    if args.cases_run:
+        report = run_benchmarks(args.duration, args.repeats)
+        print(format_table(report["cases"], args.repeats))
+        print(machine_note(report["core_share"], report["load_average_before"]))
     if args.learning:
         from tensim.benchmarks.learning import bench_learning, format_learning
 
