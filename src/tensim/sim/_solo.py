@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import time
 from collections.abc import Callable
 
 import mujoco
@@ -53,7 +52,6 @@ class SoloTrial:
         self.trials = (trial,)  # what the batch's progress counts
         self.record_dt, self.limits = record_dt, limits
         self.result: TrialResult | None = None
-        self.wall = 0.0  # [s]
 
     def _simulation(self) -> Simulation:
         """The trial's simulation: its physics multipliers on a copy of its model, its
@@ -74,7 +72,6 @@ class SoloTrial:
     def run(self, duration: float, progress: Callable[[float, float], None]) -> None:
         """Runs the trial for ``duration`` [s] into :attr:`result` (a failure as its error);
         ``progress`` hears its simulated time about every second (and may raise to stop)."""
-        start = time.perf_counter()
         try:
             with self._simulation() as sim:
                 trajectory = sim.run(duration, progress)
@@ -86,7 +83,6 @@ class SoloTrial:
             self.result = TrialResult(None, f"trial {self.number}: {exc}")
         except mujoco.FatalError as exc:
             self.result = TrialResult(None, f"trial {self.number}: MuJoCo: {exc}")
-        self.wall = time.perf_counter() - start
 
     def results(self, duration: float, wall: float) -> list[TrialResult]:
         """The trial's result, its ``wall_s`` its share of the batch's ``wall`` time [s]."""
