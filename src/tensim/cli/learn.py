@@ -31,7 +31,7 @@ if TYPE_CHECKING:
 _PROBLEM_OPTIONS = ("model", "controller", "base_controller", "optimizer", "trial_duration",
                     "seed", "segment", "direction", "energy_weight", "settle", "max_tilt",
                     "penalty", "dt", "cable_law", "record_dt", "terrain", "target", "step",
-                    "batch",
+                    "batch", "rolling",
                     "monte_carlo", "randomize", "robots", "robust")
 _DEFAULTS: dict[str, Any] = {
     "model": "tetraspine3", "controller": "cpg", "optimizer": "ntrt", "evaluations": 100,
@@ -77,6 +77,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                          help="score the progress toward this point [m] instead of a "
                          "displacement (goal-directed locomotion; not with --direction; write "
                          "--target=-2,1 for a negative X)")
+    problem.add_argument("--rolling", action="store_true", default=None,
+                         help="count the distance along --direction only as far as the robot "
+                         "rolled it (its turn about the horizontal axis across the direction "
+                         "times its centre of mass's height), so that a crawl or a slide "
+                         "scores about 0; for rolling robots (see docs/rolling.md)")
     problem.add_argument("--energy-weight", type=nonnegative, metavar="M_PER_J",
                          help="subtract this times the motor work [m/J] (default 0)")
     problem.add_argument("--settle", type=nonnegative, metavar="S",
@@ -151,7 +156,8 @@ def _problem(args: argparse.Namespace) -> TrialProblem:
     direction, either_way = parse_direction(args.direction or "any")
     target = parse_point(args.target, "--target") if args.target is not None else None
     objective = Objective(args.segment, None if target else direction, either_way,
-                          args.energy_weight, args.settle, args.max_tilt, target)
+                          args.energy_weight, args.settle, args.max_tilt, target,
+                          bool(args.rolling))
     randomize = parse_randomize(args.randomize) if args.randomize else ()
     robots = args.robots if args.robots is not None else (8 if randomize else 1)
     return TrialProblem(structure, base, args.controller, args.trial_duration, objective,

@@ -52,6 +52,7 @@ from tensim.design import DesignError
 from tensim.model import WorldOptions, compile_structure
 from tensim.runs import world_record, write_run
 from tensim.sim import COM, Simulation, SimulationResult, TimeSeries, simulate
+from tensim.sim.motion import node_bodies, node_paths
 from tensim.structure import Structure, body_length
 
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
@@ -337,31 +338,6 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
     if turn_deg is not None:
         summary.update(turn_summary(trajectory, turn_deg, body_length(structure), nodes))
     return result, summary
-
-
-def node_bodies(index: Any) -> dict[str, tuple[str, np.ndarray]]:
-    """Node name -> (its body's name, its position in the body's frame [m]), for the nodes
-    on the robot's rigid bodies."""
-    bodies = dict(zip((int(b) for b in index.body), index.bodies, strict=True))
-    return {n: (bodies[b], index.node_local[n])
-            for n, b in index.node_body.items() if b in bodies}
-
-
-def node_paths(trajectory: TimeSeries, nodes: dict[str, tuple[str, np.ndarray]]
-               ) -> np.ndarray:
-    """(T, n, 3) the recorded paths of ``nodes`` (node name -> (its body's name, its position
-    in the body's frame [m])), from the bodies' ``pos_*`` and ``quat_*`` channels [m]."""
-    out = []
-    for body, local in nodes.values():
-        quat = np.stack([trajectory[f"quat_{a}/{body}"] for a in "wxyz"], axis=1)
-        quat = quat / np.linalg.norm(quat, axis=1, keepdims=True)
-        w, x, y, z = quat.T
-        rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-        pos = np.stack([trajectory[f"pos_{a}/{body}"] for a in "xyz"], axis=1)
-        out.append(pos + np.einsum("ijt,j->ti", rot, np.asarray(local, dtype=float)))
-    return np.stack(out, axis=1)
 
 
 def held_faces(faces: list[tuple[str, ...]], hold: int = 2) -> tuple[list[tuple[str, ...]],

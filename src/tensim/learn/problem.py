@@ -37,6 +37,7 @@ from tensim.sim import (
     run_batch,
     simulate,
 )
+from tensim.sim.motion import node_bodies, node_paths
 from tensim.structure import Structure
 from tensim.terrain import format_terrain
 
@@ -237,6 +238,19 @@ class TrialProblem:
         """The robot's rigid bodies (segments)."""
         return tuple(g.name for g in self.structure.rigid_groups())
 
+    @functools.cached_property
+    def rod_ends(self) -> tuple[dict[str, tuple[str, np.ndarray]], np.ndarray]:
+        """The nodes on the robot's rigid bodies (:func:`~tensim.sim.motion.node_bodies`) and
+        (p,) each one's contact radius [m]: the largest radius of the rods ending there (0 for
+        a node on no rod)."""
+        nodes = node_bodies(self.compiled().index)
+        radius = dict.fromkeys(nodes, 0.0)
+        for rod in self.structure.rods:
+            for node in rod.nodes:
+                if node in radius:
+                    radius[node] = max(radius[node], rod.radius)
+        return nodes, np.array(list(radius.values()))
+
     def start(self) -> np.ndarray:
         """The base controller's gait (or the family's nominal values) in the unit cube."""
         return self.layout.to_unit(self.layout.clip(self._layout_and_start[1]))
@@ -356,7 +370,12 @@ class TrialProblem:
         if trial.result is None:
             status = UNSTABLE if "unstable" in str(trial.error) else ERROR
             return Outcome(self.penalty, status, f"{status}: {trial.error}")
-        score, metrics, flipped = self.objective.score(trial.result.trajectory, self.bodies)
+        trajectory = trial.result.trajectory
+        points, radii = None, 0.0
+        if self.objective.rolling:
+            nodes, radii = self.rod_ends
+            points = node_paths(trajectory, nodes)
+        score, metrics, flipped = self.objective.score(trajectory, self.bodies, points, radii)
         if flipped:
             return Outcome(self.penalty, FLIPPED, flipped, metrics)
         return Outcome(score, OK, "", metrics)
