@@ -371,7 +371,8 @@ class TrialProblem:
             status = UNSTABLE if "unstable" in str(trial.error) else ERROR
             return Outcome(self.penalty, status, f"{status}: {trial.error}")
         trajectory = trial.result.trajectory
-        points, radii = None, 0.0
+        points: np.ndarray | None = None
+        radii: np.ndarray | float = 0.0
         if self.objective.rolling:
             nodes, radii = self.rod_ends
             points = node_paths(trajectory, nodes)
