@@ -136,6 +136,17 @@ def test_a_rock_over_an_edge_and_back_scores_nothing():
     assert score == pytest.approx(0.0, abs=1e-9)
 
 
+def test_a_rock_forward_while_tall_and_back_while_low_scores_nothing():
+    # the centre of mass 10 cm higher while the prism turns forward than while it turns back
+    # (a robot that stretches up to pivot forward and crouches to pivot back): h dθ summed
+    # would count 10 cm x 60 degrees forward; the net turn is 0, and so is the distance rolled
+    tip = _rolled(1)[:51]
+    rock = np.concatenate([tip, tip[::-1][1:]])
+    com_z = rock.mean(axis=1)[:, 2] + np.where(np.arange(len(rock)) <= 50, 0.1, 0.0)
+    rolled, turn = rolled_distance(rock, com_z, HEADING)
+    assert turn == pytest.approx(0.0, abs=1e-9) and rolled == pytest.approx(0.0, abs=1e-9)
+
+
 def test_a_rolling_score_needs_one_direction_and_the_rod_ends():
     for bad in ({}, {"direction_deg": 90.0, "either_way": True}):
         with pytest.raises(ValueError, match="rolling scores the distance rolled"):

@@ -81,13 +81,15 @@ def rolled_distance(points: np.ndarray, com_z: np.ndarray, heading: np.ndarray,
     """How far a robot rolled toward ``heading``: (metres, radians).
 
     A body that rolls without slipping turns about its contact with the ground, so its centre
-    of mass moves horizontally by dθ h toward the heading for a turn dθ about the rolling axis
-    z x heading, h its height above the contact. Summed over the samples, with dθ the turn of
-    the best rigid fit of the points' move (:func:`roll_change`) and h the centre of mass's
-    height above the lowest point of the robot (each point's z less its radius, e.g. a rod's
-    end cap), averaged over the interval: for rolling without slipping, the distance made
-    along the heading; for a crawl or a slide on one face, or a rock back and forth, about 0
-    whatever the distance; for rolling away from the heading, negative.
+    of mass moves horizontally by h dθ toward the heading for a turn dθ about the rolling axis
+    z x heading, h its height above the contact. Here dθ is the turn of the best rigid fit of
+    the points' move between samples (:func:`roll_change`) and h the centre of mass's height
+    above the lowest point of the robot (each point's z less its radius, e.g. a rod's end
+    cap), averaged over the interval; the distance rolled is the net turn Σ dθ times the mean
+    height while turning, Σ |dθ| h / Σ |dθ|. For rolling on without slipping that is Σ h dθ,
+    the distance made along the heading; a crawl or a slide on one face scores about 0
+    whatever the distance, and so does any rocking back and forth, also one that pivots
+    forward while tall and back while flat; rolling away from the heading scores negative.
 
     Args:
         points: (T, p, 3) the robot's points (rod ends) [m].
@@ -96,11 +98,16 @@ def rolled_distance(points: np.ndarray, com_z: np.ndarray, heading: np.ndarray,
         radii: () or (p,) each point's contact radius [m].
 
     Returns:
-        (rolled [m], turn about z x heading [rad]).
+        (rolled [m], net turn about z x heading [rad]).
     """
     points = np.asarray(points, dtype=float)
     if points.shape[0] < 2:
         return 0.0, 0.0
     turn = roll_change(points[:-1], points[1:], np.tile(heading, (points.shape[0] - 1, 1)))
     height = np.asarray(com_z, dtype=float) - np.min(points[..., 2] - radii, axis=1)
-    return float(turn @ (0.5 * (height[1:] + height[:-1]))), float(turn.sum())
+    size = np.abs(turn)
+    total = float(size.sum())
+    if total == 0.0:
+        return 0.0, 0.0
+    lever = float(size @ (0.5 * (height[1:] + height[:-1]))) / total
+    return float(turn.sum()) * lever, float(turn.sum())
