@@ -329,6 +329,8 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
               + ("" if summary["plans"] is None else
                  f"; {summary['plans']} plans ({summary['plans_made']} made from statics)")
               + f"; {summary['ends_on_ground']} of {summary['ends']} rod ends on the ground")
+        print(f"turned {summary['roll_rad']:.2f} rad about the rolling axis, "
+              f"{summary['rolled_m']:.3f} m rolled (as `tensim learn --rolling` counts it)")
     return summary
 
 

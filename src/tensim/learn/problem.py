@@ -37,7 +37,7 @@ from tensim.sim import (
     run_batch,
     simulate,
 )
-from tensim.sim.motion import node_bodies, node_paths
+from tensim.sim.motion import contact_radii, node_bodies, node_paths
 from tensim.structure import Structure
 from tensim.terrain import format_terrain
 
@@ -244,12 +244,7 @@ class TrialProblem:
         (p,) each one's contact radius [m]: the largest radius of the rods ending there (0 for
         a node on no rod)."""
         nodes = node_bodies(self.compiled().index)
-        radius = dict.fromkeys(nodes, 0.0)
-        for rod in self.structure.rods:
-            for node in rod.nodes:
-                if node in radius:
-                    radius[node] = max(radius[node], rod.radius)
-        return nodes, np.array(list(radius.values()))
+        return nodes, contact_radii(self.structure, nodes)
 
     def start(self) -> np.ndarray:
         """The base controller's gait (or the family's nominal values) in the unit cube."""

@@ -10,11 +10,13 @@ while a wobble or a rock back and forth sums to little.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
 
 from tensim.sim._timeseries import TimeSeries
+from tensim.structure import Structure
 
 
 def node_bodies(index: Any) -> dict[str, tuple[str, np.ndarray]]:
@@ -40,6 +42,16 @@ def node_paths(trajectory: TimeSeries, nodes: dict[str, tuple[str, np.ndarray]]
         pos = np.stack([trajectory[f"pos_{a}/{body}"] for a in "xyz"], axis=1)
         out.append(pos + np.einsum("ijt,j->ti", rot, np.asarray(local, dtype=float)))
     return np.stack(out, axis=1)
+
+
+def contact_radii(structure: Structure, nodes: Iterable[str]) -> np.ndarray:
+    """(p,) each of ``nodes``' contact radius [m]: the largest radius of the rods of
+    ``structure`` ending there (0 for a node on no rod)."""
+    radius: dict[str, float] = {}
+    for rod in structure.rods:
+        for node in rod.nodes:
+            radius[node] = max(radius.get(node, 0.0), rod.radius)
+    return np.array([radius.get(n, 0.0) for n in nodes])
 
 
 def fit_rotation(before: np.ndarray, after: np.ndarray) -> np.ndarray:
