@@ -188,3 +188,37 @@ def test_a_trial_is_scored_on_its_recorded_rod_ends():
     assert outcome.status == "ok"
     assert outcome.score == pytest.approx(min(metrics["along_m"], metrics["rolled_m"]),
                                           abs=1e-12)
+
+
+def test_a_tiny_rolling_learn_run_starts_where_told_and_resumes_its_problem(tmp_path):
+    from tensim.learn import InlineExecutor, LearningSettings, OptimizerSettings, learn
+    from tensim.learn.store import RunStore
+
+    robot = _prism()
+    objective = Objective(direction_deg=0.0, max_tilt_deg=180.0, rolling=True)
+    start = (("amplitude/a", 1.5), ("frequency", 0.2))
+    problem = TrialProblem(robot, ControllerConfig(default_impedance(robot)), "roll", 1.0,
+                           objective, model="test_prism", start_from=start)
+    values = problem.values(problem.start())
+    nominal = problem.layout.nominal
+    assert values == pytest.approx([1.5, nominal[1], nominal[2], nominal[3], 0.2], abs=1e-12)
+    learn(problem, LearningSettings(OptimizerSettings("cma", step=0.2), 6, seed=0),
+          tmp_path / "run", executor=InlineExecutor)
+    again = RunStore(tmp_path / "run").load_problem()
+    assert isinstance(again, TrialProblem)
+    assert again.objective == objective and again.start_from == start
+    # its trials are scored on their rod ends' rolling
+    first = RunStore(tmp_path / "run").evaluations()[0]
+    assert set(first.metrics) >= {"along_m", "rolled_m", "roll_rad"}
+
+
+@pytest.mark.parametrize("start, message", [
+    ((("speed", 1.0),), "not a parameter of the roll gait"),
+    ((("frequency", 9.0),), r"expected a value in \[0.1, 2\]"),
+    ((("frequency", 0.2), ("frequency", 0.3)), "given more than once"),
+])
+def test_a_bad_starting_value_is_refused_by_name(start, message):
+    robot = _prism()
+    with pytest.raises(ValueError, match=message):
+        TrialProblem(robot, ControllerConfig(default_impedance(robot)), "roll", 1.0,
+                     start_from=start)

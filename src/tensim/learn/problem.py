@@ -169,6 +169,10 @@ class TrialProblem:
         robust: ``"mean"`` (the average score over the robots) or ``"worst"`` (the lowest);
             a robot whose trial fails counts with the penalty.
         randomize_seed: seed of the robots' draws.
+        start_from: (name, value) pairs that replace the starting point's values of those
+            parameters (the search starts from the base gait or the family's nominal values
+            otherwise), e.g. a slow, full-amplitude wave where the nominal one leaves every
+            nearby trial at the same score.
     """
 
     structure: Structure
@@ -184,6 +188,7 @@ class TrialProblem:
     robots: int = 1
     robust: str = "mean"
     randomize_seed: int = 0
+    start_from: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         check_family(self.family)
@@ -216,6 +221,24 @@ class TrialProblem:
                              f"one of {list(bodies)}")
         if not math.isfinite(self.penalty):
             raise ValueError(f"penalty must be a finite score, got {self.penalty}")
+        if self.start_from:
+            self._check_start()
+
+    def _check_start(self) -> None:
+        """Raises ValueError for an unknown, repeated or out-of-bounds starting value."""
+        names = self.layout.names
+        given = [name for name, _ in self.start_from]
+        for name, value in self.start_from:
+            if name not in names:
+                raise ValueError(f"start {name}: not a parameter of the {self.family} gait; "
+                                 f"expected one of {list(names)}")
+            if given.count(name) > 1:
+                raise ValueError(f"start {name}: given more than once")
+            i = names.index(name)
+            low, high = self.layout.low[i], self.layout.high[i]
+            if not (math.isfinite(value) and low <= value <= high):
+                raise ValueError(f"start {name}={value}: expected a value in [{low:g}, "
+                                 f"{high:g}]")
 
     # -- the parameter space ---------------------------------------------------------------
 
@@ -247,8 +270,12 @@ class TrialProblem:
         return nodes, contact_radii(self.structure, nodes)
 
     def start(self) -> np.ndarray:
-        """The base controller's gait (or the family's nominal values) in the unit cube."""
-        return self.layout.to_unit(self.layout.clip(self._layout_and_start[1]))
+        """The base controller's gait (or the family's nominal values), with the values of
+        ``start_from``, in the unit cube."""
+        values = np.array(self._layout_and_start[1], dtype=float)
+        for name, value in self.start_from:
+            values[self.layout.names.index(name)] = value
+        return self.layout.to_unit(self.layout.clip(values))
 
     def values(self, unit: np.ndarray) -> np.ndarray:
         """Gait parameters of a unit-cube point."""
@@ -387,7 +414,8 @@ class TrialProblem:
                 "parameter_names": list(self.layout.names),
                 "randomize": {name: [low, high] for name, low, high in self.randomize},
                 "robots": self.robots, "robust": self.robust,
-                "randomize_seed": self.randomize_seed}
+                "randomize_seed": self.randomize_seed,
+                "start_from": dict(self.start_from)}
 
 
 @dataclasses.dataclass(frozen=True)
