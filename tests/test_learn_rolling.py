@@ -222,3 +222,20 @@ def test_a_bad_starting_value_is_refused_by_name(start, message):
     with pytest.raises(ValueError, match=message):
         TrialProblem(robot, ControllerConfig(default_impedance(robot)), "roll", 1.0,
                      start_from=start)
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--rolling"], "rolling scores the distance rolled toward a direction"),
+    (["--rolling", "--direction", "sideways"], "give one direction"),
+    (["--direction", "0", "--start", "frequency"], "--start entry 'frequency': expected "
+                                                   "NAME=VALUE"),
+    (["--direction", "0", "--start", "wave=1"], "start wave: not a parameter of the roll gait"),
+])
+def test_the_command_line_refuses_a_bad_rolling_score_or_start(tmp_path, capsys, extra, words):
+    from tensim.cli import main
+
+    argv = ["learn", "--model", "three_bar", "--controller", "roll", "--evaluations", "1",
+            "--out", str(tmp_path / "run"), *extra]
+    assert main(argv) != 0
+    assert words in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
