@@ -7,8 +7,11 @@ a second core free, a child process then loads matplotlib and lays out the empty
 panels that the run's panel figures share while the simulation runs, and after it each figure
 fills that grid in turn (:func:`tensim.viz.plots.refit`), while this process
 writes the folder's other files. Without a second core, or for a short run
-whose simulation cannot hide the child's start, or with every core busy, the same functions
-draw in this process; the figures are the same either way.
+whose simulation cannot hide the child's start, the same functions draw in this process; the
+figures are the same either way. A busy machine draws in the child too: this process holds
+the run and Parquet's library (for ``trajectory.parquet``), and matplotlib with its canvases
+in the same process would raise the command's peak memory by a fifth (the disturbance test's
+from 150 to 177 MiB), for about the CPU time the child's start costs.
 
 The child is a fresh interpreter (``python -P tensim/viz/_drawchild.py``: no copy of this
 process's MuJoCo, threads or OpenGL state, and none of its ``__main__``) that loads numpy,
@@ -80,19 +83,13 @@ class FigurePlan:
 
 def background_pays(steps: int) -> bool:
     """Whether a drawing process pays for a run of ``steps`` physics steps: a simulation long
-    enough to hide the process's start, and a core left idle by every program running now
-    (the 1-minute load average at most the usable cores less one). On a busy machine the
-    child only competes for the same cores, and costs its start-up on top."""
-    cores = len(os.sched_getaffinity(0))
-    return steps >= MIN_STEPS and cores >= 2 and _load() <= cores - 1
+    enough to hide the process's start, and a second usable core.
 
-
-def _load() -> float:
-    """The machine's 1-minute load average (infinite where the system gives none)."""
-    try:
-        return os.getloadavg()[0]
-    except OSError:
-        return float("inf")
+    The machine's load is not asked: on a busy machine the child costs about the CPU time
+    of its start (Python and numpy, 0.1-0.2 s), and keeps matplotlib out of the process that
+    holds the run and Parquet's library (the command's peak memory, see the module's notes).
+    """
+    return steps >= MIN_STEPS and len(os.sched_getaffinity(0)) >= 2
 
 
 class FigureDrawer:
