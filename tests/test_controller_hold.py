@@ -41,6 +41,13 @@ def test_over_a_period_the_motors_take_the_long_step():
     assert np.abs(held.rest_length - built).max() > 1e-4  # the motors did move (0.28 mm)
 
 
+def test_a_delayed_push_is_the_push_shifted_in_time():
+    times = np.linspace(29.0, 46.0, 171)
+    for plain, later in zip(disturbance_loads(), disturbance_loads(start=30.002), strict=True):
+        np.testing.assert_allclose(later.forces_at(times + 0.002), plain.forces_at(times),
+                                   atol=1e-12)  # rounding of the shifted times
+
+
 def test_a_period_below_one_step_is_refused():
     with pytest.raises(ValueError, match="period"):
         held_run(1e-3, 0)

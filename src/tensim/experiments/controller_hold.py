@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from tensim.control import ControllerConfig
-from tensim.experiments.disturbance import DURATION, disturbance_loads
+from tensim.experiments.disturbance import DURATION, START, disturbance_loads
 from tensim.model import BUILD_KEY, WorldOptions, compile_structure
 from tensim.model._law_layout import A_PEAK, A_REST, MODE_REST, P_MAX_SPEED, P_MODE
 from tensim.models import preset
@@ -61,9 +61,11 @@ class HeldRun:
 
 
 def held_run(dt: float, period: int = 1, cable_law_name: str = "explicit",
-             duration: float = DURATION, window: tuple[float, float] = WINDOW_S) -> HeldRun:
+             duration: float = DURATION, window: tuple[float, float] = WINDOW_S,
+             push_delay: float = 0.0) -> HeldRun:
     """Tetraspine3's disturbance test at physics step ``dt`` [s], its impedance laws and motors
-    updated every ``period`` steps (see the module's docstring), under ``cable_law_name``.
+    updated every ``period`` steps (see the module's docstring), under ``cable_law_name``, the
+    push starting ``push_delay`` [s] later than the test's.
 
     Raises:
         ValueError: a period below 1.
@@ -78,8 +80,8 @@ def held_run(dt: float, period: int = 1, cable_law_name: str = "explicit",
     compiled = compile_structure(model.build(), WorldOptions(timestep=dt,
                                                              cable_law=cable_law_name))
     controller = ControllerConfig(laws, model="tetraspine3").build(dt)
-    with Simulation(compiled, controller=controller, loads=disturbance_loads(),
-                    record_dt=dt) as sim:
+    loads = disturbance_loads(start=START + push_delay)
+    with Simulation(compiled, controller=controller, loads=loads, record_dt=dt) as sim:
         m = sim.model
         steps = round(duration / dt)
         control = sim.inputs().control(0, steps)  # V* and the loads, as the plain run reads
@@ -116,24 +118,28 @@ def _loop(m: mujoco.MjModel, d: mujoco.MjData, law: mujoco.MjModel, ids: np.ndar
                    np.array(velocities), m.actuator_dynprm[ids, P_MAX_SPEED].copy())
 
 
-def hold_study(rows: Sequence[tuple[str, float, int]] = (
-        ("explicit", 1e-3, 1), ("explicit", 1e-3, 4), ("explicit", 4e-3, 1),
-        ("implicit", 1e-3, 1), ("implicit", 1e-3, 4), ("implicit", 4e-3, 1))) -> list[str]:
-    """Per (law, physics step [s], period [steps]): the worst cable's max-tension change
-    against the 0.05 ms explicit reference [%], the share of the motors' updates over the
-    window at their speed limit, and the rms change of the cables' length rates between
-    updates [mm/s]."""
+HOLD_ROWS = tuple((law, dt, period, 0.0) for law in ("explicit", "implicit")
+                  for dt, period in ((1e-3, 1), (1e-3, 4), (4e-3, 1))) + tuple(
+    (law, 4e-3, 1, delay) for law in ("explicit", "implicit") for delay in (-2e-3, 2e-3))
+
+
+def hold_study(rows: Sequence[tuple[str, float, int, float]] = HOLD_ROWS) -> list[str]:
+    """Per (law, physics step [s], period [steps], push delay [s]): the worst cable's
+    max-tension change against the 0.05 ms explicit reference [%], the share of the motors'
+    updates over the window at their speed limit, and the rms change of the cables' length
+    rates between updates [mm/s]."""
     from tensim.experiments import laws
 
     reference = laws._tetraspine3(WorldOptions(timestep=5e-5))
     peak = reference.peak_tension
     lines = []
-    for name, dt, period in rows:
-        run = held_run(dt, period, name)
+    for name, dt, period, delay in rows:
+        run = held_run(dt, period, name, push_delay=delay)
         change = 100.0 * (run.peak_tension - peak) / peak
         worst = float(change[np.argmax(np.abs(change))])
+        pushed = f", push {delay * 1e3:+g} ms" if delay else ""
         lines.append(f"  {name:<9} physics {dt * 1e3:g} ms, controller every "
-                     f"{dt * period * 1e3:g} ms: max tension {worst:+.2f} %, motor updates at the "
-                     f"speed limit {100 * run.at_limit():3.0f} %, rate changes "
+                     f"{dt * period * 1e3:g} ms{pushed}: max tension {worst:+.2f} %, motor "
+                     f"updates at the speed limit {100 * run.at_limit():3.0f} %, rate changes "
                      f"{run.rate_jumps() * 1e3:.1f} mm/s rms")
     return lines
