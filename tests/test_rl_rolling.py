@@ -305,6 +305,7 @@ def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, cap
                  "--envs", "2", "--episode", "1", "--out", str(out), "--resume"]) == 0
     resumed = json.loads((out / "progress.json").read_text())
     assert resumed["steps_done"] == budget and len(resumed["curve"]) >= len(progress["curve"])
+    assert json.loads((out / "settings.json").read_text())["steps"] == budget  # trained to
     assert main(["--quiet", "rl", "evaluate", str(out), "--duration", "0.4"]) == 0
     summary = json.loads((out / "evaluation" / "summary.json").read_text())
     assert summary["body_length_m"] == pytest.approx(1.4, abs=0.01)  # the longest rod
@@ -319,6 +320,8 @@ def test_rl_train_evaluate_and_export_end_to_end(robot_file, tmp_path, algo, cap
     assert again["displacement_along_heading_m"] == summary["displacement_along_heading_m"]
     assert again["training"] == {"env_steps": budget, "cpu_s": pytest.approx(
         resumed["cpu_s"], abs=0.06)}
+    exported = json.loads((tmp_path / "robot" / "policy.json").read_text())
+    assert exported["settings"]["steps"] == budget  # the resumed run's, not its first --steps
     # and on other physics than it was trained on: the step and law asked for are used
     assert main(["--quiet", "rl", "evaluate", str(tmp_path / "robot" / "policy.json"),
                  "--duration", "0.4", "--dt", "0.001", "--cable-law", "explicit",

@@ -77,3 +77,47 @@ def test_a_plan_on_sliding_feet_reports_its_static_pose(prism):
     # spread), which the gait then crosses only dynamically
     held = plan_tip(structure, built, built, heading_vector(0.0), PRISM_SETTINGS)
     assert held.margin < 0 < plan.margin
+
+
+def test_a_plan_whose_step_leaves_no_static_pose_keeps_that_step(prism, monkeypatch):
+    # the static solve fails on the plan's second step (no pose stands on these feet: the
+    # robot tips there): the plan's rest lengths are that step's, one step past the last pose
+    # solved, and its margin is that last pose's
+    import tensim.control.rolling as rolling
+    from tensim.design import DesignError
+
+    structure, built = prism
+    solved: list[np.ndarray] = []
+    asked: list[np.ndarray] = []
+
+    def failing(explicit, feet, gravity=9.81, sliding=False):
+        asked.append(np.array([c.rest_length for c in explicit.cables]))
+        if len(solved) == 2:  # the start pose and one step
+            raise DesignError("no static pose")
+        solved.append(asked[-1])
+        return settle(explicit, feet, gravity, sliding=sliding)
+
+    monkeypatch.setattr(rolling, "settle", failing)
+    settings = dataclasses.replace(PRISM_SETTINGS, sliding=False)
+    plan = rolling.plan_edge(structure, with_rest_lengths(structure, built),
+                             failing(with_rest_lengths(structure, built), _feet(structure)),
+                             built, built, _edge(structure), _feet(structure), settings)
+    assert len(solved) == 2 and not np.array_equal(solved[-1], built)  # it moved, then failed
+    assert np.array_equal(plan.rest_lengths, asked[-1])
+    assert not np.array_equal(asked[-1], solved[-1])
+    lin = settle(with_rest_lengths(structure, solved[-1]), plan.feet)
+    edge = _edge(structure)
+    assert plan.margin == pytest.approx(edge[:2] @ _com(lin)[:2] + edge[2], abs=1e-9)
+
+
+def _feet(structure):
+    return support_face({n.name: np.asarray(n.position) for n in structure.nodes})
+
+
+def _edge(structure):
+    from tensim.control.rolling import ahead_edges
+
+    positions = {n.name: np.asarray(n.position) for n in structure.nodes}
+    feet = _feet(structure)
+    return ahead_edges(np.array([positions[f][:2] for f in feet]), feet,
+                       heading_vector(0.0))[0]

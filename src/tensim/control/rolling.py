@@ -349,7 +349,9 @@ def plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.n
               built: np.ndarray, edge: np.ndarray, feet: tuple[str, ...],
               settings: RollSettings, gravity: float = GRAVITY) -> TipPlan:
     """Steps the motorised rest lengths along the sensitivity that carries the static centre
-    of mass across ``edge`` (a, b, c), until it lies ``settings.margin`` past it.
+    of mass across ``edge`` (a, b, c), until it lies ``settings.margin`` past it, or until a
+    step leaves no static pose on ``feet`` (the robot tips there): that step is the plan's,
+    and its margin and height are those of the last pose solved.
 
     Args:
         structure: the robot, its nodes where it stands [m].
@@ -389,8 +391,8 @@ def plan_edge(structure: Structure, explicit: Structure, lin: object, rest: np.n
         try:
             lin = settle(with_rest_lengths(explicit, planned), feet, gravity,
                          sliding=settings.sliding)
-        except DesignError:
-            break
+        except DesignError:  # no static pose on these feet: the step that tips it is kept,
+            break  # and margin and height stay those of the last pose solved
     if settings.sliding:
         edge = _edge_through(lin, pair, normal)
         normal = edge[:2]

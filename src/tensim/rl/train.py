@@ -361,6 +361,8 @@ def _open(settings: TrainSettings, out: Path, resume: bool) -> dict[str, Any]:
             raise InputError(f"--out {out}: its run was trained with other settings or another "
                              f"robot file ({_differences(old, settings)}); --resume continues "
                              "only the same run (--steps may grow)")
+        if old["steps"] != settings.steps:  # the settings record the steps trained to
+            write_json(out / "settings.json", old | {"steps": settings.steps})
         state: dict[str, Any] = json.loads(progress_file.read_text())
         return state
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
