@@ -17,7 +17,6 @@ from PIL import Image
 from tensim.control.velocity_table import VelocityTable
 from tensim.sim import TimeSeries
 from tensim.viz.drawing import (
-    MIN_STEPS,
     FigureDrawer,
     FigureError,
     FigurePlan,
@@ -136,15 +135,16 @@ def test_closing_with_figures_pending_stops_the_process(tmp_path):
     assert process.poll() is not None  # ended (killed) before close returned
 
 
-def test_only_a_long_run_with_an_idle_core_starts_a_drawing_process(monkeypatch):
+def test_a_second_core_starts_a_drawing_process_whatever_the_load(monkeypatch):
     monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0, 1})
     monkeypatch.setattr("os.getloadavg", lambda: (0.9, 0.5, 0.5))  # this run alone
-    assert background_pays(MIN_STEPS) and not background_pays(MIN_STEPS - 1)
-    monkeypatch.setattr("os.getloadavg", lambda: (1.6, 1.5, 1.5))  # no core idle
-    assert not background_pays(10 * MIN_STEPS)
+    assert background_pays()
+    # a busy machine too: matplotlib stays out of the process that holds the run
+    monkeypatch.setattr("os.getloadavg", lambda: (9.6, 9.5, 9.5))
+    assert background_pays()
     monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0})
     monkeypatch.setattr("os.getloadavg", lambda: (0.0, 0.0, 0.0))
-    assert not background_pays(10 * MIN_STEPS)
+    assert not background_pays()
 
 
 def test_plans_load_no_matplotlib_and_refuse_unknown_kinds():
@@ -183,7 +183,11 @@ def test_the_drawing_process_loads_no_mujoco_and_gets_only_the_channels_it_draws
         sys.path.insert(0, {str(Path(_drawchild.__file__).parent)!r})
         import _drawchild
         _drawchild.register_bare(Path(_drawchild.__file__).resolve().parents[1])
+        _drawchild.load_drawing()  # as the child: no property lists in docstrings
+        import gc, matplotlib.lines
         from tensim.viz import drawing, plots
+        assert gc.isenabled() and "antialiased" not in (matplotlib.lines.Line2D.set.__doc__
+                                                        or "")
         jobs = pickle.loads(Path({str(tmp_path / "jobs.pickle")!r}).read_bytes())
         plots.plot_velocity_input(jobs["velocity_input"], Path({str(tmp_path / "v.png")!r}))
         plots.plot_lengths(jobs["lengths"], Path({str(tmp_path / "l.png")!r}))

@@ -75,6 +75,7 @@ def test_a_runaway_the_ringing_check_is_blind_to_is_stopped_single_and_batch() -
         assert found and float(found[1]) < 0.49
         assert float(found[3]) > ENERGY_LIMIT * Energy(compiled).scale
         assert "most of it in body 'rod_" in error and "Use --dt 0.002 or less" in error
+        assert "--cable-law implicit, or softer cables" in error  # every cable is explicit
         batch = run_batch(compiled, [Trial()], 1.0, record_dt=6e-3)
         assert batch[0].error == f"trial 0: {error}"
         quiet = tensim.compile_structure(structure, tensim.WorldOptions(timestep=4e-3))
@@ -106,3 +107,22 @@ def test_a_pulled_mass_is_not_a_runaway_and_the_allowance_is_the_loads_work() ->
     result = tensim.simulate(compiled, 1.0, loads=[load], record_dt=1e-2)
     assert result.trajectory.time[-1] == pytest.approx(1.0)
     assert result.trajectory["tension/spring"].max() > 45.0  # the pull reached the cable
+
+
+def test_a_runaway_suggests_only_what_the_cable_law_can_still_do() -> None:
+    # the implicit law for an all-explicit robot, more cables handed over for one split by
+    # cable (the test_cable_split robot at 4 ms: its stiff pair handed over, the soft cable
+    # not), and nothing of the law where every cable is on the implicit law already
+    from tensim.sim._loop import energy_message
+    from test_cable_split import HELD
+
+    def advice(structure, **options) -> str:
+        compiled = tensim.compile_structure(structure, tensim.WorldOptions(**options))
+        return energy_message("body 'rod'", np.ones(4), 0.5, 4e-3, Energy(compiled).remedy)
+
+    hopper = load_structure(HOPPER)
+    assert "(`tensim check` prints the bound), --cable-law implicit, or softer" in advice(hopper)
+    assert "(`tensim check` prints the bound), or softer" in advice(hopper, cable_law="implicit")
+    split = advice(HELD, timestep=4e-3, ground=False, cable_law="implicit", split_margin=4.0)
+    assert "bound), a larger --split-margin (more cables on the implicit law), or softer" \
+        in split

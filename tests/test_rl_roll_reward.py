@@ -20,10 +20,10 @@ from tensim.rl import (
     Randomization,
     TensegrityEnv,
 )
-from tensim.rl._worlds import _roll_change
 from tensim.rl.evaluate import support_faces
 from tensim.rl.train import TrainSettings, fingerprint
 from tensim.sim import compiled_available
+from tensim.sim.motion import roll_change
 
 HEADING = np.array([np.cos(np.radians(30.0)), np.sin(np.radians(30.0))])
 
@@ -66,7 +66,7 @@ def test_a_prism_rolled_through_its_faces_earns_the_angle_it_turned():
         path.extend(_roll_over(path[-1], axis, 20)[1:])
     path = np.array(path)
     heading = np.tile(HEADING, (len(path) - 1, 1))
-    turned = _roll_change(path[:-1], path[1:], heading)
+    turned = roll_change(path[:-1], path[1:], heading)
     assert turned.sum() == pytest.approx(2 * np.pi, abs=1e-9)  # (rigid moves: exact fits)
     assert turned == pytest.approx(np.full(60, 2 * np.pi / 60), abs=1e-9)
     # it moved along the heading by the perimeter of its triangle, 3 sqrt(3) for a unit
@@ -76,7 +76,7 @@ def test_a_prism_rolled_through_its_faces_earns_the_angle_it_turned():
     faces = support_faces(path[::20])
     assert len(set(faces)) == 3 and set().union(*faces) == {str(i) for i in range(6)}
     # rolled back it earns the turn back: rocking over an edge and back sums to 0
-    back = _roll_change(path[1:][::-1], path[:-1][::-1], heading)
+    back = roll_change(path[1:][::-1], path[:-1][::-1], heading)
     assert back.sum() == pytest.approx(-2 * np.pi, abs=1e-9)
 
 
@@ -86,7 +86,7 @@ def test_turns_about_other_axes_and_moves_without_turning_earn_no_roll():
     for moved in (ends + np.array([0.3, -0.2, 0.1]),  # slid, no turn
                   ends @ _about(np.array([0.0, 0.0, 1.0]), 0.4).T,  # turned about the vertical
                   ends @ _about(np.array([*HEADING, 0.0]), 0.4).T):  # about the heading
-        assert _roll_change(ends[None], moved[None], heading)[0] == pytest.approx(
+        assert roll_change(ends[None], moved[None], heading)[0] == pytest.approx(
             0.0, abs=1e-12)
     # rolling toward the heading is positive, away from it negative, for any heading
     for deg in (0.0, 100.0, -135.0):
@@ -94,7 +94,7 @@ def test_turns_about_other_axes_and_moves_without_turning_earn_no_roll():
         roll_axis = np.array([-h[0, 1], h[0, 0], 0.0])
         top = np.array([[0.0, 0.0, 1.0], [0.5, 0.2, 0.0], [-0.3, 0.4, 0.2]])
         turned = top @ _about(roll_axis, 0.1).T
-        assert _roll_change(top[None], turned[None], h)[0] == pytest.approx(0.1, abs=1e-12)
+        assert roll_change(top[None], turned[None], h)[0] == pytest.approx(0.1, abs=1e-12)
         assert (turned[0, :2] - top[0, :2]) @ h[0] > 0  # the top moved ahead: rolling
 
 
@@ -155,7 +155,7 @@ def test_slip_is_the_horizontal_speed_of_the_ends_on_the_ground(observation):
 
 @needs_engine
 def test_the_step_reward_adds_the_roll_and_slip_terms():
-    from tensim.rl._worlds import _roll_change as roll
+    from tensim.sim.motion import roll_change as roll
 
     settings = TrainSettings(model="three_bar", heading_deg=-30.0, roll_reward=0.3,
                              slip_cost=0.2)

@@ -243,15 +243,15 @@ def test_sb3_infos_carry_the_reward_terms(robot_file):
 
 
 def test_the_turn_task_rewards_the_angle_turned_about_the_vertical():
-    from tensim.rl._worlds import _yaw_change
+    from tensim.sim.motion import yaw_change
 
     rng = np.random.default_rng(0)
     before = rng.normal(size=(1, 6, 3))
     c, s = np.cos(0.3), np.sin(0.3)
     turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     after = before @ turn.T + [2.0, -1.0, 0.5]  # each point turned +0.3 rad, and moved
-    assert _yaw_change(before, after)[0] == pytest.approx(0.3, abs=1e-12)
-    assert _yaw_change(after, before)[0] == pytest.approx(-0.3, abs=1e-12)
+    assert yaw_change(before, after)[0] == pytest.approx(0.3, abs=1e-12)
+    assert yaw_change(after, before)[0] == pytest.approx(-0.3, abs=1e-12)
 
 
 def test_a_wobble_that_circles_the_points_without_turning_the_body_is_little_turn():
@@ -259,7 +259,7 @@ def test_a_wobble_that_circles_the_points_without_turning_the_body_is_little_tur
     # R(phi) = Rz(phi) Rx(theta) Rz(-phi): its top circles the centre through 2 pi, but its
     # angular velocity about the vertical is phi' (1 - cos theta), so it turns by
     # 2 pi (1 - cos theta) about the vertical
-    from tensim.rl._worlds import _yaw_change
+    from tensim.sim.motion import yaw_change
 
     def rz(a):
         return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0],
@@ -274,7 +274,7 @@ def test_a_wobble_that_circles_the_points_without_turning_the_body_is_little_tur
     points = np.stack([body @ (rz(f) @ rx @ rz(-f)).T for f in phases])
     circled = np.unwrap(np.arctan2(points[:, 0, 1], points[:, 0, 0]))
     assert circled[-1] - circled[0] == pytest.approx(2 * np.pi)  # the top circles once
-    turned = _yaw_change(points[:-1], points[1:]).sum()
+    turned = yaw_change(points[:-1], points[1:]).sum()
     assert turned == pytest.approx(2 * np.pi * (1 - np.cos(theta)), rel=1e-3)
 
 

@@ -8,6 +8,7 @@ cables turned by the prism's 3-fold symmetry must get the same wave shifted in t
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -138,3 +139,39 @@ def test_the_shipped_gait_rolls_the_three_bar_forward():
     assert summary["distance_m"] > SHIPPED_SPEED / 2 * summary["body_length_m"] * 6.0
     assert summary["heading_error_deg"] < 20.0  # 6.8 degrees when measured
 
+
+
+def test_the_gait_learned_with_a_rolling_score_rolls_the_three_bar_over_every_side():
+    # examples/rolling/three_bar_rolling.yaml, learned with `tensim learn --rolling`
+    # (docs/rolling.md: 43 rolls over 6 faces in 30 s, 5.2 turns about the axis); 6 s of it
+    robot = three_bar()
+    config = load_controller(Path(__file__).parent.parent
+                             / "examples/rolling/three_bar_rolling.yaml", robot)
+    _, summary = play(robot, config, 6.0, heading_deg=SHIPPED_HEADING)
+    # rolling: all six side faces and rod ends, and about one turn forward about the axis
+    # (6.14 rad when measured); a crawl or a rock would turn ~0, a roll backward < 0
+    assert summary["faces_visited"] == 6 and summary["ends_on_ground"] == 6
+    assert summary["roll_rad"] > 1.5 * math.pi
+    # 1.25 m along the heading when measured: at least the statics gait's 0.128 body
+    # lengths/s over those 6 s
+    assert summary["distance_m"] > 0.128 * summary["body_length_m"] * 6.0
+
+
+def test_the_lab_files_rolling_gait_gets_it_off_its_end_triangle_and_rolling():
+    # examples/rolling/three_bar_lab_rolling.yaml on the lab-style MJCF 3-bar, as
+    # docs/rolling.md plays it (implicit cable law, the file's 1 ms step); 8 s of it
+    from tensim.io.mjcf_import import import_mjcf
+    from tensim.model import WorldOptions
+
+    examples = Path(__file__).parent.parent / "examples/rolling"
+    robot = import_mjcf(examples / "three_bar_lab.xml", warn=False).structure
+    config = load_controller(examples / "three_bar_lab_rolling.yaml", robot)
+    _, summary = play(robot, config, 8.0, heading_deg=90.0,
+                      world=WorldOptions(cable_law="implicit"))
+    # built standing on an end triangle, it falls onto its side within 1.5 s (1.0 s when
+    # measured) and turns forward about its axis (2.57 rad when measured; a crawl turns ~0)
+    assert summary["first_roll_s"] <= 1.5 and summary["faces_visited"] >= 3
+    assert summary["roll_rad"] > 2.0
+    # 0.67 m toward 90 degrees when measured: more than the statics gait's 0.031 body
+    # lengths/s over 30 s (docs/rolling.md) would make in these 8 s
+    assert summary["distance_m"] > 0.031 * summary["body_length_m"] * 8.0

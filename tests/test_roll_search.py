@@ -85,3 +85,38 @@ def test_cli_searched_tips_belong_to_the_statics_roll(tmp_path):
     assert main(["experiment", "drag", "--searched-tips", "--out", str(tmp_path / "d")]) == 2
     assert main(["experiment", "roll", "three_bar", "--searched-tips", "--controller",
                  "three_bar_roll", "--out", str(tmp_path / "r")]) == 2
+
+
+def test_the_batched_tries_are_one_simulation_per_try_bit_for_bit():
+    # the search runs its tries through the batch engine; each must see what a simulation of
+    # its own, commanded once it is made and looked at every control period, sees
+    from tensim.control.rolling import support_edges
+    from tensim.experiments.roll_search import crossings
+
+    robot = _prism()
+    face, _, pose = _far_edge(robot)
+    compiled = compile_structure(pose, WorldOptions())
+    built = compiled.rest_length.copy()
+    motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
+    rng = np.random.default_rng(3)
+    commands = [np.where(motorised, rng.uniform(built * 0.3, built * 1.5), built)
+                for _ in range(6)]
+    positions = {n.name: np.asarray(n.position, dtype=float) for n in pose.nodes}
+    polygon = np.array([positions[f][:2] for f in face])
+    found = []
+    for line in support_edges(polygon):  # each edge of the face the tries may cross
+        expected = []
+        for command in commands:
+            when, past = None, False
+            with Simulation(compiled) as sim:
+                sim.drive.rest_command[motorised] = command[motorised]
+                while sim.time < WINDOW_S - 1e-9:
+                    sim.run(SETTINGS.period_s)
+                    past = float(line[:2] @ sim.data.subtree_com[0][:2] + line[2]) > 0
+                    if when is None and past:
+                        when = sim.time
+            expected.append(when if past else None)
+        got = crossings(compiled, commands, motorised, line, SETTINGS.period_s)
+        assert got == expected
+        found.extend(got)
+    assert any(t is not None for t in found) and any(t is None for t in found)  # both kinds

@@ -4,6 +4,8 @@ and one frame of the loop (state copy, mouse push, reset) against a stand-in win
 from __future__ import annotations
 
 import contextlib
+import subprocess
+import sys
 from collections.abc import Callable
 
 import mujoco
@@ -166,6 +168,31 @@ def test_tension_colours_run_from_blue_to_red_and_slack_is_grey() -> None:
     assert bar.shape == (8, 100, 3) and bar.dtype == np.uint8
     assert bar[0, 0, 2] > bar[0, 0, 0] and bar[0, -1, 0] > bar[0, -1, 2]
 
+
+
+def test_tension_colours_are_matplotlibs_turbo_to_the_bit_without_loading_it() -> None:
+    """The colour map is a copy of matplotlib's turbo (so that colouring a frame does not
+    load matplotlib): the same table, and the same colour for every value, out of range and
+    NaN included."""
+    import matplotlib
+
+    from tensim.viz._turbo import TURBO, turbo
+
+    reference = matplotlib.colormaps["turbo"]
+    assert np.array_equal(TURBO, np.array(reference.colors, dtype=float))
+    x = np.concatenate([np.linspace(-0.1, 1.1, 10_001), np.arange(257) / 256,
+                        [0.0, 1.0, np.nan, np.inf, -np.inf, np.nextafter(1.0, 0.0)]])
+    assert np.array_equal(turbo(x), reference(x))
+    tension = np.concatenate([np.linspace(-5.0, 80.0, 2001), [np.nan]])
+    share = np.clip(tension / 50.0, 0.0, 1.0)
+    expected = reference(0.1 + 0.85 * share)
+    expected[tension <= 0] = SLACK_RGBA
+    assert np.array_equal(TensionColors(50.0).rgba(tension), expected.astype(np.float32))
+    probe = ("import sys, numpy as np; from tensim.viz.cables import TensionColors; "
+             "TensionColors(50.0).rgba(np.ones(3)); print('matplotlib' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "False"
 
 def _polyline_length(points: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())

@@ -32,14 +32,11 @@ def _structure(args: argparse.Namespace) -> Structure | None:
 
 def _drawer(plans: list[FigurePlan], args: argparse.Namespace) -> FigureDrawer:
     """A drawer of ``plans`` that lays the figures out while the run simulates, where that pays
-    (:func:`tensim.viz.drawing.background_pays`; no ``--duration``: the run's own, which for
-    the shipped gaits is long enough); with ``--no-figures``, one that draws nothing."""
-    from tensim.model import WorldOptions
-    from tensim.viz.drawing import MIN_STEPS, FigureDrawer, background_pays
+    (:func:`tensim.viz.drawing.background_pays`); with ``--no-figures``, one that draws
+    nothing."""
+    from tensim.viz.drawing import FigureDrawer, background_pays
 
-    steps = MIN_STEPS if args.duration is None \
-        else round(args.duration / (args.dt or WorldOptions.timestep))
-    return FigureDrawer(plans, background=background_pays(steps), enabled=not args.no_figures)
+    return FigureDrawer(plans, background=background_pays(), enabled=not args.no_figures)
 
 
 def _robot_controller(args: argparse.Namespace, structure: Structure | None
@@ -329,6 +326,8 @@ def _roll(args: argparse.Namespace, out: Path) -> dict[str, Any]:
               + ("" if summary["plans"] is None else
                  f"; {summary['plans']} plans ({summary['plans_made']} made from statics)")
               + f"; {summary['ends_on_ground']} of {summary['ends']} rod ends on the ground")
+        print(f"turned {summary['roll_rad']:.2f} rad about the rolling axis, "
+              f"{summary['rolled_m']:.3f} m rolled (as `tensim learn --rolling` counts it)")
     return summary
 
 

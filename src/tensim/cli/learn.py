@@ -31,7 +31,7 @@ if TYPE_CHECKING:
 _PROBLEM_OPTIONS = ("model", "controller", "base_controller", "optimizer", "trial_duration",
                     "seed", "segment", "direction", "energy_weight", "settle", "max_tilt",
                     "penalty", "dt", "cable_law", "record_dt", "terrain", "target", "step",
-                    "batch",
+                    "batch", "rolling", "start",
                     "monte_carlo", "randomize", "robots", "robust")
 _DEFAULTS: dict[str, Any] = {
     "model": "tetraspine3", "controller": "cpg", "optimizer": "ntrt", "evaluations": 100,
@@ -77,6 +77,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                          help="score the progress toward this point [m] instead of a "
                          "displacement (goal-directed locomotion; not with --direction; write "
                          "--target=-2,1 for a negative X)")
+    problem.add_argument("--rolling", action="store_true", default=None,
+                         help="count the distance along --direction only as far as the robot "
+                         "rolled it (its turn about the horizontal axis across the direction "
+                         "times its centre of mass's height), so that a crawl or a slide "
+                         "scores about 0; for rolling robots (see docs/rolling.md)")
     problem.add_argument("--energy-weight", type=nonnegative, metavar="M_PER_J",
                          help="subtract this times the motor work [m/J] (default 0)")
     problem.add_argument("--settle", type=nonnegative, metavar="S",
@@ -107,6 +112,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     search.add_argument("--monte-carlo", type=natural, metavar="N",
                         help=f"ntrt: random samples before hill climbing (default "
                         f"{d['monte_carlo']})")
+    search.add_argument("--start", metavar="NAME=VALUE,...",
+                        help="start the search with these parameters of the gait family at "
+                        "these values (the rest at the base gait's or the family's nominal "
+                        "ones), e.g. amplitude/a=1.5,frequency=0.15 for --controller roll")
     robust = p.add_argument_group("robust gaits (domain randomisation)")
     robust.add_argument("--randomize", metavar="NAME=LO:HI,...",
                         help="score each candidate on randomised robots: multipliers of "
@@ -151,12 +160,34 @@ def _problem(args: argparse.Namespace) -> TrialProblem:
     direction, either_way = parse_direction(args.direction or "any")
     target = parse_point(args.target, "--target") if args.target is not None else None
     objective = Objective(args.segment, None if target else direction, either_way,
-                          args.energy_weight, args.settle, args.max_tilt, target)
+                          args.energy_weight, args.settle, args.max_tilt, target,
+                          bool(args.rolling))
     randomize = parse_randomize(args.randomize) if args.randomize else ()
     robots = args.robots if args.robots is not None else (8 if randomize else 1)
+    start = parse_start(args.start) if args.start else ()
     return TrialProblem(structure, base, args.controller, args.trial_duration, objective,
                         world_from_args(args), args.record_dt, args.penalty, args.model,
-                        randomize, robots, args.robust or "mean", args.seed)
+                        randomize, robots, args.robust or "mean", args.seed, start)
+
+
+def parse_start(text: str) -> tuple[tuple[str, float], ...]:
+    """``amplitude/a=1.5,frequency=0.15`` as ((name, value), ...).
+
+    Raises:
+        ValueError: a malformed entry, naming it.
+    """
+    out = []
+    for item in text.split(","):
+        name, _, value = item.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        if not name.strip() or not math.isfinite(number):
+            raise ValueError(f"--start entry {item!r}: expected NAME=VALUE with a finite "
+                             "number, e.g. frequency=0.15")
+        out.append((name.strip(), number))
+    return tuple(out)
 
 
 def parse_randomize(text: str) -> tuple[tuple[str, float, float], ...]:

@@ -105,9 +105,8 @@ def run(args: argparse.Namespace) -> int:
                                 {"cables": cables, "title": f"{args.model}: cable tensions",
                                  "tags": tags}),
                      FigurePlan("lengths.png", "lengths", {"cables": cables, "tags": tags})]
-    steps = round(duration / compiled.model.opt.timestep)
     out = Path(args.out)
-    with FigureDrawer(plans, background=background_pays(steps),
+    with FigureDrawer(plans, background=background_pays(),
                       enabled=not args.no_figures) as drawer:
         with clock.stage("simulate"):
             result = simulate(compiled, duration, controller=controller, loads=loads,
@@ -122,7 +121,8 @@ def run(args: argparse.Namespace) -> int:
         with replace_folder(out) as stage:
             if loads:
                 save_loads(loads, stage / "loads.yaml")
-            with clock.stage("figures (in this process)"):
+            with clock.stage("figures (handed to the drawing process)" if drawer.background
+                             else "figures (in this process)"):
                 for plan in plans:
                     drawer.draw(plan.file, result.trajectory, stage)
             with clock.stage("trajectory.parquet, structure.yaml, report, frame.png"):

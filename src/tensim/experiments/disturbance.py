@@ -71,10 +71,12 @@ class Push:
         return (self.node, *(n for n, _ in self.holds))
 
 
-def disturbance_loads(peak: float = PEAK_FORCE, push: Push | None = None) -> list[NodeLoad]:
-    """The push (default: on segment 0's tip) and the restoring forces (the other tips)."""
+def disturbance_loads(peak: float = PEAK_FORCE, push: Push | None = None,
+                      start: float = START) -> list[NodeLoad]:
+    """The push (default: on segment 0's tip) and the restoring forces (the other tips), the
+    push's rise starting at ``start`` [s]."""
     push = push or Push(peak=peak)
-    load = ramp_hold_release(push.node, push.direction, push.peak, START, RISE, HOLD, FALL)
+    load = ramp_hold_release(push.node, push.direction, push.peak, start, RISE, HOLD, FALL)
     return [load] + [load.scaled(-share).at(node) for node, share in push.holds]
 
 

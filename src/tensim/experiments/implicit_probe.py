@@ -1,7 +1,7 @@
 """Measurements behind the implicit cable law's choice (docs/speed.md, docs/architecture.md):
 what sets the disturbance test's error at long steps, and what a law that solved its own cables'
 implicit step, with nothing handed to MuJoCo's metric, would give
-(``python -m tensim.experiments.implicit_probe loop-gain|peak|contacts|own-solve|spread``).
+(``python -m tensim.experiments.implicit_probe loop-gain|peak|contacts|own-solve|spread|hold``).
 
 - :func:`loop_gain`: ``h rho(diag(D) J M^-1 J^T)`` at a settled state, for the cables' own
   damping ``b`` and for the impedance laws' damping gains ``B`` (the gain of the explicit step's
@@ -299,12 +299,18 @@ def _rates(result: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def contact_variants() -> dict[str, Callable[[WorldOptions], Any]]:
-    """The disturbance test as built, with the impedance laws' damping gains B set to 0, and
-    on MuJoCo's elliptic friction cones (each against its own reference)."""
+    """The disturbance test as built, with the impedance laws' damping gains B set to 0, on
+    MuJoCo's elliptic friction cones, and with the contact time constant (0.02 s) halved and
+    doubled (each against its own reference)."""
     return {"as built": laws._tetraspine3,
             "B = 0": laws._tetraspine3_variant(damping_scale=0.0),
             "elliptic cones": lambda world: laws._tetraspine3(
-                dataclasses.replace(world, cone="elliptic"))}
+                dataclasses.replace(world, cone="elliptic")),
+            **{f"contact time constant {tc:g} s": _timeconst(tc) for tc in (0.01, 0.04)}}
+
+
+def _timeconst(tc: float) -> Callable[[WorldOptions], Any]:
+    return lambda world: laws._tetraspine3(dataclasses.replace(world, contact_timeconst=tc))
 
 
 def contact_study(dt: float = 4e-3, cable_laws: Sequence[str] = ("explicit", "implicit")
@@ -352,13 +358,14 @@ def spread_study(steps_ms: Sequence[float] = (1.0, 2.0, 4.0),
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    """The command line: ``loop-gain``, ``peak DT_MS LAW``, ``contacts``,
+    """The command line: ``loop-gain``, ``peak DT_MS LAW``, ``contacts``, ``spread``, ``hold``,
     ``own-solve CASE [MODES]``."""
     parser = argparse.ArgumentParser(prog="python -m tensim.experiments.implicit_probe")
     sub = parser.add_subparsers(dest="what", required=True)
     sub.add_parser("loop-gain")
     sub.add_parser("contacts")
     sub.add_parser("spread")
+    sub.add_parser("hold")
     peak = sub.add_parser("peak")
     peak.add_argument("dt_ms", type=float)
     peak.add_argument("law")
@@ -384,6 +391,14 @@ def main(argv: Sequence[str] | None = None) -> None:
               "reference, with every cable's stiffness changed by " + ", ".join(
                   f"{scale:g}" for scale in SPREAD_SCALES))
         for line in spread_study():
+            print(line)
+    elif args.what == "hold":
+        from tensim.experiments.controller_hold import hold_study
+
+        print("tetraspine3 against its 0.05 ms explicit reference, the impedance laws and motors "
+              "updated every step or held over 4 ms; over 34-40 s: the motor updates at their "
+              "speed limit, the change of the cables' length rates between updates")
+        for line in hold_study():
             print(line)
     elif args.what == "peak":
         r = peak_study(args.dt_ms / 1e3, args.law)

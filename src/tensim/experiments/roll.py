@@ -52,6 +52,7 @@ from tensim.design import DesignError
 from tensim.model import WorldOptions, compile_structure
 from tensim.runs import world_record, write_run
 from tensim.sim import COM, Simulation, SimulationResult, TimeSeries, simulate
+from tensim.sim.motion import contact_radii, node_bodies, node_paths, rolled_distance
 from tensim.structure import Structure, body_length
 
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
@@ -334,34 +335,11 @@ def roll(structure: Structure, duration: float, *, heading_deg: float = 0.0,
                else round(gait.first_roll_s, 6)}
     nodes = node_bodies(compiled.index)
     summary.update(ground_summary(trajectory, nodes))
+    summary.update(rolled_summary(trajectory, nodes, contact_radii(structure, nodes),
+                                  direction, goal))
     if turn_deg is not None:
         summary.update(turn_summary(trajectory, turn_deg, body_length(structure), nodes))
     return result, summary
-
-
-def node_bodies(index: Any) -> dict[str, tuple[str, np.ndarray]]:
-    """Node name -> (its body's name, its position in the body's frame [m]), for the nodes
-    on the robot's rigid bodies."""
-    bodies = dict(zip((int(b) for b in index.body), index.bodies, strict=True))
-    return {n: (bodies[b], index.node_local[n])
-            for n, b in index.node_body.items() if b in bodies}
-
-
-def node_paths(trajectory: TimeSeries, nodes: dict[str, tuple[str, np.ndarray]]
-               ) -> np.ndarray:
-    """(T, n, 3) the recorded paths of ``nodes`` (node name -> (its body's name, its position
-    in the body's frame [m])), from the bodies' ``pos_*`` and ``quat_*`` channels [m]."""
-    out = []
-    for body, local in nodes.values():
-        quat = np.stack([trajectory[f"quat_{a}/{body}"] for a in "wxyz"], axis=1)
-        quat = quat / np.linalg.norm(quat, axis=1, keepdims=True)
-        w, x, y, z = quat.T
-        rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-        pos = np.stack([trajectory[f"pos_{a}/{body}"] for a in "xyz"], axis=1)
-        out.append(pos + np.einsum("ijt,j->ti", rot, np.asarray(local, dtype=float)))
-    return np.stack(out, axis=1)
 
 
 def held_faces(faces: list[tuple[str, ...]], hold: int = 2) -> tuple[list[tuple[str, ...]],
@@ -401,6 +379,40 @@ def ground_summary(trajectory: TimeSeries, nodes: dict[str, tuple[str, np.ndarra
     faces = support_faces(node_paths(trajectory, nodes))
     return {"support_changes": int(sum(a != b for a, b in itertools.pairwise(faces))),
             "ends_on_ground": len(set().union(*faces)), "ends": len(nodes)}
+
+
+def rolled_summary(trajectory: TimeSeries, nodes: dict[str, tuple[str, np.ndarray]],
+                   radii: np.ndarray, heading: np.ndarray | None,
+                   goal: tuple[float, float] | None = None) -> dict[str, Any]:
+    """How far a run rolled, as ``tensim learn --rolling`` counts it.
+
+    Args:
+        trajectory: the recorded run.
+        nodes: node name -> (its body's name, its position in the body's frame [m]).
+        radii: (n,) each node's contact radius [m].
+        heading: (2,) unit vector of the heading; None with a goal (the heading is then from
+            the start toward the goal, as :func:`roll_summary`'s).
+        goal: (x, y) of the goal [m].
+
+    Returns:
+        ``rolled_m`` and ``roll_rad``: :func:`tensim.sim.motion.rolled_distance` toward the
+        heading, from the recorded rod poses.
+    """
+    heading = _scored_heading(trajectory, heading, goal)
+    rolled, turn = rolled_distance(node_paths(trajectory, nodes), trajectory[f"pos_z/{COM}"],
+                                   heading, radii)
+    return {"rolled_m": round(rolled, 6), "roll_rad": round(turn, 6)}
+
+
+def _scored_heading(trajectory: TimeSeries, heading: np.ndarray | None,
+                    goal: tuple[float, float] | None) -> np.ndarray:
+    """The heading a run is scored along: ``heading``, or from the start toward ``goal``."""
+    if heading is not None:
+        return heading
+    assert goal is not None
+    start = np.array([trajectory[f"pos_x/{COM}"][0], trajectory[f"pos_y/{COM}"][0]])
+    toward = np.asarray(goal, dtype=float) - start
+    return toward / max(float(np.linalg.norm(toward)), 1e-12)
 
 
 def turn_summary(trajectory: TimeSeries, turn_deg: float, length: float,
@@ -478,7 +490,8 @@ def play(structure: Structure, config: ControllerConfig, duration: float, *,
                "plans": None, "plans_made": None, "rocks_back": rocks_back(faces),
                "first_roll_s": None if first is None
                else round(float(ts.time[looks[first]] - ts.time[0]), 6),
-               **ground_summary(ts, nodes)}
+               **ground_summary(ts, nodes),
+               **rolled_summary(ts, nodes, contact_radii(structure, nodes), direction, goal)}
     return result, summary
 
 
@@ -514,10 +527,7 @@ def roll_summary(trajectory: TimeSeries, length: float, heading: np.ndarray | No
     """
     x, y = trajectory[f"pos_x/{COM}"], trajectory[f"pos_y/{COM}"]
     start, end = np.array([x[0], y[0]]), np.array([x[-1], y[-1]])
-    if heading is None:
-        assert goal is not None
-        heading = np.asarray(goal, dtype=float) - start
-        heading = heading / max(float(np.linalg.norm(heading)), 1e-12)
+    heading = _scored_heading(trajectory, heading, goal)
     moved = end - start
     distance = float(moved @ heading)
     span = float(trajectory.time[-1] - trajectory.time[0])

@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from tensim.control.rest import RestCommand
 from tensim.control.rolling import RollSettings, support_edges
-from tensim.model import WorldOptions, compile_structure
-from tensim.sim import Simulation
+from tensim.model import CompiledModel, WorldOptions, compile_structure
+from tensim.sim import COM, Simulation, Trial, TrialResult, run_batch
 from tensim.structure import Structure
 
 WINDOW_S = 2.0  # s: a try must cross the edge within this and be past it at its end
@@ -52,7 +53,7 @@ def search_tip(pose: Structure, feet: tuple[str, ...], edge: tuple[str, str],
     motorised = np.array([not c.motor.passive for c in compiled.structure.cables])
     lower, upper = built * (1 - settings.shorten), built * (1 + settings.lengthen)
     rng = np.random.default_rng(seed)
-    best: tuple[float, np.ndarray] | None = None
+    commands = []
     for k in range(settings.search):
         if k == 0:
             command = np.asarray(first, dtype=float).copy()
@@ -61,23 +62,42 @@ def search_tip(pose: Structure, feet: tuple[str, ...], edge: tuple[str, str],
             command = np.choose(pick, [lower, built, upper])
         else:
             command = rng.uniform(lower, upper)
-        command = np.where(motorised, command, built)
-        crossed = _crossing(compiled, command, motorised, line, settings.period_s)
+        commands.append(np.where(motorised, command, built))
+    best: tuple[float, np.ndarray] | None = None
+    for command, crossed in zip(commands, crossings(compiled, commands, motorised, line,
+                                                    settings.period_s), strict=True):
         if crossed is not None and (best is None or crossed < best[0]):
             best = (crossed, command)
     return None if best is None else best[1]
 
 
-def _crossing(compiled: object, command: np.ndarray, motorised: np.ndarray, line: np.ndarray,
-              period: float) -> float | None:
-    """When the centre of mass first crossed ``line`` (a, b, c) under ``command`` [s]; None
-    where it did not, or was back behind it at the end of :data:`WINDOW_S`."""
-    when = None
-    with Simulation(compiled) as sim:  # type: ignore[arg-type]
-        sim.drive.rest_command[motorised] = command[motorised]
-        while sim.time < WINDOW_S - 1e-9:
-            sim.run(period)
-            past = float(line[:2] @ sim.data.subtree_com[0][:2] + line[2]) > 0
-            if when is None and past:
-                when = sim.time
-        return when if past else None
+def crossings(compiled: CompiledModel, commands: list[np.ndarray], motorised: np.ndarray,
+              line: np.ndarray, period: float) -> list[float | None]:
+    """For each constant rest-length command, when the centre of mass first crossed ``line``
+    (a, b, c) [s]; None where it did not, was back behind it at the end of :data:`WINDOW_S`,
+    or the try ran away.
+
+    The tries run as one batch (:func:`~tensim.sim.run_batch`), each from the state a new
+    :class:`~tensim.sim.Simulation` of ``compiled`` starts in (the motor update at t = 0 taken
+    with the built rest lengths) and then commanded, and looked at every ``period``: bit for
+    bit what one simulation per try, commanded after it is made, gives.
+    """
+    with Simulation(compiled) as sim:
+        start = sim.get_state()
+    cables = tuple(name for name, m in zip(compiled.index.cables, motorised, strict=True) if m)
+    trials = [Trial(RestCommand(cables, tuple(float(v) for v in command[motorised])),
+                    initial_state=start) for command in commands]
+    return [_crossing(trial, line) for trial in run_batch(compiled, trials, WINDOW_S,
+                                                          record_dt=period)]
+
+
+def _crossing(trial: TrialResult, line: np.ndarray) -> float | None:
+    """When a try's recorded centre of mass first crossed ``line``, if past it at the end."""
+    if trial.result is None:
+        return None
+    series = trial.result.trajectory
+    com = np.stack([series[f"pos_x/{COM}"], series[f"pos_y/{COM}"]], axis=1)[1:]
+    past = [float(line[:2] @ c + line[2]) > 0 for c in com]
+    if not past[-1]:
+        return None
+    return float(series.time[1:][past.index(True)])

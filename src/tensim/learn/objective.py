@@ -6,6 +6,11 @@ component along a direction, or the size of that component either way (sideways 
 or right), or, with a target point, how much closer to it the segment got (goal-directed
 locomotion); optionally minus ``energy_weight`` times the motor work. A trial in which any rigid
 body's up axis tilts past ``max_tilt_deg`` has flipped over: it gets the problem's penalty.
+
+With ``rolling`` the distance along the direction counts only as far as the robot rolled it
+(:func:`~tensim.sim.motion.rolled_distance`: its turn about the rolling axis z x direction,
+times its centre of mass's height above the ground, summed over the samples): a robot that
+crawls or slides on one face scores about 0 however far it goes.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ import math
 import numpy as np
 
 from tensim.sim import COM, TimeSeries
+from tensim.sim.motion import rolled_distance
 
 # named directions in the ground plane: (angle from +x toward +y [deg], either way)
 DIRECTIONS: dict[str, tuple[float | None, bool]] = {
@@ -62,6 +68,10 @@ class Objective:
             [deg]; 180 turns the check off (rolling robots).
         target_xy: a target point (x, y) in the world frame [m]; the score is then the
             progress toward it (:func:`target_progress`) instead of a displacement.
+        rolling: score the displacement along ``direction_deg`` only as far as the robot
+            rolled it: the smaller of that displacement and the distance rolled toward
+            ``direction_deg`` (:func:`~tensim.sim.motion.rolled_distance`), so that a crawl,
+            a slide or a rock back and forth scores about 0 (needs a direction, one way).
     """
 
     segment: str = COM
@@ -71,6 +81,7 @@ class Objective:
     settle_s: float = 0.0
     max_tilt_deg: float = 90.0
     target_xy: tuple[float, float] | None = None
+    rolling: bool = False
 
     def __post_init__(self) -> None:
         if self.target_xy is not None:
@@ -89,6 +100,9 @@ class Objective:
             raise ValueError(f"settle_s must be >= 0 s, got {self.settle_s}")
         if not 0 < self.max_tilt_deg <= 180:
             raise ValueError(f"max_tilt_deg must be in (0, 180], got {self.max_tilt_deg}")
+        if self.rolling and (self.direction_deg is None or self.either_way):
+            raise ValueError("rolling scores the distance rolled toward a direction: give "
+                             "one direction (an angle, or forward/left/backward/right)")
 
     def describe(self) -> str:
         """One line, e.g. ``displacement of com along 90 deg, either way``."""
@@ -101,22 +115,33 @@ class Objective:
         else:
             text = f"{what} along {self.direction_deg:g} deg" + (
                 ", either way" if self.either_way else "")
+        if self.rolling:
+            text += ", counted as far as rolled"
         if self.energy_weight:
             text += f" minus {self.energy_weight:g} m/J x motor work"
         return text
 
-    def score(self, trajectory: TimeSeries, bodies: tuple[str, ...]
+    def score(self, trajectory: TimeSeries, bodies: tuple[str, ...],
+              points: np.ndarray | None = None, radii: np.ndarray | float = 0.0
               ) -> tuple[float, dict[str, float], str | None]:
         """The trial's score, its parts, and why it is void (flipped over) or None.
 
         Args:
             trajectory: the recorded trial (pose and cable channels).
             bodies: the rigid bodies checked for flipping over.
+            points: (T, p, 3) the recorded paths of the robot's rod ends [m] (needed with
+                ``rolling``).
+            radii: () or (p,) each point's contact radius [m] (a rod's radius at its end).
 
         Returns:
             (score, metrics, reason): metrics ``dx_m``, ``dy_m`` (displacement [m]),
             ``distance_m`` (the scored distance [m]), ``work_J`` (motor work [J]),
-            ``max_tilt_deg``, and with a target ``target_distance_m`` (at the end [m]).
+            ``max_tilt_deg``, with a target ``target_distance_m`` (at the end [m]), with
+            ``rolling`` ``along_m`` (the displacement along the direction [m]),
+            ``rolled_m`` and ``roll_rad`` (:func:`~tensim.sim.motion.rolled_distance`).
+
+        Raises:
+            ValueError: ``rolling`` without ``points``.
         """
         start = int(np.searchsorted(trajectory.time, self.settle_s - 1e-9))
         if start >= trajectory.time.size - 1:
@@ -126,7 +151,15 @@ class Objective:
         work = motor_work(trajectory, start)
         tilt, body, when = max_tilt(trajectory, bodies)
         metrics = {"dx_m": dx, "dy_m": dy}
-        if self.target_xy is None:
+        if self.rolling:
+            if points is None:
+                raise ValueError("a rolling score needs the rod ends' recorded paths")
+            along = self.distance(dx, dy)
+            rolled, turn = rolled_distance(points[start:], trajectory[f"pos_z/{COM}"][start:],
+                                           self._unit(), radii)
+            metrics.update(along_m=along, rolled_m=rolled, roll_rad=turn)
+            distance = min(along, rolled)
+        elif self.target_xy is None:
             distance = self.distance(dx, dy)
         else:
             distance = target_progress(trajectory, self.target_xy, self.segment, start)
@@ -143,10 +176,16 @@ class Objective:
         """The scored distance for a planar displacement (dx, dy) [m]."""
         if self.direction_deg is None:
             return math.hypot(dx, dy)
+        unit = self._unit()
+        along = float(dx * unit[0] + dy * unit[1])
+        return abs(along) if self.either_way else along
+
+    def _unit(self) -> np.ndarray:
+        """(2,) the direction's unit vector."""
+        assert self.direction_deg is not None
         angle = math.radians(self.direction_deg)
         # rounded so that the axes are exact (cos 90 deg = 0, not 6e-17)
-        along = dx * round(math.cos(angle), 15) + dy * round(math.sin(angle), 15)
-        return abs(along) if self.either_way else along
+        return np.array([round(math.cos(angle), 15), round(math.sin(angle), 15)])
 
 
 def planar_displacement(trajectory: TimeSeries, item: str, start: int = 0

@@ -37,6 +37,7 @@ from tensim.sim import (
     run_batch,
     simulate,
 )
+from tensim.sim.motion import contact_radii, node_bodies, node_paths
 from tensim.structure import Structure
 from tensim.terrain import format_terrain
 
@@ -168,6 +169,10 @@ class TrialProblem:
         robust: ``"mean"`` (the average score over the robots) or ``"worst"`` (the lowest);
             a robot whose trial fails counts with the penalty.
         randomize_seed: seed of the robots' draws.
+        start_from: (name, value) pairs that replace the starting point's values of those
+            parameters (the search starts from the base gait or the family's nominal values
+            otherwise), e.g. a slow, full-amplitude wave where the nominal one leaves every
+            nearby trial at the same score.
     """
 
     structure: Structure
@@ -183,6 +188,7 @@ class TrialProblem:
     robots: int = 1
     robust: str = "mean"
     randomize_seed: int = 0
+    start_from: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         check_family(self.family)
@@ -215,6 +221,24 @@ class TrialProblem:
                              f"one of {list(bodies)}")
         if not math.isfinite(self.penalty):
             raise ValueError(f"penalty must be a finite score, got {self.penalty}")
+        if self.start_from:
+            self._check_start()
+
+    def _check_start(self) -> None:
+        """Raises ValueError for an unknown, repeated or out-of-bounds starting value."""
+        names = self.layout.names
+        given = [name for name, _ in self.start_from]
+        for name, value in self.start_from:
+            if name not in names:
+                raise ValueError(f"start {name}: not a parameter of the {self.family} gait; "
+                                 f"expected one of {list(names)}")
+            if given.count(name) > 1:
+                raise ValueError(f"start {name}: given more than once")
+            i = names.index(name)
+            low, high = self.layout.low[i], self.layout.high[i]
+            if not (math.isfinite(value) and low <= value <= high):
+                raise ValueError(f"start {name}={value}: expected a value in [{low:g}, "
+                                 f"{high:g}]")
 
     # -- the parameter space ---------------------------------------------------------------
 
@@ -237,9 +261,21 @@ class TrialProblem:
         """The robot's rigid bodies (segments)."""
         return tuple(g.name for g in self.structure.rigid_groups())
 
+    @functools.cached_property
+    def rod_ends(self) -> tuple[dict[str, tuple[str, np.ndarray]], np.ndarray]:
+        """The nodes on the robot's rigid bodies (:func:`~tensim.sim.motion.node_bodies`) and
+        (p,) each one's contact radius [m]: the largest radius of the rods ending there (0 for
+        a node on no rod)."""
+        nodes = node_bodies(self.compiled().index)
+        return nodes, contact_radii(self.structure, nodes)
+
     def start(self) -> np.ndarray:
-        """The base controller's gait (or the family's nominal values) in the unit cube."""
-        return self.layout.to_unit(self.layout.clip(self._layout_and_start[1]))
+        """The base controller's gait (or the family's nominal values), with the values of
+        ``start_from``, in the unit cube."""
+        values = np.array(self._layout_and_start[1], dtype=float)
+        for name, value in self.start_from:
+            values[self.layout.names.index(name)] = value
+        return self.layout.to_unit(self.layout.clip(values))
 
     def values(self, unit: np.ndarray) -> np.ndarray:
         """Gait parameters of a unit-cube point."""
@@ -356,7 +392,13 @@ class TrialProblem:
         if trial.result is None:
             status = UNSTABLE if "unstable" in str(trial.error) else ERROR
             return Outcome(self.penalty, status, f"{status}: {trial.error}")
-        score, metrics, flipped = self.objective.score(trial.result.trajectory, self.bodies)
+        trajectory = trial.result.trajectory
+        points: np.ndarray | None = None
+        radii: np.ndarray | float = 0.0
+        if self.objective.rolling:
+            nodes, radii = self.rod_ends
+            points = node_paths(trajectory, nodes)
+        score, metrics, flipped = self.objective.score(trajectory, self.bodies, points, radii)
         if flipped:
             return Outcome(self.penalty, FLIPPED, flipped, metrics)
         return Outcome(score, OK, "", metrics)
@@ -372,7 +414,8 @@ class TrialProblem:
                 "parameter_names": list(self.layout.names),
                 "randomize": {name: [low, high] for name, low, high in self.randomize},
                 "robots": self.robots, "robust": self.robust,
-                "randomize_seed": self.randomize_seed}
+                "randomize_seed": self.randomize_seed,
+                "start_from": dict(self.start_from)}
 
 
 @dataclasses.dataclass(frozen=True)

@@ -309,7 +309,9 @@ class RunStore:
                             WorldOptions(**world), data["record_dt_s"], data["penalty"],
                             data["model"], randomize, int(data.get("robots", 1)),
                             str(data.get("robust", "mean")),
-                            int(data.get("randomize_seed", 0)))
+                            int(data.get("randomize_seed", 0)),
+                            tuple((str(name), float(value))
+                                  for name, value in data.get("start_from", {}).items()))
 
     # -- evaluations -----------------------------------------------------------------------
 

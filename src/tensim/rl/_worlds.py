@@ -23,6 +23,7 @@ from tensim.sim._loop import (
     prestress_band,
     split_steps,
 )
+from tensim.sim.motion import roll_change, yaw_change
 
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 any_true = np.logical_or.reduce  # a bool array's .any(), without its Python wrapper
@@ -303,7 +304,7 @@ class Worlds:
             contact = -c.bar_contact_cost * self.bar_contacts(ids) * c.control_dt
         roll, slip = np.zeros(ids.size), np.zeros(ids.size)
         if c.roll_reward and bodies_before is not None:  # turning about the rolling axis
-            roll = c.roll_reward * _roll_change(bodies_before, self.turn_points(ids),
+            roll = c.roll_reward * roll_change(bodies_before, self.turn_points(ids),
                                                 self.target[r])
         if c.slip_cost:  # the metres the feet on the ground slid
             slip = -c.slip_cost * self.slip(ids) * c.control_dt
@@ -324,7 +325,7 @@ class Worlds:
             return np.einsum("ij,ij->i", after - before, self.target[r]), np.zeros(
                 ids.size, dtype=bool)
         if c.task == "turn" and bodies_before is not None:  # (read before a turn's step)
-            turned = _yaw_change(bodies_before, self.turn_points(ids))
+            turned = yaw_change(bodies_before, self.turn_points(ids))
             drift = np.linalg.norm(after - before, axis=1)
             return (-turned if c.clockwise else turned) - drift, np.zeros(ids.size, bool)
         if c.task == "goal":
@@ -531,7 +532,7 @@ class Worlds:
                                                               self._end_local)
 
     def turn_points(self, ids: np.ndarray) -> np.ndarray:
-        """(k, p, 3) the points whose best rigid fit measures a turn (:func:`_yaw_change`):
+        """(k, p, 3) the points whose best rigid fit measures a turn (:func:`yaw_change`):
         the rod ends, or the rigid bodies' centres of mass where the robot has no rods [m]."""
         if self._end_body.size:
             return self._end_positions(ids)
@@ -616,40 +617,6 @@ def _as_slice(ids: np.ndarray) -> np.ndarray | slice:
     if ids.size and (np.diff(ids) == 1).all():
         return slice(int(ids[0]), int(ids[-1]) + 1)
     return ids
-
-
-def _fit_rotation(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """(k, 3, 3) the rotation of the best rigid fit (Kabsch's, least squares) that takes the
-    (k, p, 3) points ``before`` to ``after``, each set about its centroid."""
-    p = before - before.mean(axis=1, keepdims=True)
-    q = after - after.mean(axis=1, keepdims=True)
-    u, _, vt = np.linalg.svd(np.einsum("kpi,kpj->kij", p, q))
-    d = np.sign(np.linalg.det(np.einsum("kij,kjl->kil", u, vt)))  # a rotation, not a mirror
-    vt[:, 2] *= d[:, None]
-    return np.einsum("kji,klj->kil", vt, u)  # V diag(1, 1, d) U^T: after ~ rot @ before
-
-
-def _yaw_change(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """(k,) rotation about the vertical [rad, counter-clockwise] of the best rigid fit
-    (:func:`_fit_rotation`) that takes the (k, p, 3) points ``before`` to ``after``: a rigid
-    turn gives its angle, and points that circle their centroid while the body they lie on
-    does not turn (a wobble, a precessing top) give little, where the points' own angles
-    about the centroid would add up their circling."""
-    rot = _fit_rotation(before, after)
-    return np.arctan2(rot[:, 1, 0] - rot[:, 0, 1], rot[:, 0, 0] + rot[:, 1, 1])
-
-
-def _roll_change(before: np.ndarray, after: np.ndarray, heading: np.ndarray) -> np.ndarray:
-    """(k,) rotation [rad] about the rolling axis z x ``heading`` ((k, 2) unit, world) of the
-    best rigid fit (:func:`_fit_rotation`) that takes the (k, p, 3) points ``before`` to
-    ``after``: the component along that axis of the fit's rotation vector, positive for a
-    robot rolling toward ``heading``; a robot that rocks back and forth sums to nothing."""
-    from scipy.spatial.transform import Rotation
-
-    axis = np.zeros((heading.shape[0], 3))
-    axis[:, 0], axis[:, 1] = -heading[:, 1], heading[:, 0]
-    rotvec = Rotation.from_matrix(_fit_rotation(before, after)).as_rotvec()
-    return np.einsum("kj,kj->k", rotvec, axis)
 
 
 def _rotate(v: np.ndarray, turn: tuple[np.ndarray, np.ndarray]) -> np.ndarray:

@@ -13,10 +13,10 @@ import numpy as np
 from tensim._input import InputError
 from tensim.control.rolling import heading_error_deg
 from tensim.models import PRESETS
-from tensim.rl._worlds import _yaw_change
 from tensim.rl.config import Randomization
 from tensim.rl.policy import Policy, load
 from tensim.rl.train import TrainSettings, load_settings
+from tensim.sim.motion import yaw_change
 from tensim.structure import body_length as structure_body_length
 
 PHYSICS = ("friction", "stiffness", "damping", "mass", "motor_speed")  # evaluate's multipliers
@@ -98,7 +98,7 @@ def run_policy(settings: TrainSettings, policy: Policy, duration_s: float, seed:
     env.close()
     dt = env.robot.config.control_dt
     cloud = np.array(points)
-    turns = _yaw_change(cloud[:-1], cloud[1:])
+    turns = yaw_change(cloud[:-1], cloud[1:])
     return {"fps": round(1.0 / (every * dt)), "time": np.arange(len(com)) * dt,
             "com": np.array(com), "yaw": np.concatenate([[0.0], np.cumsum(turns)]),
             "heading": worlds.target[0].copy(), "points": cloud,

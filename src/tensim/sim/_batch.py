@@ -408,7 +408,8 @@ class _BatchRun:
             excess = self.energies.energy[i] - self.energies.lowest[i]
             what = self.energy.largest(*(part[row:row + 1] for part in parts))
             self.error[i] = f"trial {self.first + i}: " + energy_message(what, excess, time,
-                                                                          self.dt)
+                                                                          self.dt,
+                                                                          self.energy.remedy)
 
     def _check_contact(self, ids: np.ndarray) -> None:
         """Fails the trials whose contact cables went through an obstacle, as

@@ -40,6 +40,7 @@ import mujoco
 import numpy as np
 
 from tensim.model import CompiledModel
+from tensim.model._law_layout import implicit, is_cable
 from tensim.sim._contact_check import ContactCheck
 from tensim.sim._loads import NodeLoad
 from tensim.structure import Structure
@@ -343,6 +344,7 @@ class Energy:
 
     def __init__(self, compiled: CompiledModel):
         m, index = compiled.model, compiled.index
+        self.remedy = law_remedy(m)  # the cable law's part of a blow-up's advice
         free = np.flatnonzero(m.jnt_type == mujoco.mjtJoint.mjJNT_FREE)
         self.body = m.jnt_bodyid[free]
         self.dof = m.jnt_dofadr[free]
@@ -468,12 +470,25 @@ def energy_growing(excess: np.ndarray, limit: float) -> np.ndarray:
     return (excess[:, -1] > limit) & (excess[:, -1] >= ENERGY_GROWTH * excess[:, 0])
 
 
-def energy_message(what: str, excess: np.ndarray, time: float, dt: float) -> str:
+def energy_message(what: str, excess: np.ndarray, time: float, dt: float,
+                   law: str = "--cable-law implicit, ") -> str:
     """The error of a world whose energy grows at ``time`` [s] with physics step ``dt`` [s]:
-    ``what`` holds most of it (:meth:`Energy.largest`); ``excess`` (ENERGY_CHECKS + 1,) [J]."""
+    ``what`` holds most of it (:meth:`Energy.largest`); ``excess`` (ENERGY_CHECKS + 1,) [J];
+    ``law`` the cable law's remedy (:func:`law_remedy`)."""
     return (f"simulation unstable at t = {time:.3f} s: the mechanical energy of the bodies "
             f"and cables runs away, from {excess[0]:.3g} to {excess[-1]:.3g} J above its lowest "
             f"over the last {ENERGY_CHECKS} checks, most of it in {what}, so the "
             f"{dt * 1e3:g} ms step is too long. Use --dt {suggest_step(dt):g} or less "
-            "(`tensim check` prints the bound), --cable-law implicit, or softer cables / "
-            "heavier parts.")
+            f"(`tensim check` prints the bound), {law}or softer cables / heavier parts.")
+
+
+def law_remedy(model: mujoco.MjModel) -> str:
+    """What the cable law can still do for a run that blows up, as :func:`energy_message`
+    words it: the implicit law where every cable is explicit, more cables on it where it is
+    split by cable, nothing where every cable is on it already."""
+    on_implicit = implicit(model)[is_cable(model)]
+    if not on_implicit.any():
+        return "--cable-law implicit, "
+    if not on_implicit.all():
+        return "a larger --split-margin (more cables on the implicit law), "
+    return ""

@@ -283,7 +283,8 @@ class Simulation:
         if self._energies.push(slice(None), self._energy.total(*fields))[0]:
             excess = self._energies.energy[0] - self._energies.lowest[0]
             raise SimulationError(energy_message(self._energy.largest(*fields), excess,
-                                                 self.time if time is None else time, self.dt))
+                                                 self.time if time is None else time, self.dt,
+                                                 self._energy.remedy))
 
 
 def diagnose(m: mujoco.MjModel, d: mujoco.MjData, index: ModelIndex, limits: StabilityLimits,

@@ -466,7 +466,8 @@ class _WarpRun:
                 time = float(self.samples.time[i, self.count[i] - 1])
                 what = self.energy.largest(*(part[i:i + 1] for part in parts))
                 self.error[i] = f"trial {i}: " + energy_message(
-                    what, self.energies.energy[i] - self.energies.lowest[i], time, self.dt)
+                    what, self.energies.energy[i] - self.energies.lowest[i], time, self.dt,
+                    self.energy.remedy)
 
     def _check_room(self, fine: np.ndarray) -> None:
         """Fails the worlds MuJoCo Warp ran out of room for (contacts or constraint rows

@@ -14,17 +14,16 @@ import dataclasses
 import itertools
 import math
 
-import matplotlib
 import mujoco
 import numpy as np
 
 from tensim.model import CompiledModel
 from tensim.sim import load_cell_tension
 from tensim.viz._scene import add_connector
+from tensim.viz._turbo import turbo
 
 SLACK_RGBA = (0.55, 0.55, 0.55, 1.0)
 DOWN = np.array([0.0, 0.0, -1.0])  # the direction slack cables sag in (gravity's)
-_COLORMAP = "turbo"
 _COLOR_RANGE = (0.1, 0.95)  # the part of the colour map used: skips the near-black ends
 _CAPSULE = mujoco.mjtGeom.mjGEOM_CAPSULE
 
@@ -71,7 +70,7 @@ class TensionColors:
         tension = np.asarray(tension, dtype=float)
         low, high = _COLOR_RANGE
         share = np.clip(tension / self.max_tension, 0.0, 1.0)
-        colors = matplotlib.colormaps[_COLORMAP](low + (high - low) * share)
+        colors = turbo(low + (high - low) * share)  # matplotlib's turbo, without matplotlib
         colors[tension <= 0] = SLACK_RGBA
         return colors.astype(np.float32)
 

@@ -6,9 +6,12 @@ it simulates names them in :class:`FigurePlan` records and opens a :class:`Figur
 a second core free, a child process then loads matplotlib and lays out the empty grid of
 panels that the run's panel figures share while the simulation runs, and after it each figure
 fills that grid in turn (:func:`tensim.viz.plots.refit`), while this process
-writes the folder's other files. Without a second core, or for a short run
-whose simulation cannot hide the child's start, or with every core busy, the same functions
-draw in this process; the figures are the same either way.
+writes the folder's other files. Without a second core the same functions draw in this
+process; the figures are the same either way. A busy machine and a short run draw in the child
+too (:func:`background_pays`): this process holds the run and Parquet's library (for
+``trajectory.parquet``), and matplotlib with its canvases in the same process would raise the
+command's peak memory by a fifth or more (the disturbance test's from 150 to 177 MiB), for
+about the CPU time the child's start costs.
 
 The child is a fresh interpreter (``python -P tensim/viz/_drawchild.py``: no copy of this
 process's MuJoCo, threads or OpenGL state, and none of its ``__main__``) that loads numpy,
@@ -43,10 +46,6 @@ from tensim.viz._span import Span as Span  # re-exported: the plans name their s
 
 log = logging.getLogger(__name__)
 
-# A simulation shorter than this many steps cannot hide the child's start (about a second of
-# CPU: a Python interpreter, numpy, matplotlib and the grids): draw in this process instead.
-MIN_STEPS = 20_000
-
 # What each kind of figure draws: kind -> the tensim.viz.plots function, called as
 # function(data, path, **options).
 KINDS = {"tensions": "plot_cable_tensions", "lengths": "plot_lengths",
@@ -78,21 +77,18 @@ class FigurePlan:
             raise ValueError(f"unknown figure kind {self.kind!r}; known: {sorted(KINDS)}")
 
 
-def background_pays(steps: int) -> bool:
-    """Whether a drawing process pays for a run of ``steps`` physics steps: a simulation long
-    enough to hide the process's start, and a core left idle by every program running now
-    (the 1-minute load average at most the usable cores less one). On a busy machine the
-    child only competes for the same cores, and costs its start-up on top."""
-    cores = len(os.sched_getaffinity(0))
-    return steps >= MIN_STEPS and cores >= 2 and _load() <= cores - 1
+def background_pays() -> bool:
+    """Whether a drawing process pays: where a second core is usable.
 
-
-def _load() -> float:
-    """The machine's 1-minute load average (infinite where the system gives none)."""
-    try:
-        return os.getloadavg()[0]
-    except OSError:
-        return float("inf")
+    Neither the run's length nor the machine's load is asked. The child's start (Python and
+    numpy) costs about what it saves: its imports are cheaper than matplotlib's in this process
+    (:mod:`tensim.viz._drawchild`), and the figures draw faster outside a process that holds a
+    whole run; measured in turns on a loaded 2-core machine, runs of 1,000 to 60,000 steps cost
+    the same CPU time either way. And matplotlib stays out of the process that holds the run,
+    the pre-run check's scipy and Parquet's library (the command's peak memory: the 10 s
+    Tetraspine3 ``simulate`` 150 MiB against 190 MiB; see the module's notes).
+    """
+    return len(os.sched_getaffinity(0)) >= 2
 
 
 class FigureDrawer:
