@@ -8,9 +8,9 @@ locomotion); optionally minus ``energy_weight`` times the motor work. A trial in
 body's up axis tilts past ``max_tilt_deg`` has flipped over: it gets the problem's penalty.
 
 With ``rolling`` the distance along the direction counts only as far as the robot rolled it
-(:func:`~tensim.sim.motion.rolled_distance`: its turn about the rolling axis z x direction,
-times its centre of mass's height above the ground, summed over the samples): a robot that
-crawls or slides on one face scores about 0 however far it goes.
+(:func:`~tensim.sim.motion.rolled_distance`: its net turn about the rolling axis z x
+direction, times its centre of mass's mean height above the ground while turning): a robot
+that crawls, slides on one face or rocks scores about 0 however far it goes.
 """
 
 from __future__ import annotations
