@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
@@ -190,3 +191,15 @@ def test_no_cases_runs_only_the_batch_and_alone_is_refused(capsys):
     out = capsys.readouterr().out
     assert "batch (tetraspine3 cpg, 2 trials of 0.05 s)" in out
     assert "us per physics step" not in out  # no single-run case ran
+
+
+def test_a_whole_process_run_keeps_its_bytecode_in_the_folder_given(tmp_path, monkeypatch):
+    """Timed runs read compiled bytecode, as an installed package does, even where the
+    environment turns its writing off."""
+    from tensim.benchmarks.process import run_process
+
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
+    run_process(["--help"], bytecode=str(tmp_path))
+    # the prefix mirrors each source file's path: .../tensim/cli/__init__.<tag>.pyc
+    compiled = {p.parts[-3:] for p in tmp_path.rglob("*.pyc")}
+    assert ("tensim", "cli", f"__init__.{sys.implementation.cache_tag}.pyc") in compiled

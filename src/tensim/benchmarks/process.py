@@ -6,6 +6,12 @@ and peak resident memory are the kernel's account of the process and every proce
 for (its figure-drawing and OpenGL-trial children), read by ``os.wait4`` as ``/usr/bin/time``
 does, in a small launcher process (so the peak is not this process's). The figures' share of
 a command is 1 - (CPU without figures) / (CPU with figures), from the best runs.
+
+The commands run as an installed package does, with Python's compiled bytecode at hand: an
+environment that turns its writing off (``PYTHONDONTWRITEBYTECODE``) would make every run
+compile tensim's modules from source in each of its processes, which no installed copy does.
+So the runs keep their bytecode in a temporary folder (``PYTHONPYCACHEPREFIX``), filled by one
+untimed run of each command first; the user's source tree gets none.
 """
 
 from __future__ import annotations
@@ -37,8 +43,12 @@ print(usage.ru_utime + usage.ru_stime, usage.ru_maxrss, os.waitstatus_to_exitcod
 """
 
 
-def run_process(args: list[str]) -> tuple[float, float, float]:
+def run_process(args: list[str], bytecode: str | None = None) -> tuple[float, float, float]:
     """Runs ``tensim ARGS`` in a fresh interpreter (this process's tensim).
+
+    ``bytecode``: a folder where the run's Python keeps its compiled bytecode (read and
+    written there, as ``PYTHONPYCACHEPREFIX`` does, whatever the environment says); None: as
+    the environment says.
 
     Returns:
         (CPU time [s], wall time [s], peak resident memory [MiB]) of the process and the
@@ -49,10 +59,13 @@ def run_process(args: list[str]) -> tuple[float, float, float]:
     """
     here = str(Path(__file__).resolve().parents[2])
     path = os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p)
+    env = {**os.environ, "PYTHONPATH": path}
+    if bytecode is not None:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = bytecode
     start = time.perf_counter()
     done = subprocess.run([sys.executable, "-c", _LAUNCHER, sys.executable, "-c", _MAIN, *args],
-                          capture_output=True, text=True, check=False,
-                          env={**os.environ, "PYTHONPATH": path})
+                          capture_output=True, text=True, check=False, env=env)
     wall = time.perf_counter() - start
     fields = done.stdout.split()
     if done.returncode or len(fields) != 3 or fields[2] != "0":
@@ -62,7 +75,8 @@ def run_process(args: list[str]) -> tuple[float, float, float]:
 
 def bench_process(repeats: int = 3, commands: tuple[tuple[str, ...], ...] = COMMANDS
                   ) -> dict[str, Any]:
-    """Each command with and without figures, ``repeats`` times, interleaved.
+    """Each command with and without figures, ``repeats`` times, interleaved, after an untimed
+    run of each that compiles the bytecode they all use (see the module's notes).
 
     Returns:
         per command: best and median CPU [s], best wall [s] and peak memory [MiB] of each
@@ -71,12 +85,16 @@ def bench_process(repeats: int = 3, commands: tuple[tuple[str, ...], ...] = COMM
     load = load_average()
     runs: dict[tuple[str, bool], list[tuple[float, float, float]]] = {}
     with tempfile.TemporaryDirectory(prefix="tensim-bench-") as tmp:
+        bytecode = str(Path(tmp) / "bytecode")
+        for command in commands:  # untimed: compiles the bytecode
+            run_process([*command, "--out", str(Path(tmp) / "warm-up")], bytecode)
         for k in range(repeats):
             for command in commands:
                 for figures in (True, False):
                     out = Path(tmp) / f"{'-'.join(command)}-{figures}-{k}"
                     args = [*command, "--out", str(out), *(() if figures else ("--no-figures",))]
-                    runs.setdefault((" ".join(command), figures), []).append(run_process(args))
+                    runs.setdefault((" ".join(command), figures), []).append(
+                        run_process(args, bytecode))
     report: dict[str, Any] = {"load_average_before": load, "repeats": repeats, "commands": []}
     for command in commands:
         name = " ".join(command)
