@@ -221,6 +221,7 @@ def test_a_filtered_force_actuator_beside_a_spring_maps_to_rest_lengths() -> Non
     assert c.motor.min_length == pytest.approx(0.2)  # the tendon's lower limit
     text = " ".join(result.notes)
     for gap in ("time constant 0.1 s", "still pulls", "stretched past its build length",
+                "never above the spring's 0.55 m",
                 "upper length limit 2 m"):
         assert gap in text
     assert all(n.startswith("actuator 'a'") for n in result.notes if "filter" in n)

@@ -243,6 +243,10 @@ def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actuator
                      "tension (k x the tendon's length)")
     notes.append("while the cable is slacker than its rest length the file's actuator still "
                  "pulls; tensim's cable pulls nothing")
+    if push <= 0 and not command.rate:
+        notes.append(f"the file's actuator only pulls, so its cable's rest length is never "
+                     f"above the spring's {rest0:g} m; tensim's motor pays out above it where a "
+                     "controller commands that (beyond the command map's range)")
     motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
                   min_length=_min_length(f, spring.tendon), lag_time=lag_time)
     rest = rest0 + command.scale * _start(f, a, lo, hi)
