@@ -100,7 +100,8 @@ def statics(face: tuple[str, ...]) -> None:
         pattern[motorised] = bits
         if static_pose(PULL_N * pattern) is None:
             folding += 1
-        low, high, held = 0.0, PULL_N, rest_pose  # the largest pull that holds a static pose
+        held: object = rest_pose  # the pose of the largest pull that holds a static pose
+        low, high = 0.0, PULL_N
         for _ in range(BISECT if pattern.any() else 0):
             lin = static_pose((low + high) / 2 * pattern)
             low, high, held = ((low + high) / 2, high, lin) if lin is not None else \
@@ -111,7 +112,7 @@ def statics(face: tuple[str, ...]) -> None:
                 nearest[name] = (d, low)
     print(f"statics on {' '.join(face)}: centre of mass {com(rest_pose)[2]:.3f} m up; "
           f"{folding} of 64 patterns at full pull have no static pose")
-    for name in sorted(inside, key=inside.get):
+    for name in sorted(inside, key=lambda e: inside[e]):
         d, pull = nearest[name]
         print(f"  {name} ({kinds[name]}): {inside[name]:.3f} m inside at rest, at best "
               f"{d:.3f} m ({inside[name] - d:.3f} m nearer, pulls of {pull:.0f} N)")
@@ -131,7 +132,7 @@ def mujoco_tips(face: tuple[str, ...]) -> None:
     lift = 0.036 - turn.apply(np.array(list(build.values())))[:, 2].min()  # caps 35 mm
     for b in range(1, m.nbody):
         adr = m.jnt_qposadr[m.body_jntadr[b]]
-        d.qpos[adr:adr + 3] = turn.apply(d.qpos[adr:adr + 3]) + [0.0, 0.0, lift]
+        d.qpos[adr:adr + 3] = turn.apply(d.qpos[adr:adr + 3]) + np.array([0.0, 0.0, lift])
         quat = Rotation.from_quat(d.qpos[adr + 3:adr + 7], scalar_first=True)
         d.qpos[adr + 3:adr + 7] = (turn * quat).as_quat(scalar_first=True)
     mujoco.mj_forward(m, d)
