@@ -228,6 +228,27 @@ def test_robot_is_lifted_clear_of_the_ground_under_it():
     assert place_on_terrain(structure, Wall()) is structure  # the wall is ahead of it
 
 
+def test_a_plane_lifts_by_its_height_without_sampling_it():
+    from tensim.terrain._geometry import Geometry
+    from tensim.terrain._place import footprint_height
+
+    class Plane:  # a terrain of a plane alone (or nothing): its one height, as sampled
+        def __init__(self, plane: float | None):
+            self.plane = plane
+
+        def geometry(self) -> Geometry:
+            return Geometry(plane=self.plane)
+
+    structure = preset("tetraspine3").build()
+    for plane, lift in ((0.25, 0.25), (-0.1, -0.1), (0.0, 0.0), (None, 0.0)):
+        assert footprint_height(structure, Plane(plane)) == lift  # type: ignore[arg-type]
+        sampled = Geometry(plane=plane).height(np.linspace(-1, 1, 5), np.zeros(5)).max()
+        assert lift == (sampled if np.isfinite(sampled) else 0.0)
+    placed = place_on_terrain(structure, Plane(0.25))  # type: ignore[arg-type]
+    assert [n.position[2] for n in placed.nodes] == [n.position[2] + 0.25
+                                                     for n in structure.nodes]
+
+
 def _node_clearance(sim: Simulation, geometry: object, radius: dict[str, float]) -> float:
     """Smallest gap between a node's sphere (or rod end) and the terrain beneath it [m]."""
     gaps = []

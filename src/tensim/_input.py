@@ -130,7 +130,29 @@ for _tag, _pattern, _first in (
 
 def _expanded_size(node: yaml.Node) -> int:
     """Values ``node`` expands to (an alias counts its target each time); refuses cycles,
-    nesting deeper than MAX_DEPTH and sizes over MAX_NODES."""
+    nesting deeper than MAX_DEPTH and sizes over MAX_NODES.
+
+    A document without aliases (no node reached twice) is a tree: its size is its count of
+    nodes, taken in one pass without the memory of each node's size. Anything else (an
+    alias, a refusal) is left to the full walk, which names the line as before.
+    """
+    seen: set[int] = set()
+    stack = [(node, 0)]
+    while stack:
+        n, depth = stack.pop()
+        if depth > MAX_DEPTH or id(n) in seen or len(seen) >= MAX_NODES:
+            return _aliased_size(node)
+        seen.add(id(n))
+        if isinstance(n, yaml.SequenceNode):
+            stack.extend((c, depth + 1) for c in n.value)
+        elif isinstance(n, yaml.MappingNode):
+            stack.extend((c, depth + 1) for pair in n.value for c in pair)
+    return len(seen)
+
+
+def _aliased_size(node: yaml.Node) -> int:
+    """:func:`_expanded_size` of any document: each node's size kept, so that an alias counts
+    its target's once known."""
     sizes: dict[int, int] = {}
 
     def size(n: yaml.Node, depth: int, path: frozenset[int]) -> int:

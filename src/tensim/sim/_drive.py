@@ -178,8 +178,10 @@ class InputPlan:
     def control(self, first: int, count: int) -> np.ndarray:
         """(count, nu) the ``ctrl`` of steps first .. first + count - 1."""
         steps = np.arange(first, first + count)
-        out = np.zeros((count, self.nu))
         n = self.drive.stiffness.size
+        if self.nu == n:  # cable commands alone: their rows as they come (a 796-cable robot's
+            return self.drive.commands(steps, self.dt)  # block is 16 MB: no second copy)
+        out = np.zeros((count, self.nu))
         out[:, :n] = self.drive.commands(steps, self.dt)
         times = steps * self.dt
         for column, load in zip(self._column, self.loads, strict=True):

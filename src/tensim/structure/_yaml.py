@@ -14,6 +14,7 @@ field).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -23,6 +24,7 @@ import yaml
 
 from tensim._files import write_text
 from tensim._input import InputError, describe, load_yaml_file
+from tensim.structure._emit import block_yaml
 from tensim.structure._errors import StructureError
 from tensim.structure._records import (
     PASSIVE,
@@ -134,7 +136,7 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
 
     def plain(record: Any) -> dict[str, Any]:
         out: dict[str, Any] = {}
-        for key, value in dataclasses.asdict(record).items():
+        for key, value in _as_dict(record).items():
             if value is None or value == ():
                 continue
             if key == "motor" and value.get("passive"):
@@ -154,6 +156,23 @@ def structure_to_dict(structure: Structure) -> dict[str, Any]:
         "name": structure.name,
         **{section: [plain(r) for r in getattr(structure, section)] for section in _SECTIONS},
     }
+
+
+def _as_dict(value: Any) -> Any:
+    """``dataclasses.asdict`` for a structure's records, without its deep copy of every value
+    (they are numbers and strings; the copy was most of a large robot's conversion)."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {name: _as_dict(getattr(value, name)) for name in _field_names(type(value))}
+    if type(value) in (list, tuple):
+        return type(value)(_as_dict(v) for v in value)
+    if type(value) is dict:
+        return {_as_dict(k): _as_dict(v) for k, v in value.items()}
+    return value
+
+
+@functools.cache
+def _field_names(cls: type) -> tuple[str, ...]:
+    return tuple(f.name for f in dataclasses.fields(cls))
 
 
 def motor_sources(data: Any) -> dict[str, str]:
@@ -202,7 +221,10 @@ def save_structure(structure: Structure, path: str | os.PathLike[str],
         header: lines written first as YAML comments (where the structure came from).
     """
     comments = "".join(f"# {line}\n" for text in header for line in str(text).splitlines())
-    text = yaml.dump(structure_to_dict(structure), Dumper=_SafeDumper, sort_keys=False)
+    data = structure_to_dict(structure)
+    text = block_yaml(data)  # PyYAML's text, written directly where it can be
+    if text is None:
+        text = yaml.dump(data, Dumper=_SafeDumper, sort_keys=False)
     write_text(Path(path), comments + text)
 
 

@@ -18,6 +18,10 @@ def footprint_height(structure: Structure, terrain: Terrain) -> float:
     The footprint is the x-y bounding box of the nodes, widened by the largest rod or point
     mass radius.
     """
+    geometry = terrain.geometry()
+    if not geometry.boxes and geometry.grid is None:  # a plane or nothing: one height
+        # everywhere (a 37 m robot's footprint is otherwise millions of samples of it)
+        return 0.0 if geometry.plane is None else float(geometry.plane)
     xyz = np.array([n.position for n in structure.nodes], dtype=float)
     radius = max([r.radius for r in structure.rods] + [p.radius for p in
                                                        structure.point_masses], default=0.0)
@@ -25,8 +29,8 @@ def footprint_height(structure: Structure, terrain: Terrain) -> float:
     axes = [np.linspace(a, b, max(2, int(np.ceil((b - a) / _SPACING)) + 1))
             for a, b in zip(low, high, strict=True)]
     x, y = np.meshgrid(*axes)
-    heights = terrain.geometry().height(np.append(x.ravel(), xyz[:, 0]),
-                                        np.append(y.ravel(), xyz[:, 1]))
+    heights = geometry.height(np.append(x.ravel(), xyz[:, 0]),
+                              np.append(y.ravel(), xyz[:, 1]))
     top = float(heights.max())
     return top if np.isfinite(top) else 0.0
 
