@@ -66,22 +66,3 @@ def test_cable_on_one_body_is_a_self_stress_and_no_mechanism() -> None:
     # (rank 6), the 2 on one body have zero columns: s = 8 - 6 = 2, m = 12 - 6 = 6 rigid
     eq = equilibrium(_bent_pair())
     assert (eq.rank, eq.s, eq.m, eq.n_rigid, eq.internal_mechanisms) == (6, 2, 6, 6, 0)
-
-
-def test_products_with_the_basis_take_its_blocks() -> None:
-    """T^T A T and A T from each body's block of T equal the dense products (to round-off:
-    a single rod's block sums three terms), and exactly where every block is the identity."""
-    from tensim.models import preset
-
-    rng = np.random.default_rng(35)
-    for name in ("prism3", "six_bar", "three_bar", "tetraspine3"):
-        body_set = bodies(preset(name).build())
-        basis = body_set.basis
-        full = rng.normal(size=(body_set.n_full, body_set.n_full))
-        rows = rng.normal(size=(7, body_set.n_full))
-        np.testing.assert_allclose(body_set.reduce(full), basis.T @ full @ basis,
-                                   rtol=0, atol=1e-13)
-        np.testing.assert_allclose(body_set.reduce_rows(rows), rows @ basis, rtol=0, atol=1e-13)
-        if np.array_equal(basis, np.eye(basis.shape[0])):  # rigid bodies of 3+ nodes each
-            assert np.array_equal(body_set.reduce(full), full)
-    assert body_set.n_dof == basis.shape[0]  # tetraspine3: the identity case was met

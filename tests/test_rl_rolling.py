@@ -369,12 +369,51 @@ def test_training_randomisation_is_a_setting_that_keeps_old_fingerprints():
     assert standard.env_config().randomization == Randomization.standard()
     # a run trained before the setting existed hashed its settings without it
     record = dataclasses.asdict(plain) | {"steps": 0}
-    for name in ("randomization", "roll_reward", "slip_cost"):  # (later settings, off)
+    later = ("randomization", "roll_reward", "slip_cost", "rollout_steps")  # (off, default)
+    for name in later:
         del record[name]
     old = hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:16]
     assert fingerprint(plain) == old != fingerprint(standard)
     with pytest.raises(InputError, match="--randomize must be one of start, standard"):
         TrainSettings(model="three_bar", randomization="wild")
+
+
+def test_ppo_takes_its_rollout_size_per_update_from_rollout_steps(robot_file, tmp_path,
+                                                                   capsys):
+    pytest.importorskip("stable_baselines3")
+    import json
+
+    from tensim.cli import main
+    from tensim.rl.export import load_learner
+    from tensim.rl.train import TrainSettings, fingerprint
+
+    def train(out, *extra):
+        return main(["--quiet", "rl", "train", robot_file, "--envs", "2", "--episode", "1",
+                     "--out", str(tmp_path / out), *extra])
+
+    # 96 env steps per update for the 2 robots: 48 each, minibatches of 24; two updates
+    assert train("big", "--steps", "200", "--checkpoint", "96", "--rollout-steps", "96") == 0
+    learner = load_learner(tmp_path / "big")
+    assert (learner.n_steps * learner.n_envs, learner.batch_size) == (96, 24)
+    assert json.loads((tmp_path / "big" / "progress.json").read_text())["steps_done"] == 192
+    assert json.loads((tmp_path / "big" / "settings.json").read_text())["rollout_steps"] == 96
+    # a resume keeps it: another size is another run
+    assert train("big", "--steps", "288", "--resume", "--rollout-steps", "64") == 2
+    assert "changed: rollout_steps" in capsys.readouterr().err
+    assert train("big", "--steps", "288", "--resume", "--rollout-steps", "96") == 0
+    assert load_learner(tmp_path / "big").num_timesteps == 288
+    # an odd size rounds down to whole steps per robot
+    assert train("odd", "--steps", "64", "--rollout-steps", "33") == 0
+    assert load_learner(tmp_path / "odd").n_steps == 16
+    # only PPO has a rollout, of at least 16 steps per robot
+    assert train("sac", "--algo", "sac", "--steps", "64", "--rollout-steps", "96") == 2
+    assert "--rollout-steps 96: PPO's rollout; --algo sac has none" in capsys.readouterr().err
+    assert train("short", "--steps", "64", "--rollout-steps", "31") == 2
+    assert "--rollout-steps must be at least 16 per robot (32 with --envs 2), got 31" in \
+        capsys.readouterr().err
+    assert fingerprint(TrainSettings(model="three_bar", rollout_steps=4096)) == \
+        fingerprint(TrainSettings(model="three_bar")) != \
+        fingerprint(TrainSettings(model="three_bar", rollout_steps=8192))
 
 
 @pytest.fixture(scope="module")

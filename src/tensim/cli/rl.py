@@ -49,6 +49,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "M_PER_RAD metres (default none)")
     t.add_argument("--slip-cost", type=positive, default=None,
                    help="penalty per metre the rod ends on the ground slide (default none)")
+    t.add_argument("--rollout-steps", type=count, default=None, metavar="STEPS",
+                   help="PPO: env steps per update, all robots together (default 4096; "
+                   "minibatches of a quarter of it)")
     t.add_argument("--checkpoint", type=count, default=10_000, metavar="STEPS",
                    help="env steps between checkpoints (default 10000)")
     t.add_argument("--resume", action="store_true", help="continue the run in --out")
@@ -112,7 +115,7 @@ def _need_rl_extra() -> None:
 def train(args: argparse.Namespace) -> int:
     _need_rl_extra()
     from tensim.cli._common import Progress
-    from tensim.rl.train import TrainSettings
+    from tensim.rl.train import ROLLOUT_STEPS, TrainSettings
     from tensim.rl.train import train as run_training
 
     settings = TrainSettings(model=args.model, algo=args.algo, task=args.task,
@@ -123,7 +126,8 @@ def train(args: argparse.Namespace) -> int:
                              frame=args.frame, randomization=args.randomize,
                              bar_contact_cost=args.bar_contact_cost or 0.0,
                              roll_reward=args.roll_reward or 0.0,
-                             slip_cost=args.slip_cost or 0.0)
+                             slip_cost=args.slip_cost or 0.0,
+                             rollout_steps=args.rollout_steps or ROLLOUT_STEPS)
     bar = Progress(f"rl train {args.algo}", args.quiet, unit="env steps",
                    rate_label="env steps/s")
     state = run_training(settings, Path(args.out), resume=args.resume,

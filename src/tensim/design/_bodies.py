@@ -16,7 +16,6 @@ of Pellegrino and Calladine's formula.
 from __future__ import annotations
 
 import dataclasses
-import functools
 
 import numpy as np
 from scipy.linalg import null_space
@@ -78,31 +77,7 @@ class Bodies:
         for b in range(len(self.names)):
             full[6 * b:6 * b + 3, 6 * b:6 * b + 3] = self.mass[b] * np.eye(3)
             full[6 * b + 3:6 * b + 6, 6 * b + 3:6 * b + 6] = self.inertia[b]
-        return self.reduce(full)
-
-    def reduce(self, full: np.ndarray) -> np.ndarray:
-        """(n_dof, n_dof) T^T A T of a matrix A (n_full, n_full) on the full twists.
-
-        T is block diagonal (a (6, d) block per body), so each body's reduced rows and columns
-        are taken from its own six rows and columns of A: a few small products instead of two
-        dense ones of the robot's size (the centipede's 744 coordinates: 30 ms each).
-        """
-        return self.reduce_rows(self.reduce_rows(full).T).T
-
-    def reduce_rows(self, rows: np.ndarray) -> np.ndarray:
-        """(m, n_dof) A T of a matrix A (m, n_full) (see :meth:`reduce`)."""
-        out = np.zeros((rows.shape[0], self.n_dof))
-        for full, reduced, block in self._blocks:
-            out[:, reduced] = rows[:, full] @ block
-        return out
-
-    @functools.cached_property
-    def _blocks(self) -> tuple[tuple[slice, slice, np.ndarray], ...]:
-        """Per body: its full columns, its reduced columns and its (6, d) block of T."""
-        starts = np.searchsorted(self.dof_body, np.arange(len(self.names) + 1))
-        return tuple((slice(6 * b, 6 * b + 6), slice(starts[b], starts[b + 1]),
-                      self.basis[6 * b:6 * b + 6, starts[b]:starts[b + 1]])
-                     for b in range(len(self.names)))
+        return self.basis.T @ full @ self.basis
 
     def gravity_force(self, gravity: float = GRAVITY) -> np.ndarray:
         """(n_dof,) generalized weight: -m g along z on each body's translation [N]."""
@@ -188,22 +163,22 @@ class CableGeometry:
         node_forces: node name -> (3, n_cables) force on that node per newton of each cable's
             tension (unit vectors toward the neighbouring points of its path) [-].
         spans: per span (cable index, full-coordinate indices (<= 12,), local d2L/dq2 block).
-        bodies: the bodies whose coordinates these are (their basis T).
+        basis: (6 n_bodies, n_dof) the bodies' coordinate basis T.
     """
 
     lengths: np.ndarray
     gradients: np.ndarray
     node_forces: dict[str, np.ndarray]
     spans: tuple[tuple[int, np.ndarray, np.ndarray], ...]
-    bodies: Bodies
+    basis: np.ndarray
 
     def geometric(self, tensions: np.ndarray) -> np.ndarray:
         """(n_dof, n_dof) sum_c t_c d2L_c/dq2 for tensions (n_cables,) [N]."""
-        full = np.zeros((self.bodies.n_full,) * 2)
+        full = np.zeros((self.basis.shape[0],) * 2)
         for cable, index, block in self.spans:
             # np.add.at: a span with both ends on one body repeats its indices
             np.add.at(full, np.ix_(index, index), tensions[cable] * block)
-        return self.bodies.reduce(full)
+        return self.basis.T @ full @ self.basis
 
 
 def cable_geometry(structure: Structure, body_set: Bodies) -> CableGeometry:
@@ -224,8 +199,8 @@ def cable_geometry(structure: Structure, body_set: Bodies) -> CableGeometry:
             lengths[c] += length
             node_forces[cable.path[j]][:, c] += unit
             node_forces[cable.path[j + 1]][:, c] -= unit
-    return CableGeometry(lengths, body_set.reduce_rows(grads), node_forces, tuple(spans),
-                         body_set)
+    return CableGeometry(lengths, grads @ body_set.basis, node_forces, tuple(spans),
+                         body_set.basis)
 
 
 def _span(body_set: Bodies, body_a: int, a: np.ndarray, body_b: int, b: np.ndarray

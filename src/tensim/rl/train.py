@@ -67,6 +67,9 @@ class TrainSettings:
         randomization: the training episodes' randomisation: ``"start"`` (a random heading
             and 2 mm of pose noise, :meth:`Randomization.start`) or ``"standard"`` (also
             physics, motor speeds and sensor noise, :meth:`Randomization.standard`).
+        rollout_steps: PPO: env steps per update, all robots together (rounded down to a
+            whole number per robot, at most ``steps``; minibatches of a quarter of it). A
+            larger rollout averages each update's gradient over more episodes.
     """
 
     model: str
@@ -87,20 +90,29 @@ class TrainSettings:
     rest_span: float = 0.6
     frame: str = "heading"
     randomization: str = "start"
+    rollout_steps: int = ROLLOUT_STEPS
 
     def __post_init__(self) -> None:
         if self.algo not in ALGOS:
             raise InputError(f"--algo must be one of {', '.join(ALGOS)}, got {self.algo!r}")
         if self.task not in TASKS:
             raise InputError(f"--task must be one of {', '.join(TASKS)}, got {self.task!r}")
-        for name in ("steps", "envs"):
+        for name in ("steps", "envs", "rollout_steps"):
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
-                raise InputError(f"--{name} must be an integer >= 1, got {value!r}")
+                raise InputError(f"--{name.replace('_', '-')} must be an integer >= 1, got "
+                             f"{value!r}")
         least = self.envs * (MIN_ROLLOUT if self.algo == "ppo" else 1)
         if self.steps < least:
             raise InputError(f"--steps {self.steps} is less than one update's env steps "
                              f"({least} with --envs {self.envs})")
+        if self.rollout_steps != ROLLOUT_STEPS:
+            if self.algo != "ppo":
+                raise InputError(f"--rollout-steps {self.rollout_steps}: PPO's rollout; "
+                                 f"--algo {self.algo} has none")
+            if self.rollout_steps < least:
+                raise InputError(f"--rollout-steps must be at least {MIN_ROLLOUT} per robot "
+                                 f"({least} with --envs {self.envs}), got {self.rollout_steps}")
         if self.cable_law not in CABLE_LAWS:
             raise InputError(f"--cable-law must be one of {', '.join(CABLE_LAWS)}, got "
                              f"{self.cable_law!r}")
@@ -145,14 +157,16 @@ ROBOT_FILE = "robot.yaml"  # a structure file's copy in the run folder
 def fingerprint(settings: TrainSettings) -> str:
     """A hash of the settings, with a robot file's contents in place of its path (a preset:
     its name); ``steps`` is left out, so a resumed run may train longer, and so is the
-    default randomisation and reward terms that are off, so runs from before they were
-    settings keep their fingerprint."""
+    default randomisation, reward terms that are off and the default rollout, so runs from
+    before they were settings keep their fingerprint."""
     record = dataclasses.asdict(settings) | {"steps": 0}
     if record["randomization"] == "start":
         del record["randomization"]
     for name in ("roll_reward", "slip_cost"):
         if not record[name]:
             del record[name]
+    if record["rollout_steps"] == ROLLOUT_STEPS:
+        del record["rollout_steps"]
     if settings.model not in PRESETS:
         record["model"] = hashlib.sha256(Path(settings.model).read_bytes()).hexdigest()
     return hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:16]
@@ -406,19 +420,19 @@ def _learner(settings: TrainSettings, out: Path, state: dict[str, Any]) -> Any:
         if settings.algo == "sac" and (out / "replay_buffer.npz").is_file():
             _load_replay(learner.replay_buffer, out / "replay_buffer.npz")
         return learner, env
-    kwargs = ppo_recipe(settings.envs, settings.steps) if settings.algo == "ppo" else {
-        "learning_starts": min(1000, settings.steps // 2)}
+    kwargs = ppo_recipe(settings.envs, settings.steps, settings.rollout_steps) \
+        if settings.algo == "ppo" else {"learning_starts": min(1000, settings.steps // 2)}
     return algo("MlpPolicy", env, seed=settings.seed, device="cpu", verbose=0, **kwargs), env
 
 
 
 
-def ppo_recipe(envs: int, steps: int) -> dict[str, Any]:
+def ppo_recipe(envs: int, steps: int, rollout_steps: int = ROLLOUT_STEPS) -> dict[str, Any]:
     """PPO's settings for ``envs`` robots and a budget of ``steps`` env steps: a rollout of
-    about :data:`ROLLOUT_STEPS` env steps per update (at most the budget), ten
-    epochs of minibatches of a quarter of it, Adam at 3e-4, gamma 0.99, GAE 0.95 and an
-    initial action std of exp(-0.5) = 0.61 in the [-1, 1] action box."""
-    n_steps = max(MIN_ROLLOUT, min(ROLLOUT_STEPS, steps) // envs)
+    about ``rollout_steps`` env steps per update (default :data:`ROLLOUT_STEPS`; at most the
+    budget), ten epochs of minibatches of a quarter of it, Adam at 3e-4, gamma 0.99, GAE
+    0.95 and an initial action std of exp(-0.5) = 0.61 in the [-1, 1] action box."""
+    n_steps = max(MIN_ROLLOUT, min(rollout_steps, steps) // envs)
     return {"n_steps": n_steps, "batch_size": max(MIN_ROLLOUT, n_steps * envs // 4),
             "n_epochs": 10, "learning_rate": 3e-4, "gamma": 0.99, "gae_lambda": 0.95,
             "policy_kwargs": {"log_std_init": -0.5, "net_arch": [128, 128]}}
