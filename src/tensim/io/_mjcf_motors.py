@@ -9,7 +9,9 @@ toward a command at up to ``max_speed`` (a floor ``min_rest_length``, a stop at
   rest length l0 - T/k, so the command becomes a rest length; the pull limit on top of the
   build tension becomes the motor's stop (``max_tension``), the tendon's lower limit its floor
   (the file's actuator shortens the cable as far as its pull folds the robot), and a
-  ``filter`` time constant tau a speed (the range over tau, the filter's fastest rate);
+  ``filter`` time constant tau the motor's lag (``Motor.lag_time``: the rest length is linear
+  in the filtered input), its speed the range in one step (the file's actuator does not limit
+  how fast its cable shortens);
 - a position actuator (``position``, or ``general`` with bias [b0, -kp, -kv]) is a PD on
   tendon length, tension gear^2 kp (x - L) + gear^2 kv dx/dt with the target
   L = (u + b0 / kp) / gear: beside a tendon spring it becomes tensim's PD motor
@@ -22,8 +24,6 @@ toward a command at up to ``max_speed`` (a floor ``min_rest_length``, a stop at
 - anything else (velocity servos, muscles, user dynamics) leaves the cable passive.
 
 Every difference from the file's semantics is stated in :attr:`ActuatorMapping.differences`.
-Where tensim's motor gains a saturating force cap or a first-order lag, the mapping of a
-filtered force actuator sets them here and drops the matching difference.
 """
 
 from __future__ import annotations
@@ -175,19 +175,24 @@ def _start(f: Loaded, a: int, lo: float, hi: float) -> float:
     return float(np.clip(u, lo, hi))
 
 
-def _lag(f: Loaded, a: int, span: float) -> tuple[float, list[str]]:
-    """The motor's speed for a command span [m] and what that leaves out."""
+def _lag(f: Loaded, a: int, span: float) -> tuple[float, float, list[str]]:
+    """The motor's speed [m/s] and lag time [s] for a command span [m], and what they leave
+    out. The rest length is linear in the actuator's input, so a filter on the input (time
+    constant tau) is the motor's first-order lag of tau; the speed is the span in one step:
+    a force or a target does not limit how fast the cable itself moves."""
     m = f.model
-    dyn = _DYN(m.actuator_dyntype[a])
-    if dyn in _FILTERS:
-        tau = float(m.actuator_dynprm[a][0])
-        return span / tau, [f"a filter lags the command with time constant {tau:g} s; "
-                            f"tensim's motor moves the rest length at up to {span / tau:.4g} m/s "
-                            "(the span over the time constant, the filter's fastest rate) and "
-                            "then stops, without the exponential approach"]
     step = float(m.opt.timestep)
-    return span / step, [f"the force acts at once; tensim's motor crosses its range in one step "
-                         f"({step:g} s) at up to {span / step:.4g} m/s"]
+    speed = span / step
+    if _DYN(m.actuator_dyntype[a]) in _FILTERS:
+        tau = float(m.actuator_dynprm[a][0])
+        return speed, tau, [f"a filter lags the input with time constant {tau:g} s: tensim's "
+                            f"motor moves the rest length 1 - exp(-dt / {tau:g} s) of the way "
+                            "to its command each step (lag_time), the filter itself within "
+                            f"the command map's range; at up to {speed:.4g} m/s (the range "
+                            "in one step), so a command beyond that range is approached "
+                            "faster than the file's input can move"]
+    return speed, 0.0, [f"the force acts at once; tensim's motor crosses its range in one step "
+                        f"({step:g} s) at up to {speed:.4g} m/s"]
 
 
 def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> ActuatorMapping:
@@ -217,8 +222,9 @@ def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actuator
         notes.append("the control is a force rate (integrator dynamics): the rest length "
                      f"moves at scale x ctrl, up to {speed:.4g} m/s; tensim's motor takes a "
                      "rest-length target")
+        lag_time = 0.0
     else:
-        speed, lag = _lag(f, a, span)
+        speed, lag_time, lag = _lag(f, a, span)
         notes += lag
     cap = pull + k * max(spring.length - rest0, 0.0) if math.isfinite(pull) else 0.0
     if cap <= 0:
@@ -228,15 +234,21 @@ def _force(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actuator
                      f"stretch; tensim's motor reels in (down to the tendon's lower limit, "
                      f"{floor:g} m) while the static tension stays below {cap:.4g} N (the pull "
                      "on top of the build tension): the command map matches the file's force "
-                     "while taut, a saturating force cap would hold it exactly")
+                     "while taut; beyond the map's range the stop holds more than the file "
+                     f"where the cable is shorter than its spring's rest length ({pull:.4g} N "
+                     "there) and less where it is stretched past its build length")
     else:
         notes.append("the file's pull is unlimited (no ctrlrange or forcerange); chosen: a "
                      f"rest-length floor of {floor:g} m and a stop above {cap:.4g} N of static "
                      "tension (k x the tendon's length)")
     notes.append("while the cable is slacker than its rest length the file's actuator still "
                  "pulls; tensim's cable pulls nothing")
+    if push <= 0 and not command.rate:
+        notes.append(f"the file's actuator only pulls, so its cable's rest length is never "
+                     f"above the spring's {rest0:g} m; tensim's motor pays out above it where a "
+                     "controller commands that (beyond the command map's range)")
     motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
-                  min_length=_min_length(f, spring.tendon))
+                  min_length=_min_length(f, spring.tendon), lag_time=lag_time)
     rest = rest0 + command.scale * _start(f, a, lo, hi)
     return ActuatorMapping(name, cable, "force", motor, k, spring.damping, rest, command,
                            tuple(notes))
@@ -307,8 +319,9 @@ def _stiffer_cable(f: Loaded, a: int, name: str, cable: str,
             if m.actuator_ctrllimited[a] else span / float(m.opt.timestep)
         notes = [f"the control is the target's rate (integrator dynamics): tensim's motor takes "
                  f"a rest-length target and moves toward it at up to {speed:.4g} m/s"]
+        lag_time = 0.0
     else:
-        speed, notes = _lag(f, a, span)
+        speed, lag_time, notes = _lag(f, a, span)
     pull = math.inf
     if m.actuator_forcelimited[a]:
         forces = sorted(-gear * v for v in m.actuator_forcerange[a])
@@ -329,7 +342,7 @@ def _stiffer_cable(f: Loaded, a: int, name: str, cable: str,
         notes.append(f"the tendon's spring ({spring.stiffness:g} N/m) and the actuator's "
                      f"kp ({k_act:g} N/m) make one cable of {k:g} N/m, exact while both pull")
     motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
-                  min_length=_min_length(f, spring.tendon))
+                  min_length=_min_length(f, spring.tendon), lag_time=lag_time)
     rest = command.offset + command.scale * _start(f, a, lo, hi)
     if rest <= 0:
         raise f.refuse(f"actuator {name!r}", f"its initial target gives tendon {cable!r} a rest "
