@@ -12,26 +12,35 @@ Usage: python examples/rolling/jittered_starts.py
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
 import numpy as np
 
 from tensim.control.rolling import PRISM_SETTINGS, searched
 from tensim.experiments.roll import roll
 from tensim.models import load_model
+from tensim.structure import Structure
 
 HEADING, DURATION, JITTER = -30.0, 30.0, 1e-3  # deg, s, m
 SEEDS = (0, 1, 2)
 
 
-def main() -> None:
-    robot = load_model("three_bar")
+def jittered_starts(robot: Structure, seeds: Sequence[int], jitter_m: float = JITTER
+                    ) -> list[tuple[str, Structure]]:
+    """The robot as built, then once per seed with every node moved by a uniform draw of up
+    to ``jitter_m`` [m] on each axis; each labelled for printing."""
     starts = [("build pose", robot)]
-    for seed in SEEDS:
+    for seed in seeds:
         rng = np.random.default_rng(seed)
         starts.append((f"jitter {seed}", dataclasses.replace(robot, nodes=tuple(
             dataclasses.replace(n, position=tuple(np.asarray(n.position)
-                                                  + rng.uniform(-JITTER, JITTER, 3)))
+                                                  + rng.uniform(-jitter_m, jitter_m, 3)))
             for n in robot.nodes))))
+    return starts
+
+
+def main() -> None:
+    starts = jittered_starts(load_model("three_bar"), SEEDS)
     for label, settings in (("statics", PRISM_SETTINGS),
                             ("searched tips", searched(PRISM_SETTINGS))):
         speeds = []

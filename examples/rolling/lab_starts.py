@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-import numpy as np
+from jittered_starts import jittered_starts  # the script beside this one
 
 from tensim.control.rolling import PRISM_SETTINGS
 from tensim.experiments.roll import roll
@@ -32,13 +32,7 @@ SEEDS = (0, 1)
 def main() -> None:
     result = import_mjcf(XML, warn=False)
     robot, world = result.structure, dataclasses.replace(result.world, cable_law="implicit")
-    starts = [("build pose", robot)]
-    for seed in SEEDS:
-        rng = np.random.default_rng(seed)
-        starts.append((f"jitter {seed}", dataclasses.replace(robot, nodes=tuple(
-            dataclasses.replace(n, position=tuple(np.asarray(n.position)
-                                                  + rng.uniform(-JITTER, JITTER, 3)))
-            for n in robot.nodes))))
+    starts = jittered_starts(robot, SEEDS, JITTER)
     for label, settings, runs in (("statics", PRISM_SETTINGS, starts),
                                   ("pulling only", dataclasses.replace(PRISM_SETTINGS,
                                                                        lengthen=0.0),
