@@ -26,12 +26,10 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from tensim.control.roll_plans import face_down_pose, hull_faces
 from tensim.control.rolling import support_edges, support_face
-from tensim.design._bodies import cable_geometry
 from tensim.design.inverse import settle, with_rest_lengths
 from tensim.io import import_mjcf
 
@@ -46,16 +44,13 @@ FACES = (("b0", "b1", "b2"), ("b2", "t0", "t1"))  # the end triangle it stands o
 def edge_kinds(positions: dict[str, np.ndarray], face: tuple[str, ...]) -> dict[str, str]:
     """Each edge of the hull face ``face`` ('a-b') -> its kind, from the angle between the
     outward normals of the face and its neighbour across the edge."""
-    names = list(positions)
-    hull = ConvexHull(np.array([positions[n] for n in names]))
-    sets = [frozenset(names[i] for i in s) for s in hull.simplices]
-    own = next(i for i, s in enumerate(sets) if s == frozenset(face))
+    faces = hull_faces(positions)
+    own = faces[tuple(sorted(face))]
     kinds = {}
-    for j, other in enumerate(sets):
-        shared = other & sets[own]
+    for other, normal in faces.items():
+        shared = set(other) & set(face)
         if len(shared) == 2:
-            cos = float(np.clip(hull.equations[own, :3] @ hull.equations[j, :3], -1, 1))
-            angle = np.degrees(np.arccos(cos))
+            angle = np.degrees(np.arccos(float(np.clip(own @ normal, -1, 1))))
             ends = {n[0] for n in shared}
             kind = "end-triangle edge" if len(ends) == 1 else \
                 ("fold's edge" if angle < 45 else "edge between folds")
@@ -91,7 +86,7 @@ def statics(face: tuple[str, ...]) -> None:
         """The static pose under the file's law, None where a pulled cable would be
         shorter than its spring's rest length (the actuator then pulls on alone)."""
         lin = settle(with_rest_lengths(pose, built - pull / k), face)
-        lengths = cable_geometry(lin.pose, lin.body_set).lengths
+        lengths = np.array([lin.pose.cable_length(c) for c in lin.pose.cables])
         return None if np.any((pull > 0) & (lengths < built)) else lin
 
     folding = 0
