@@ -15,7 +15,7 @@ from tensim._files import atomic_path, write_json
 from tensim._input import InputError
 from tensim.models import PRESETS
 from tensim.rl.policy import Policy
-from tensim.rl.train import load_settings
+from tensim.rl.train import TrainSettings, load_settings
 
 FRAMES = {"robot": "robot frame: origin at the centre of mass, z up, x toward the first rigid "
                     "body (docs/rl.md)",
@@ -53,12 +53,8 @@ def _layers(learner: Any) -> tuple[list[Any], list[str], str]:
 
 def policy_record(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The ``policy.json`` record and the ``policy.npz`` arrays of the run in ``folder``."""
-    from tensim.rl._robot import Robot
-
     folder = Path(folder)
     settings = load_settings(folder)
-    config = settings.env_config()
-    robot = Robot(config)
     linears, activations, out = _layers(load_learner(folder))
     with np.load(folder / "normalizer.npz") as norm:
         normalization = {"mean": norm["mean"].tolist(), "var": norm["var"].tolist(),
@@ -67,6 +63,23 @@ def policy_record(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     for k, layer in enumerate(linears):
         arrays[f"w{k}"] = layer.weight.detach().cpu().numpy().astype(np.float32)
         arrays[f"b{k}"] = layer.bias.detach().cpu().numpy().astype(np.float32)
+    progress = json.loads((folder / "progress.json").read_text())
+    training = {"env_steps": int(progress["steps_done"]),
+                "cpu_s": round(float(progress.get("cpu_s", 0.0)), 1)} \
+        | ({"init": progress["init"]} if "init" in progress else {})
+    return policy_meta(settings, arrays, activations, out, normalization, training), arrays
+
+
+def policy_meta(settings: TrainSettings, arrays: dict[str, np.ndarray], activations: list[str],
+                out: str, normalization: dict[str, Any], training: dict[str, Any]
+                ) -> dict[str, Any]:
+    """The ``policy.json`` record of a network (``arrays``: ``w0``, ``b0``, ... of its
+    layers) trained in the env of ``settings``, with its observation ``normalization``
+    (mean, var, clip, epsilon) and the record of its ``training``."""
+    from tensim.rl._robot import Robot
+
+    config = settings.env_config()
+    robot = Robot(config)
     action: dict[str, Any] = {"kind": robot.action, "cables": list(robot.cables),
                               "range": [-1.0, 1.0], "low": robot.low.tolist(),
                               "high": robot.high.tolist()}
@@ -75,16 +88,12 @@ def policy_record(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     else:
         action["build_rest_length_m"] = robot.rest0[robot.motors].tolist()
         action["rest_span"] = config.rest_span
-    progress = json.loads((folder / "progress.json").read_text())
     trained = dataclasses.asdict(settings) | {"model": Path(settings.model).name
                                               if settings.model not in PRESETS else
                                               settings.model}
-    meta = {
+    return {
         "format": "tensim-policy", "version": 1, "model": settings.model,
-        "settings": trained,
-        "training": {"env_steps": int(progress["steps_done"]),
-                     "cpu_s": round(float(progress.get("cpu_s", 0.0)), 1)}
-        | ({"init": progress["init"]} if "init" in progress else {}),
+        "settings": trained, "training": training,
         "algo": settings.algo, "task": settings.task, "heading_deg": settings.heading_deg,
         "control_dt_s": config.control_dt, "physics_step_s": config.world.timestep,
         "cable_law": config.world.cable_law,
@@ -99,7 +108,6 @@ def policy_record(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
                     "onnx_output": "the action in [-1, 1]"},
         "action": action,
     }
-    return meta, arrays
 
 
 def export(folder: Path, onnx: Path | None = None, where: Path | None = None
