@@ -7,7 +7,7 @@ import argparse
 import math
 from pathlib import Path
 
-from tensim.cli._common import count, finite, positive
+from tensim.cli._common import count, finite, nonnegative, positive
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -90,6 +90,44 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "(physics it was not trained on; default 1)")
     e.add_argument("--out", default=None, help="run folder (default DIR/evaluation)")
     e.set_defaults(run=evaluate)
+
+    i = rl.add_parser("imitate", help="learn a rolling policy by imitating the statics "
+                      "rolling gait (DAgger); writes an exported policy that `rl train --init` "
+                      "fine-tunes; resumable")
+    i.add_argument("model", help="preset name or structure .yaml file")
+    i.add_argument("--task", choices=("roll",), default="roll",
+                   help="roll along --heading (the statics gait's task)")
+    i.add_argument("--heading", type=finite, default=0.0, metavar="DEG",
+                   help="heading in the robot's start frame [deg] (default 0)")
+    i.add_argument("--iterations", type=count, default=4,
+                   help="DAgger iterations, the first with the gait driving (default 4)")
+    i.add_argument("--episodes", type=count, default=16, help="episodes per iteration "
+                   "(default 16)")
+    i.add_argument("--noise", type=nonnegative, default=0.1, metavar="STD",
+                   help="noise on the gait's actions while it drives, in the [-1, 1] action "
+                   "box (default 0.1)")
+    i.add_argument("--beta", type=nonnegative, default=0.0,
+                   help="after the first iteration, the chance per control period that the "
+                   "gait drives instead of the policy (default 0)")
+    i.add_argument("--epochs", type=count, default=30, help="passes over the data per fit "
+                   "(default 30)")
+    i.add_argument("--seed", type=int, default=0)
+    i.add_argument("--control-dt", type=positive, default=0.02, help="control period [s]")
+    i.add_argument("--episode", type=positive, default=10.0, help="episode length [s]")
+    i.add_argument("--dt", type=positive, default=0.002, help="physics step [s] (default "
+                   "0.002)")
+    i.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
+                   default="implicitfast", help="the cable law (default implicitfast)")
+    i.add_argument("--rest-span", type=positive, default=0.6, metavar="FRACTION",
+                   help="rest-length actions reach l0 (1 +- FRACTION) (default 0.6)")
+    i.add_argument("--frame", choices=("heading", "robot"), default="heading",
+                   help="observations in the heading's frame (default) or the robot's")
+    i.add_argument("--randomize", choices=("start", "standard"), default="start",
+                   help="randomise each episode's start only (default) or also its physics "
+                   "and sensors (tensim.rl.Randomization.standard)")
+    i.add_argument("--resume", action="store_true", help="continue the run in --out")
+    i.add_argument("--out", default="runs/imitate", help="run folder")
+    i.set_defaults(run=imitate)
 
     x = rl.add_parser("export", help="write the policy as ONNX and NumPy arrays, with its "
                       "observation/action layout and normalisation (policy.json)")
@@ -202,3 +240,54 @@ def export(args: argparse.Namespace) -> int:
           f"{', '.join(str(where / f) for f in ['policy.json', 'policy.npz'])}"
           + (f", {args.onnx}" if args.onnx else ""))
     return 0
+
+
+def imitate(args: argparse.Namespace) -> int:
+    _need_rl_extra()
+    from tensim.rl.imitate import ImitationSettings
+    from tensim.rl.imitate import imitate as run_imitation
+    from tensim.rl.train import TrainSettings
+
+    settings = TrainSettings(model=args.model, task=args.task, heading_deg=args.heading,
+                             seed=args.seed, control_dt=args.control_dt,
+                             episode_s=args.episode, timestep=args.dt,
+                             cable_law=args.cable_law, rest_span=args.rest_span,
+                             frame=args.frame, randomization=args.randomize)
+    imitation = ImitationSettings(iterations=args.iterations, episodes=args.episodes,
+                                  noise=args.noise, beta=args.beta, epochs=args.epochs)
+
+    def report(it: dict) -> None:
+        if not args.quiet:
+            print(f"iteration {it['iteration']}: {it['driver']} drove {it['episodes']} "
+                  f"episodes at {it['body_lengths_per_s']:+.3f} body lengths/s (std "
+                  f"{it['body_lengths_per_s_std']:.3f}); actions off the gait's by "
+                  f"{it['expert_agreement_mse']:.4f} (mean square); fit {it['fit_mse']:.4f} "
+                  f"on {it['samples']} states; {it['cpu_s']:.0f} CPU s", flush=True)
+
+    record = run_imitation(settings, imitation, Path(args.out), resume=args.resume,
+                           progress=report)
+    _draw_imitation(Path(args.out), record)
+    print(f"{record['env_steps']} env steps in {record['cpu_s']:.0f} CPU s; wrote "
+          f"{Path(args.out) / 'policy.json'}")
+    return 0
+
+
+def _draw_imitation(out: Path, record: dict) -> None:
+    """The learning record as a figure: speed of who drove, and the imitation errors."""
+    from tensim.viz.plots import new_figure, save_figure
+
+    rows = record["iterations"]
+    its = [r["iteration"] for r in rows]
+    fig = new_figure((7.0, 3.2))
+    speed, error = fig.subplots(1, 2)
+    speed.errorbar(its, [r["body_lengths_per_s"] for r in rows],
+                   [r["body_lengths_per_s_std"] for r in rows], fmt="o-")
+    speed.set(xlabel="iteration (0: the gait drives)", ylabel="body lengths/s",
+              title="speed of the driver")
+    error.semilogy(its, [r["expert_agreement_mse"] for r in rows], "o-",
+                   label="driver vs gait")
+    error.semilogy(its, [r["fit_mse"] for r in rows], "s--", label="fit")
+    error.set(xlabel="iteration", ylabel="mean square action error", title="imitation")
+    error.legend()
+    fig.tight_layout()
+    save_figure(fig, out / "imitation.png")

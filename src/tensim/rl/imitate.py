@@ -237,6 +237,9 @@ def imitate(settings: TrainSettings, imitation: ImitationSettings, out: Path, *,
         raise InputError(f"--algo {settings.algo}: an imitated policy is PPO's actor (so "
                          "`tensim rl train --init` fine-tunes it with PPO); use --algo ppo")
     check_rolling(Robot(settings.env_config()))
+    import torch
+
+    torch.set_num_threads(1)  # a small network: one thread is fastest, and leaves the rest free
     out = Path(out)
     record, data = _open(settings, imitation, out, resume)
     env = TensegrityEnv(settings.env_config())
