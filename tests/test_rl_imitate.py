@@ -111,8 +111,8 @@ def test_the_run_writes_a_policy_that_loads_and_starts_a_ppo_run(imitated, tmp_p
     assert main(["--quiet", "rl", "evaluate", str(out / "policy.json"), "--duration", "0.2",
                  "--out", str(tmp_path / "eval")]) == 0
     assert main(["--quiet", "rl", "train", "six_bar", "--envs", "2", "--episode", "1",
-                 "--dt", "0.005", "--steps", "64", "--init", str(out / "policy.json"), "--init-std", "0.1",
-                 "--out", str(tmp_path / "ppo")]) == 0
+                 "--dt", "0.005", "--steps", "64", "--init", str(out / "policy.json"),
+                 "--init-std", "0.1", "--out", str(tmp_path / "ppo")]) == 0
     for got, want in zip(_layers(load_learner(tmp_path / "ppo"))[0], runner.weights,
                          strict=True):
         np.testing.assert_array_equal(got.weight.detach().numpy(), want.astype(np.float32))

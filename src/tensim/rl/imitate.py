@@ -19,6 +19,7 @@ in body lengths/s, the imitation loss); it resumes at the next iteration.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import math
 import time
@@ -125,7 +126,7 @@ def network(n_obs: int, n_actions: int, seed: int) -> Any:
     torch.manual_seed(seed)
     sizes = (n_obs, *HIDDEN)
     layers: list[Any] = []
-    for a, b in zip(sizes[:-1], sizes[1:], strict=True):
+    for a, b in itertools.pairwise(sizes):
         layers += [torch.nn.Linear(a, b), torch.nn.Tanh()]
     return torch.nn.Sequential(*layers, torch.nn.Linear(sizes[-1], n_actions)).double()
 
@@ -244,7 +245,7 @@ def imitate(settings: TrainSettings, imitation: ImitationSettings, out: Path, *,
     record, data = _open(settings, imitation, out, resume)
     env = TensegrityEnv(settings.env_config())
     expert = Expert(env.robot)
-    n_obs, n_act = env.observation_space.shape[0], env.action_space.shape[0]
+    n_obs, n_act = env.robot.observation_space.shape[0], env.robot.motors.size
     net = network(n_obs, n_act, settings.seed)
     policy: Policy | None = None
     if record["iterations"]:
