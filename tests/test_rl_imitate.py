@@ -104,6 +104,9 @@ def test_the_run_writes_a_policy_that_loads_and_starts_a_ppo_run(imitated, tmp_p
     assert record["env_steps"] == 2 * 50  # two episodes of 1 s at 20 ms
     runner = numpy_policy.load(out / "policy.json")
     assert runner.meta["training"]["imitation"]["iterations"] == 2
+    # each iteration's policy is kept; the last is the run's
+    assert (out / "iterations" / "0" / "policy.npz").is_file()
+    assert json.loads((out / "iterations" / "1" / "policy.json").read_text()) == runner.meta
     data = np.load(out / "data.npz")
     assert data["observations"].shape == (100, runner.mean.size)
     np.testing.assert_allclose(runner.mean, data["observations"].mean(axis=0))

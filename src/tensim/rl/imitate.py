@@ -12,7 +12,8 @@ output clipped to [-1, 1]) is fitted to them by least squares, with the observat
 normaliser (the pooled states' mean and variance) in front, as PPO's ``VecNormalize`` has it.
 
 A run folder holds ``settings.json``, ``data.npz`` (the labelled states), ``policy.json`` and
-``policy.npz`` (the latest policy) and ``record.json`` (per iteration: who drove, their speed
+``policy.npz`` (the latest policy; each iteration's also in ``iterations/N/``, to choose
+one after the run) and ``record.json`` (per iteration: who drove, their speed
 in body lengths/s, the imitation loss); it resumes at the next iteration.
 """
 
@@ -196,6 +197,7 @@ def write_policy(out: Path, settings: TrainSettings, arrays: dict[str, np.ndarra
     from tensim.rl.export import policy_meta
 
     meta = policy_meta(settings, arrays, ["tanh"] * len(HIDDEN), "clip", norm, training)
+    out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "policy.npz") as tmp, open(tmp, "wb") as f:
         np.savez(f, **arrays)  # type: ignore[arg-type]
     write_json(out / "policy.json", meta)
@@ -286,6 +288,7 @@ def imitate(settings: TrainSettings, imitation: ImitationSettings, out: Path, *,
                     "imitation": {"expert": "statics rolling gait",
                                   "iterations": it + 1} | _plain(imitation)}
         meta = write_policy(out, settings, arrays, norm, training)
+        write_policy(out / "iterations" / str(it), settings, arrays, norm, training)
         policy = policy_of(meta, arrays)
         with atomic_path(out / "data.npz") as tmp, open(tmp, "wb") as f:
             np.savez(f, **data)  # type: ignore[arg-type]
