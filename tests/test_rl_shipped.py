@@ -129,3 +129,20 @@ def test_the_fine_tuned_6_bar_policies_roll_from_starts_that_did_not_choose_them
             along = (run["com"][-1, :2] - run["com"][0, :2]) @ run["heading"]
             speeds.append(along / run["time"][-1] / body_length("six_bar"))
         assert np.mean(speeds) >= least, (name, np.round(speeds, 4))
+
+
+def test_the_imitated_6_bar_policy_rolls_past_the_goal_from_fresh_starts():
+    # docs/rl.md: learnt by `tensim rl imitate` (DAgger on the statics gait, 192,000 env
+    # steps); from starts 1000-1003, none of which trained or chose it, 0.418, 0.153, 0.296
+    # and 0.347 body lengths/s (mean 0.303; over 1000-1199, 0.296 +- 0.005)
+    settings, policy = load_policy(EXAMPLES / "six_bar_roll" / "imitate_seed1" / "policy.json")
+    assert settings.model == "six_bar" and settings.timestep == 0.005
+    assert policy.meta["training"]["env_steps"] == 192_000
+    assert policy.meta["training"]["imitation"]["iterations"] == 8
+    speeds = []
+    for seed in (1000, 1001, 1002, 1003):
+        run = run_policy(settings, policy, 30.0, seed=seed)
+        assert not run["unstable"]
+        along = (run["com"][-1, :2] - run["com"][0, :2]) @ run["heading"]
+        speeds.append(along / run["time"][-1] / body_length("six_bar"))
+    assert np.mean(speeds) >= 0.25, np.round(speeds, 4)

@@ -282,8 +282,8 @@ def _draw_imitation(out: Path, record: dict) -> None:
     speed, error = fig.subplots(1, 2)
     speed.errorbar(its, [r["body_lengths_per_s"] for r in rows],
                    [r["body_lengths_per_s_std"] for r in rows], fmt="o-")
-    speed.set(xlabel="iteration (0: the gait drives)", ylabel="body lengths/s",
-              title="speed of the driver")
+    speed.set(xlabel="iteration (0: the gait; k: the policy fitted at k - 1)",
+              ylabel="body lengths/s", title="speed of the driver")
     error.semilogy(its, [r["expert_agreement_mse"] for r in rows], "o-",
                    label="driver vs gait")
     error.semilogy(its, [r["fit_mse"] for r in rows], "s--", label="fit")
