@@ -27,6 +27,7 @@ from tensim.structure import (
     Rod,
     Structure,
     StructureError,
+    body_length,
     load_structure,
     mass_properties,
 )
@@ -149,6 +150,39 @@ def test_a_site_between_the_ends_splits_the_rod_into_one_rigid_body() -> None:
     assert s.cable("c").nodes == ("mid", "q_a")
 
 
+def test_a_split_bar_keeps_its_whole_length_as_the_body_length() -> None:
+    """Rods split at a site (or at an imported sleeve's ends) are one bar: the speed's unit is
+    the bar, end to end, not its longest piece; bars at an angle stay apart."""
+    mid = "<site name='mid' pos='0.1 0 0'/>"
+    xml = _doc(_bar("p", 0.0, body=mid) + _bar("q", 0.6),
+               "<spatial name='c' stiffness='100'><site site='mid'/><site site='q_a'/></spatial>")
+    s = _imported(xml).structure
+    assert max(s.distance(*r.nodes) for r in s.rods) == pytest.approx(2 * _H)  # bar q
+    split = dataclasses.replace(s, rods=tuple(r for r in s.rods if r.name != "q"))
+    assert max(split.distance(*r.nodes) for r in split.rods) == pytest.approx(_H + 0.1)
+    assert body_length(split) == pytest.approx(2 * _H, abs=1e-12)
+    bent = Structure("bent", (Node("a", (0, 0, 0)), Node("b", (0.6, 0, 0)),
+                              Node("c", (0.6, 0.5, 0))),
+                     (Rod("ab", ("a", "b"), 0.01, linear_density=1.0), Rod("bc", ("b", "c"), 0.01,
+                                                                  linear_density=1.0)), ())
+    assert body_length(bent) == pytest.approx(0.6)
+
+
+def test_a_site_on_an_end_caps_outside_anchors_at_the_cap() -> None:
+    """Labs anchor cables on an end cap's surface, off the bar's axis: within one radius of a
+    geom's surface a site goes to the nearest node (here the cap's centre, the bar's end) and
+    the move is noted; further out it is refused (the refusals below)."""
+    cap = (f"<geom type='capsule' fromto='{-_H} 0 0 {_H} 0 0' size='{_R}' mass='1'/>"
+           f"<geom name='cap' type='sphere' pos='{_H} 0 0' size='0.05' mass='0.1'/>")
+    rim = f"<site name='rim' pos='{_H - 0.02} 0.05 0'/>"  # 0.054 m from the cap's centre
+    xml = _doc(_bar("p", 0.0, geoms=cap, body=rim) + _bar("q", 0.6),
+               "<spatial name='c' stiffness='100'><site site='rim'/><site site='q_a'/></spatial>")
+    result = _imported(xml)
+    s = result.structure
+    assert s.position(s.cable("c").nodes[0]) == pytest.approx((_H, 0.0, 1.0))
+    assert any("moved onto" in n and "0.0539 m" in n for n in result.notes)
+
+
 def test_sites_become_nodes_and_a_site_between_tendon_ends_a_via_node() -> None:
     ball = "<body name='v' pos='0 0.3 1.4'><freejoint/><geom type='sphere' size='0.03' " \
            "mass='0.2'/><site name='eye' pos='0 0 0.01'/></body>"
@@ -262,6 +296,24 @@ def test_a_position_servo_beside_a_spring_is_a_pd_motor() -> None:
     assert not any("pushes" in n for n in result.notes)  # the force range only pulls
     pushing = _imported(_two_bars("stiffness='1000'", act.replace("-60 0", "-60 60")))
     assert any("also pushes" in n for n in pushing.notes)
+
+
+def test_a_general_servo_whose_gain_is_not_its_stiffness_scales_its_target() -> None:
+    """``general`` with gain g and bias [b0, -kp, -kv]: force g u + b0 - kp L - kv Ldot, a PD
+    with the target L = (g u + b0) / kp (labs write g and kp apart: 6667 and 6666)."""
+    act = ("<general name='g' tendon='c' gaintype='fixed' gainprm='600' biastype='affine' "
+           "biasprm='300 -500 -10' ctrlrange='0.2 0.9' forcelimited='true' forcerange='-80 0'/>")
+    result = _imported(_two_bars("stiffness='1000' springlength='0 0.5'", act))
+    m, c = result.actuators[0], result.structure.cable("c")
+    assert m.kind == "position"
+    assert (c.motor.pd_stiffness, c.motor.pd_damping) == (500.0, 10.0)
+    assert (m.command.offset, m.command.scale) == pytest.approx((300 / 500, 600 / 500))
+    assert c.motor.pd_target == pytest.approx(0.6 + 1.2 * 0.2)  # ctrl 0 clamps to 0.2
+    assert c.motor.max_tension == pytest.approx(80.0)
+    # without a spring: one cable of the servo's stiffness, rest length the target
+    alone = _imported(_two_bars("damping='1'", act)).structure.cable("c")
+    assert alone.stiffness == pytest.approx(500.0)
+    assert alone.rest_length == pytest.approx(0.6 + 1.2 * 0.2)
 
 
 def test_a_servo_beside_a_slack_spring_moves_as_mujoco_moves_the_file(tmp_path) -> None:
@@ -391,6 +443,17 @@ def test_contact_and_options_are_carried_as_mujoco_mixes_them() -> None:
     assert any("integrates with rk4" in n for n in result.notes)
     assert result.command_line() == "--dt 0.002 --contact cone=elliptic,noslip=3,condim=4," \
                                     "torsional=0.01"
+
+
+def test_a_direct_contact_solref_is_replaced_once_and_said_once() -> None:
+    geoms = (f"<geom type='capsule' fromto='{-_H} 0 0 {_H} 0 0' size='{_R}' mass='1' "
+             "solref='-5000 -500'/><geom name='cap' type='sphere' pos='0.5 0 0' size='0.03' "
+             "mass='0.1' solref='-5000 -500'/>")
+    result = _imported(_doc(_bar("p", 0.0, geoms=geoms)).replace(
+        "type='plane' size='5 5 .1'", "type='plane' size='5 5 .1' solref='-5000 -500'"))
+    said = [n for n in result.notes if "direct contact solref" in n]
+    assert len(said) == 1 and "[-5000.0, -500.0]" in said[0] and "geom 'cap'" in said[0]
+    assert result.world.contact_timeconst == 0.02
 
 
 @pytest.mark.parametrize("e", [0.0, 0.1, 0.5, 0.9])
