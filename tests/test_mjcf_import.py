@@ -179,8 +179,15 @@ def test_a_site_on_an_end_caps_outside_anchors_at_the_cap() -> None:
                "<spatial name='c' stiffness='100'><site site='rim'/><site site='q_a'/></spatial>")
     result = _imported(xml)
     s = result.structure
-    assert s.position(s.cable("c").nodes[0]) == pytest.approx((_H, 0.0, 1.0))
+    c = s.cable("c")
+    assert s.position(c.nodes[0]) == pytest.approx((_H, 0.0, 1.0))
     assert any("moved onto" in n and "0.0539 m" in n for n in result.notes)
+    # the cable keeps the file's length between its anchors: the move lengthened it by
+    # |q_a - rim| - |q_a - cap|, shared between its two anchors
+    q_a = np.array([-_H, 0.6, 1.0])
+    file_length = float(np.linalg.norm(q_a - [_H - 0.02, 0.05, 1.0]))
+    assert s.distance(*c.nodes) - 2 * c.anchor_offset == pytest.approx(file_length, abs=1e-9)
+    assert any("anchor_offset" in n for n in result.notes)
 
 
 def test_sites_become_nodes_and_a_site_between_tendon_ends_a_via_node() -> None:
@@ -336,6 +343,25 @@ def test_a_servo_beside_a_slack_spring_moves_as_mujoco_moves_the_file(tmp_path) 
     assert coarse.max_displacement > 0.2  # the ends do move
     assert fine.max_difference < 2.5e-3 and coarse.max_difference > 3 * fine.max_difference
     assert run("0.002", "-100 100").max_difference > 0.1
+
+
+def test_a_force_limited_servo_alone_on_its_tendon_saturates_as_the_file(tmp_path) -> None:
+    """A servo without a tendon spring whose target lies far inside the tendon: its pull is
+    clamped at the force limit (20 N, where kp x the error is 150 N). tensim's motor
+    saturates (pays out to hold the cap), and the bars close as MuJoCo closes them; a motor
+    that only stopped reeling would pull 150 N. (kv 0: the file clamps the servo's damping
+    with its pull, tensim's damping acts on top of the cap, as the note says.)"""
+    act = ("<position name='s' tendon='c' kp='500' kv='0' ctrlrange='0.3 0.8' "
+           "forcerange='-20 0'/>")
+    xml = _two_bars("damping='1'", act, option="gravity='0 0 0' timestep='0.0005'")
+    result = _imported(xml)
+    assert result.structure.cable("c").motor.saturate
+    assert any("saturates at 20 N" in n for n in result.notes)
+    path = tmp_path / "servo.xml"
+    path.write_text(xml.replace("</mujoco>", "<keyframe><key ctrl='0.3'/></keyframe></mujoco>"))
+    agreement = compare_with_mujoco(path, 0.05)  # until just before the target (0.1 s)
+    assert agreement.max_displacement > 0.05  # 20 N on 2 kg of bars: they close
+    assert agreement.max_difference < 0.03 * agreement.max_displacement  # measured: 1.8 %
 
 
 def test_an_integrated_velocity_servo_is_a_motor_of_that_speed() -> None:

@@ -19,7 +19,8 @@ toward a command at up to ``max_speed`` (a floor ``min_rest_length``, a stop at
   target length, exact where the file's force range lets it only pull; without a spring (or
   with integrator dynamics, where the control is the target's rate) it is one cable of
   stiffness k + gear^2 kp and damping b + gear^2 kv whose rest length is the
-  stiffness-weighted mean of the two targets;
+  stiffness-weighted mean of the two targets (alone on its tendon, its force limit a
+  saturating cap, ``Motor.saturate``);
 - tensim's own export carries its motors in each actuator's ``user`` numbers (read back
   exactly);
 - anything else (velocity servos, muscles, user dynamics) leaves the cable passive.
@@ -342,7 +343,12 @@ def _stiffer_cable(f: Loaded, a: int, name: str, cable: str,
         notes.append("the actuator also pushes when the tendon is shorter than its target; "
                      "tensim's cable goes slack")
     cap = pull if math.isfinite(pull) and pull > 0 else k * spring.length
-    notes.append(f"the force limit: tensim stops reeling in above {cap:.4g} N of static tension "
+    # alone on its tendon, the servo's clamped pull is the cable's: a saturating force cap
+    saturate = math.isfinite(pull) and pull > 0 and spring.stiffness <= 0
+    notes.append(f"the force limit: the pull saturates at {cap:.4g} N (tensim's motor pays out "
+                 "above it, Motor.saturate; the cable's damping acts on top of the cap, where "
+                 "the file clamps the servo's damping with its pull)" if saturate else
+                 f"the force limit: tensim stops reeling in above {cap:.4g} N of static tension "
                  "rather than saturating the force" if math.isfinite(pull) else
                  f"no force limit in the file; chosen max_tension {cap:.4g} N (k x the "
                  "tendon's length: it never binds before the rest length reaches 0)")
@@ -350,7 +356,7 @@ def _stiffer_cable(f: Loaded, a: int, name: str, cable: str,
         notes.append(f"the tendon's spring ({spring.stiffness:g} N/m) and the actuator's "
                      f"kp ({k_act:g} N/m) make one cable of {k:g} N/m, exact while both pull")
     motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
-                  min_length=_min_length(f, spring.tendon), lag_time=lag_time)
+                  min_length=_min_length(f, spring.tendon), lag_time=lag_time, saturate=saturate)
     rest = command.offset + command.scale * _start(f, a, lo, hi)
     if rest <= 0:
         raise f.refuse(f"actuator {name!r}", f"its initial target gives tendon {cable!r} a rest "
