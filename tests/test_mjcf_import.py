@@ -577,6 +577,18 @@ def test_export_then_import_gives_the_same_structure(name) -> None:
         assert back.notes == tuple(n for n in back.notes if "tendon" in n or "thin" in n)
 
 
+def test_an_anchor_offset_survives_the_round_trip() -> None:
+    """The export puts an offset cable's sites on its anchors; the import moves them onto the
+    nodes and gives the offset back through the file's length (to its 6 digits)."""
+    s = preset("prism3").build()
+    cables = list(s.cables)
+    cables[0] = dataclasses.replace(cables[0], anchor_offset=0.01)
+    compiled = compile_structure(dataclasses.replace(s, cables=tuple(cables)))
+    back = _imported(to_mjcf(compiled)).structure
+    assert back.cables[0].anchor_offset == pytest.approx(0.01, abs=1e-6)
+    assert [c.anchor_offset for c in back.cables[1:]] == [0.0] * (len(cables) - 1)
+
+
 def test_round_trip_through_the_commands(tmp_path, capsys) -> None:
     xml, out = tmp_path / "prism.xml", tmp_path / "prism.yaml"
     assert main(["export-mjcf", "prism3", "--out", str(xml)]) == 0
