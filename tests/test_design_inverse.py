@@ -103,3 +103,26 @@ def test_the_feet_use_at_most_half_their_friction_cone() -> None:
     for foot, force in result.feet.items():
         assert np.hypot(force[0], force[1]) <= 0.5 * 0.1 * force[2] * (1 + 1e-6), foot
     assert max(result.friction_needed.values()) > 0.3 * 0.1  # the bound is what holds them
+
+
+def test_a_step_that_crosses_a_cables_anchors_is_a_design_error() -> None:
+    """A cable anchored anchor_offset from its nodes has no pose with its nodes closer than
+    twice that: a solve that steps there has no answer (a DesignError the rolling gait and
+    the other callers handle), not a malformed structure."""
+    import dataclasses
+
+    from tensim.design._bodies import bodies
+    from tensim.design.inverse import _move
+    from tensim.models import three_bar
+
+    robot = three_bar()
+    cables = list(robot.cables)
+    cables[0] = dataclasses.replace(cables[0], anchor_offset=0.05)
+    robot = dataclasses.replace(robot, cables=tuple(cables))
+    body_set = bodies(robot)
+    a, b = robot.cables[0].nodes
+    k = body_set.node_body[b]
+    twist = np.zeros(6 * len(body_set.com))
+    twist[6 * k:6 * k + 3] = robot.position(a) - robot.position(b)  # node b onto node a
+    with pytest.raises(DesignError, match="anchor_offset"):
+        _move(robot, body_set, twist)

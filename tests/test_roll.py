@@ -158,3 +158,26 @@ def test_cli_writes_a_run_folder_with_the_rolling_fields(tmp_path):
     assert 0 <= summary["rocks_back"] <= max(0, summary["rolls"] - 1)
     assert 1 <= summary["plans_made"] <= summary["plans"]
     assert (out / "structure.yaml").is_file()
+
+
+def test_a_pose_whose_cable_anchors_met_is_not_planned_from() -> None:
+    """A cable anchored anchor_offset from its nodes (an imported lab file's end caps) can be
+    wound until its anchors meet; the gait then makes no plan (and the run goes on) rather
+    than stopping on the structure's check."""
+    import dataclasses
+
+    from tensim.control.rolling import default_settings
+    from tensim.experiments.roll import _Gait
+
+    robot = three_bar()
+    cables = list(robot.cables)
+    cables[0] = dataclasses.replace(cables[0], anchor_offset=0.05)
+    robot = dataclasses.replace(robot, cables=tuple(cables))
+    rest = np.array([c.rest_length for c in robot.cables])
+    gait = _Gait(robot, rest, np.ones(len(rest), bool), default_settings(robot), 0.0, None,
+                 np.zeros(2), body_length(robot))
+    positions = {n.name: np.asarray(n.position, float) for n in robot.nodes}
+    a, b = robot.cables[0].nodes
+    positions[b] = positions[a] + [0.05, 0.0, 0.0]  # anchors 0.05 m apart would need 0.1 m
+    gait._push(None, positions)  # type: ignore[arg-type]  # returns before it reads the sim
+    assert gait.plans == 0 and not gait.pushing

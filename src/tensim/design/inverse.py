@@ -32,7 +32,7 @@ from tensim.control.rest import RestCommand
 from tensim.design._blas import one_blas_thread
 from tensim.design._bodies import GRAVITY, Bodies, bodies, cable_geometry, cable_tensions
 from tensim.design._errors import DesignError
-from tensim.structure import Structure
+from tensim.structure import Structure, StructureError
 
 GROUND_TOLERANCE = 1e-3  # m: nodes this close to the lowest node's height are feet
 PIN_STIFFNESS = 1e6  # N/m: the spring that holds each foot (it moves ~ force / 1e6 m)
@@ -116,7 +116,11 @@ def _move(structure: Structure, body_set: Bodies, twist: np.ndarray) -> Structur
             p = c + twist[6 * b:6 * b + 3] + Rotation.from_rotvec(
                 twist[6 * b + 3:6 * b + 6]).apply(p - c)
         nodes.append(dataclasses.replace(node, position=tuple(p)))
-    return dataclasses.replace(structure, nodes=tuple(nodes))
+    try:
+        return dataclasses.replace(structure, nodes=tuple(nodes))
+    except StructureError as err:  # the step crossed a cable's anchors (anchor_offset)
+        raise DesignError(f"the static solve stepped to a pose the structure cannot take: "
+                          f"{err}; no static pose near this one") from None
 
 
 @dataclasses.dataclass(frozen=True)

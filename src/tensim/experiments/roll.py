@@ -53,7 +53,7 @@ from tensim.model import WorldOptions, compile_structure
 from tensim.runs import world_record, write_run
 from tensim.sim import COM, Simulation, SimulationResult, TimeSeries, simulate
 from tensim.sim.motion import contact_radii, node_bodies, node_paths, rolled_distance
-from tensim.structure import Structure, body_length
+from tensim.structure import Structure, StructureError, body_length
 
 ROLL_DURATION = 30.0  # s, the default run (the field's speeds are over 30 s)
 LOOKAHEAD = 2.0  # body lengths: how far ahead on the heading's line the gait aims
@@ -217,7 +217,10 @@ class _Gait:
             for n in self.structure.nodes))
 
     def _push(self, sim: Simulation, positions: dict[str, np.ndarray]) -> None:
-        pose = self._pose(positions)
+        try:
+            pose = self._pose(positions)
+        except StructureError:  # a cable's anchors met (anchor_offset): no pose to plan from
+            return
         com = sim.data.subtree_com[0]
         heading = self.heading(com) if self.turn is None else self._turn_heading(positions)
         if heading is None or self.turned:
