@@ -183,3 +183,16 @@ def test_the_expert_rolls_the_env_robot_as_the_roll_experiment_does():
     made.close()
     assert run["body_lengths_per_s"] > 0.25
     assert not run["unstable"]
+
+
+def test_a_robot_with_no_solid_hull_is_refused():
+    from types import SimpleNamespace
+
+    from tensim.rl.expert import check_rolling
+
+    flat = [SimpleNamespace(position=(x, y, 0.1)) for x, y in ((0, 0), (1, 0), (0, 1), (1, 1))]
+    robot = SimpleNamespace(config=SimpleNamespace(task="direction", model="flat"),
+                            action="rest_length",
+                            compiled=SimpleNamespace(structure=SimpleNamespace(nodes=flat)))
+    with pytest.raises(InputError, match="no solid convex hull"):
+        check_rolling(robot)  # type: ignore[arg-type]
