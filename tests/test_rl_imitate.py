@@ -136,6 +136,15 @@ def test_a_run_resumes_at_its_next_iteration_and_refuses_other_settings(imitated
     assert [r["iteration"] for r in record["iterations"]] == [0, 1, 2]
     assert record["iterations"][:2] == imitated[1]["iterations"][:2]
     assert np.load(out / "data.npz")["labels"].shape[0] == 150
+    # as if it had not stopped: the same policy as three iterations run at once
+    whole = tmp_path / "whole"
+    again = imitate(SETTINGS, ImitationSettings(iterations=3, episodes=1, epochs=2), whole)
+    for a, b in zip(again["iterations"], record["iterations"], strict=True):
+        assert {**a, "cpu_s": 0} == {**b, "cpu_s": 0}
+    for name in ("policy.npz", "network.npz", "data.npz"):
+        with np.load(whole / name) as want, np.load(out / name) as got:
+            for key in want.files:
+                np.testing.assert_array_equal(got[key], want[key])
 
 
 def test_bad_input_is_refused_naming_why(tmp_path, capsys):

@@ -13,8 +13,9 @@ normaliser (the pooled states' mean and variance) in front, as PPO's ``VecNormal
 
 A run folder holds ``settings.json``, ``data.npz`` (the labelled states), ``policy.json`` and
 ``policy.npz`` (the latest policy; each iteration's also in ``iterations/N/``, to choose
-one after the run) and ``record.json`` (per iteration: who drove, their speed
-in body lengths/s, the imitation loss); it resumes at the next iteration.
+one after the run), ``network.npz`` (its weights in float64) and ``record.json`` (per
+iteration: who drove, their speed in body lengths/s, the imitation loss); it resumes at the
+next iteration, as if it had not stopped.
 """
 
 from __future__ import annotations
@@ -221,11 +222,11 @@ def imitate(settings: TrainSettings, imitation: ImitationSettings, out: Path, *,
         progress: called with each iteration's record.
 
     Returns:
-        The record: ``iterations`` (each: ``iteration``, ``driver``, ``episodes``,
-        ``body_lengths_per_s`` of the episodes driven (mean, and of the expert as a shadow
-        where the policy drove: None), ``expert_agreement_mse`` (the mean squared difference
-        between the actions that drove and the expert's labels), ``fit_mse``, ``samples``),
-        ``env_steps`` and ``cpu_s`` in all.
+        The record: ``iterations`` (each: ``iteration``, ``driver``, ``episodes``, the mean
+        and spread of the driven episodes' ``body_lengths_per_s``, ``unstable_episodes``,
+        ``expert_agreement_mse`` (the mean squared difference between the actions that
+        drove and the expert's labels), ``fit_mse``, ``samples`` pooled, ``env_steps`` and
+        ``cpu_s`` so far), ``env_steps`` and ``cpu_s`` in all.
 
     Raises:
         InputError: the gait does not apply (:func:`tensim.rl.expert.check_rolling`),
@@ -247,56 +248,82 @@ def imitate(settings: TrainSettings, imitation: ImitationSettings, out: Path, *,
     record, data = _open(settings, imitation, out, resume)
     env = TensegrityEnv(settings.env_config())
     expert = Expert(env.robot)
-    n_obs, n_act = env.robot.observation_space.shape[0], env.robot.motors.size
-    net = network(n_obs, n_act, settings.seed)
+    net = network(env.robot.observation_space.shape[0], env.robot.motors.size, settings.seed)
     policy: Policy | None = None
-    if record["iterations"]:
-        saved = _arrays(out / "policy.npz")
-        load_into(net, saved)
-        policy = policy_of(json.loads((out / "policy.json").read_text()), saved)
+    if record["iterations"]:  # the fit's own float64 weights, so a resumed run is the same
+        load_into(net, _arrays(out / NETWORK))
+        policy = policy_of(json.loads((out / "policy.json").read_text()),
+                           _arrays(out / "policy.npz"))
     start_cpu = time.process_time() - record["cpu_s"]
     for it in range(len(record["iterations"]), imitation.iterations):
-        rng = np.random.default_rng([settings.seed, it])
-        control = _driver(policy, imitation, rng, it)
+        control = _driver(policy, imitation, np.random.default_rng([settings.seed, it]), it)
         runs = [episode(env, expert, settings.seed * EPISODE_SEEDS + it * imitation.episodes
                         + k, control) for k in range(imitation.episodes)]
-        new_obs = np.concatenate([r["observations"] for r in runs])
-        new_labels = np.concatenate([r["labels"] for r in runs])
-        driven = np.concatenate([r["actions"] for r in runs])
-        data = {"observations": new_obs, "labels": new_labels} if not data["labels"].size \
-            else {"observations": np.concatenate([data["observations"], new_obs]),
-                  "labels": np.concatenate([data["labels"], new_labels])}
+        data = _pooled(data, runs)
         norm = normalization(data["observations"])
-        scaled = _normalized(data["observations"], norm)
-        loss = fit(net, scaled, data["labels"], imitation.epochs, imitation.learning_rate,
-                   settings.seed * 1000 + it)
-        speeds = [r["body_lengths_per_s"] for r in runs]
-        record["env_steps"] += int(new_obs.shape[0])
+        loss = fit(net, _normalized(data["observations"], norm), data["labels"],
+                   imitation.epochs, imitation.learning_rate, settings.seed * 1000 + it)
+        record["env_steps"] += sum(len(r["labels"]) for r in runs)
         record["cpu_s"] = round(time.process_time() - start_cpu, 1)
-        record["iterations"].append({
-            "iteration": it, "driver": "expert" if it == 0 else "policy",
-            "episodes": imitation.episodes,
-            "body_lengths_per_s": round(float(np.mean(speeds)), 4),
-            "body_lengths_per_s_std": round(float(np.std(speeds, ddof=1)), 4)
-            if len(speeds) > 1 else 0.0,
-            "unstable_episodes": sum(r["unstable"] for r in runs),
-            "expert_agreement_mse": round(float(np.mean((driven - new_labels) ** 2)), 6),
-            "fit_mse": round(loss, 6), "samples": int(data["observations"].shape[0]),
-            "env_steps": record["env_steps"], "cpu_s": record["cpu_s"]})
-        arrays = arrays_of(net)
-        training = {"env_steps": record["env_steps"], "cpu_s": record["cpu_s"],
-                    "imitation": {"expert": "statics rolling gait",
-                                  "iterations": it + 1} | _plain(imitation)}
-        meta = write_policy(out, settings, arrays, norm, training)
-        write_policy(out / "iterations" / str(it), settings, arrays, norm, training)
-        policy = policy_of(meta, arrays)
-        with atomic_path(out / "data.npz") as tmp, open(tmp, "wb") as f:
-            np.savez(f, **data)  # type: ignore[arg-type]
-        write_json(out / "record.json", record)  # last: it names the iteration done
+        record["iterations"].append(_row(it, runs, loss, data, record))
+        policy = _write_iteration(out, settings, imitation, net, norm, data, record)
         if progress is not None:
             progress(record["iterations"][-1])
     env.close()
     return record
+
+
+NETWORK = "network.npz"  # the fitted network's float64 weights (policy.npz holds float32)
+
+
+def _pooled(data: dict[str, np.ndarray], runs: list[dict[str, Any]]
+            ) -> dict[str, np.ndarray]:
+    """The labelled states so far with those of ``runs``."""
+    new = {k: np.concatenate([r[k] for r in runs]) for k in ("observations", "labels")}
+    if not data["labels"].size:
+        return new
+    return {k: np.concatenate([data[k], new[k]]) for k in new}
+
+
+def _row(it: int, runs: list[dict[str, Any]], loss: float, data: dict[str, np.ndarray],
+         record: dict[str, Any]) -> dict[str, Any]:
+    """Iteration ``it``'s entry of the learning record."""
+    speeds = [r["body_lengths_per_s"] for r in runs]
+    driven = np.concatenate([r["actions"] for r in runs])
+    labels = np.concatenate([r["labels"] for r in runs])
+    return {"iteration": it, "driver": "expert" if it == 0 else "policy",
+            "episodes": len(runs), "body_lengths_per_s": round(float(np.mean(speeds)), 4),
+            "body_lengths_per_s_std": round(float(np.std(speeds, ddof=1)), 4)
+            if len(speeds) > 1 else 0.0,
+            "unstable_episodes": sum(bool(r["unstable"]) for r in runs),
+            "expert_agreement_mse": round(float(np.mean((driven - labels) ** 2)), 6),
+            "fit_mse": round(loss, 6), "samples": int(data["labels"].shape[0]),
+            "env_steps": record["env_steps"], "cpu_s": record["cpu_s"]}
+
+
+def _write_iteration(out: Path, settings: TrainSettings, imitation: ImitationSettings,
+                     net: Any, norm: dict[str, Any], data: dict[str, np.ndarray],
+                     record: dict[str, Any]) -> Policy:
+    """Writes the iteration's policy (into ``out`` and ``out/iterations/N``), the network's
+    weights, the pooled data and, last (it names the iteration done), the record; returns
+    the policy."""
+    import torch
+
+    done = len(record["iterations"])
+    arrays = arrays_of(net)
+    training = {"env_steps": record["env_steps"], "cpu_s": record["cpu_s"],
+                "imitation": {"expert": "statics rolling gait", "iterations": done}
+                | _plain(imitation)}
+    meta = write_policy(out, settings, arrays, norm, training)
+    write_policy(out / "iterations" / str(done - 1), settings, arrays, norm, training)
+    weights = {f"{kind}{k}": getattr(layer, name).detach().numpy()
+               for k, layer in enumerate(m for m in net if isinstance(m, torch.nn.Linear))
+               for kind, name in (("w", "weight"), ("b", "bias"))}
+    for name, arrays_out in ((NETWORK, weights), ("data.npz", data)):
+        with atomic_path(out / name) as tmp, open(tmp, "wb") as f:
+            np.savez(f, **arrays_out)
+    write_json(out / "record.json", record)
+    return policy_of(meta, arrays)
 
 
 def _driver(policy: Policy | None, imitation: ImitationSettings, rng: np.random.Generator,
