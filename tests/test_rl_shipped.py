@@ -133,8 +133,8 @@ def test_the_fine_tuned_6_bar_policies_roll_from_starts_that_did_not_choose_them
 
 def test_the_imitated_6_bar_policy_rolls_past_the_goal_from_fresh_starts():
     # docs/rl.md: learnt by `tensim rl imitate` (DAgger on the statics gait, 192,000 env
-    # steps); from starts 1000-1003, none of which trained or chose it, 0.418, 0.153, 0.296
-    # and 0.347 body lengths/s (mean 0.303; over 1000-1199, 0.296 +- 0.005)
+    # steps); from starts 1000-1003, none of which trained or chose it, 0.243, 0.316, 0.459
+    # and 0.302 body lengths/s (mean 0.330; over 1000-1199, 0.315 +- 0.005)
     settings, policy = load_policy(EXAMPLES / "six_bar_roll" / "imitate_seed1" / "policy.json")
     assert settings.model == "six_bar" and settings.timestep == 0.005
     assert policy.meta["training"]["env_steps"] == 192_000
