@@ -40,7 +40,7 @@ import itertools
 
 import numpy as np
 
-from tensim.models._standing import face_down
+from tensim.models._standing import lying, stored_standing
 from tensim.models._standing import standing as settled
 from tensim.models.six_bar import six_bar_nodes
 from tensim.structure import Cable, Motor, Node, Rod, Structure
@@ -68,7 +68,6 @@ def superball(clearance: float = 0.0, standing: bool = True) -> Structure:
              if abs(np.linalg.norm(positions[a] - positions[b]) - length) < 1e-9]
     face = next(f for f in itertools.combinations(positions, 3)
                 if all(p in pairs for p in itertools.combinations(f, 2)))
-    positions = face_down(positions, face, clearance + ROD_RADIUS)
     nodes = tuple(Node(n, tuple(p)) for n, p in positions.items())
     rods = tuple(
         Rod(f"rod_{axis}{pair}", (f"{axis}{pair}0", f"{axis}{pair}1"), ROD_RADIUS,
@@ -80,5 +79,8 @@ def superball(clearance: float = 0.0, standing: bool = True) -> Structure:
               motor=MOTOR)
         for a, b in pairs
     )
-    robot = Structure("superball", nodes, rods, cables)
+    form = Structure("superball", nodes, rods, cables)
+    if standing and clearance == 0.0:  # the pose solved once and stored (_standing.STORED)
+        return stored_standing(form)
+    robot = lying(form, face, clearance + ROD_RADIUS)
     return settled(robot) if standing else robot
