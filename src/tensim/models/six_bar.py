@@ -47,7 +47,9 @@ def six_bar(clearance: float = 0.0, standing: bool = True) -> Structure:
     static pose under gravity on frictionless feet (:func:`tensim.models._standing.standing`:
     it stands still as built), its lowest end cap ``clearance`` metres up before it
     settles. ``standing=False``: the symmetric self-stressed form, unsettled (rest lengths from
-    the pretension), lifted the same way."""
+    the pretension), lifted the same way. With the
+    default arguments the pose is read, bit for bit, from the stored file
+    (:func:`tensim.models._standing.stored_standing`), not solved again."""
     positions = six_bar_nodes()
     length = STRUT_LENGTH * np.sqrt(6) / 4
     pairs = [(a, b) for a, b in itertools.combinations(positions, 2)

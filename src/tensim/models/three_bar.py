@@ -61,7 +61,9 @@ def _prism_nodes() -> dict[str, np.ndarray]:
 def three_bar(clearance: float = 0.0, standing: bool = True) -> Structure:
     """The 3-bar lying on its side face b0-b1-t2, its lowest bar surface ``clearance`` metres
     up, in its static pose on frictionless feet (:func:`tensim.models._standing.standing`).
-    ``standing=False``: the self-stressed prism, unsettled, lying the same way."""
+    ``standing=False``: the self-stressed prism, unsettled, lying the same way. With the default
+    arguments the pose is read, bit for bit, from the stored file
+    (:func:`tensim.models._standing.stored_standing`), not solved again."""
     upright = _prism_nodes()
     nodes = tuple(Node(n, tuple(p), tags=("bottom" if n[0] == "b" else "top",))
                   for n, p in upright.items())
