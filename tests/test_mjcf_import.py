@@ -27,6 +27,7 @@ from tensim.structure import (
     Rod,
     Structure,
     StructureError,
+    body_length,
     load_structure,
     mass_properties,
 )
@@ -149,6 +150,46 @@ def test_a_site_between_the_ends_splits_the_rod_into_one_rigid_body() -> None:
     assert s.cable("c").nodes == ("mid", "q_a")
 
 
+def test_a_split_bar_keeps_its_whole_length_as_the_body_length() -> None:
+    """Rods split at a site (or at an imported sleeve's ends) are one bar: the speed's unit is
+    the bar, end to end, not its longest piece; bars at an angle stay apart."""
+    mid = "<site name='mid' pos='0.1 0 0'/>"
+    xml = _doc(_bar("p", 0.0, body=mid) + _bar("q", 0.6),
+               "<spatial name='c' stiffness='100'><site site='mid'/><site site='q_a'/></spatial>")
+    s = _imported(xml).structure
+    assert max(s.distance(*r.nodes) for r in s.rods) == pytest.approx(2 * _H)  # bar q
+    split = dataclasses.replace(s, rods=tuple(r for r in s.rods if r.name != "q"))
+    assert max(split.distance(*r.nodes) for r in split.rods) == pytest.approx(_H + 0.1)
+    assert body_length(split) == pytest.approx(2 * _H, abs=1e-12)
+    bent = Structure("bent", (Node("a", (0, 0, 0)), Node("b", (0.6, 0, 0)),
+                              Node("c", (0.6, 0.5, 0))),
+                     (Rod("ab", ("a", "b"), 0.01, linear_density=1.0), Rod("bc", ("b", "c"), 0.01,
+                                                                  linear_density=1.0)), ())
+    assert body_length(bent) == pytest.approx(0.6)
+
+
+def test_a_site_on_an_end_caps_outside_anchors_at_the_cap() -> None:
+    """Labs anchor cables on an end cap's surface, off the bar's axis: within one radius of a
+    geom's surface a site goes to the nearest node (here the cap's centre, the bar's end) and
+    the move is noted; further out it is refused (the refusals below)."""
+    cap = (f"<geom type='capsule' fromto='{-_H} 0 0 {_H} 0 0' size='{_R}' mass='1'/>"
+           f"<geom name='cap' type='sphere' pos='{_H} 0 0' size='0.05' mass='0.1'/>")
+    rim = f"<site name='rim' pos='{_H - 0.02} 0.05 0'/>"  # 0.054 m from the cap's centre
+    xml = _doc(_bar("p", 0.0, geoms=cap, body=rim) + _bar("q", 0.6),
+               "<spatial name='c' stiffness='100'><site site='rim'/><site site='q_a'/></spatial>")
+    result = _imported(xml)
+    s = result.structure
+    c = s.cable("c")
+    assert s.position(c.nodes[0]) == pytest.approx((_H, 0.0, 1.0))
+    assert any("moved onto" in n and "0.0539 m" in n for n in result.notes)
+    # the cable keeps the file's length between its anchors: the move lengthened it by
+    # |q_a - rim| - |q_a - cap|, shared between its two anchors
+    q_a = np.array([-_H, 0.6, 1.0])
+    file_length = float(np.linalg.norm(q_a - [_H - 0.02, 0.05, 1.0]))
+    assert s.distance(*c.nodes) - 2 * c.anchor_offset == pytest.approx(file_length, abs=1e-9)
+    assert any("anchor_offset" in n for n in result.notes)
+
+
 def test_sites_become_nodes_and_a_site_between_tendon_ends_a_via_node() -> None:
     ball = "<body name='v' pos='0 0.3 1.4'><freejoint/><geom type='sphere' size='0.03' " \
            "mass='0.2'/><site name='eye' pos='0 0 0.01'/></body>"
@@ -264,6 +305,24 @@ def test_a_position_servo_beside_a_spring_is_a_pd_motor() -> None:
     assert any("also pushes" in n for n in pushing.notes)
 
 
+def test_a_general_servo_whose_gain_is_not_its_stiffness_scales_its_target() -> None:
+    """``general`` with gain g and bias [b0, -kp, -kv]: force g u + b0 - kp L - kv Ldot, a PD
+    with the target L = (g u + b0) / kp (labs write g and kp apart: 6667 and 6666)."""
+    act = ("<general name='g' tendon='c' gaintype='fixed' gainprm='600' biastype='affine' "
+           "biasprm='300 -500 -10' ctrlrange='0.2 0.9' forcelimited='true' forcerange='-80 0'/>")
+    result = _imported(_two_bars("stiffness='1000' springlength='0 0.5'", act))
+    m, c = result.actuators[0], result.structure.cable("c")
+    assert m.kind == "position"
+    assert (c.motor.pd_stiffness, c.motor.pd_damping) == (500.0, 10.0)
+    assert (m.command.offset, m.command.scale) == pytest.approx((300 / 500, 600 / 500))
+    assert c.motor.pd_target == pytest.approx(0.6 + 1.2 * 0.2)  # ctrl 0 clamps to 0.2
+    assert c.motor.max_tension == pytest.approx(80.0)
+    # without a spring: one cable of the servo's stiffness, rest length the target
+    alone = _imported(_two_bars("damping='1'", act)).structure.cable("c")
+    assert alone.stiffness == pytest.approx(500.0)
+    assert alone.rest_length == pytest.approx(0.6 + 1.2 * 0.2)
+
+
 def test_a_servo_beside_a_slack_spring_moves_as_mujoco_moves_the_file(tmp_path) -> None:
     """Weightless bars pulled together by a tension-only servo (its spring slack, its target
     from the keyframe): they overshoot, the servo lets go, the damper's pull returns. tensim's
@@ -284,6 +343,25 @@ def test_a_servo_beside_a_slack_spring_moves_as_mujoco_moves_the_file(tmp_path) 
     assert coarse.max_displacement > 0.2  # the ends do move
     assert fine.max_difference < 2.5e-3 and coarse.max_difference > 3 * fine.max_difference
     assert run("0.002", "-100 100").max_difference > 0.1
+
+
+def test_a_force_limited_servo_alone_on_its_tendon_saturates_as_the_file(tmp_path) -> None:
+    """A servo without a tendon spring whose target lies far inside the tendon: its pull is
+    clamped at the force limit (20 N, where kp x the error is 150 N). tensim's motor
+    saturates (pays out to hold the cap), and the bars close as MuJoCo closes them; a motor
+    that only stopped reeling would pull 150 N. (kv 0: the file clamps the servo's damping
+    with its pull, tensim's damping acts on top of the cap, as the note says.)"""
+    act = ("<position name='s' tendon='c' kp='500' kv='0' ctrlrange='0.3 0.8' "
+           "forcerange='-20 0'/>")
+    xml = _two_bars("damping='1'", act, option="gravity='0 0 0' timestep='0.0005'")
+    result = _imported(xml)
+    assert result.structure.cable("c").motor.saturate
+    assert any("saturates at 20 N" in n for n in result.notes)
+    path = tmp_path / "servo.xml"
+    path.write_text(xml.replace("</mujoco>", "<keyframe><key ctrl='0.3'/></keyframe></mujoco>"))
+    agreement = compare_with_mujoco(path, 0.05)  # until just before the target (0.1 s)
+    assert agreement.max_displacement > 0.05  # 20 N on 2 kg of bars: they close
+    assert agreement.max_difference < 0.03 * agreement.max_displacement  # measured: 1.8 %
 
 
 def test_an_integrated_velocity_servo_is_a_motor_of_that_speed() -> None:
@@ -393,6 +471,17 @@ def test_contact_and_options_are_carried_as_mujoco_mixes_them() -> None:
                                     "torsional=0.01"
 
 
+def test_a_direct_contact_solref_is_replaced_once_and_said_once() -> None:
+    geoms = (f"<geom type='capsule' fromto='{-_H} 0 0 {_H} 0 0' size='{_R}' mass='1' "
+             "solref='-5000 -500'/><geom name='cap' type='sphere' pos='0.5 0 0' size='0.03' "
+             "mass='0.1' solref='-5000 -500'/>")
+    result = _imported(_doc(_bar("p", 0.0, geoms=geoms)).replace(
+        "type='plane' size='5 5 .1'", "type='plane' size='5 5 .1' solref='-5000 -500'"))
+    said = [n for n in result.notes if "direct contact solref" in n]
+    assert len(said) == 1 and "[-5000.0, -500.0]" in said[0] and "geom 'cap'" in said[0]
+    assert result.world.contact_timeconst == 0.02
+
+
 @pytest.mark.parametrize("e", [0.0, 0.1, 0.5, 0.9])
 def test_restitution_inverts_the_damping_ratio_tensim_builds(e) -> None:
     assert restitution(restitution_dampratio(e)) == pytest.approx(e, abs=1e-12)
@@ -486,6 +575,18 @@ def test_export_then_import_gives_the_same_structure(name) -> None:
         back = _imported(to_mjcf(compiled, springs=springs))
         _same(compiled.structure, back.structure)
         assert back.notes == tuple(n for n in back.notes if "tendon" in n or "thin" in n)
+
+
+def test_an_anchor_offset_survives_the_round_trip() -> None:
+    """The export puts an offset cable's sites on its anchors; the import moves them onto the
+    nodes and gives the offset back through the file's length (to its 6 digits)."""
+    s = preset("prism3").build()
+    cables = list(s.cables)
+    cables[0] = dataclasses.replace(cables[0], anchor_offset=0.01)
+    compiled = compile_structure(dataclasses.replace(s, cables=tuple(cables)))
+    back = _imported(to_mjcf(compiled)).structure
+    assert back.cables[0].anchor_offset == pytest.approx(0.01, abs=1e-6)
+    assert [c.anchor_offset for c in back.cables[1:]] == [0.0] * (len(cables) - 1)
 
 
 def test_round_trip_through_the_commands(tmp_path, capsys) -> None:

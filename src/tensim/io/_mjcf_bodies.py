@@ -123,28 +123,45 @@ class _Body:
     def _place(self, position: np.ndarray, what: str, spheres: bool = True) -> tuple[int, float]:
         """The node for a point on this body: a sphere centre within its radius (unless
         ``spheres`` is false), else the nearest point of a rod axis within the rod's radius (a
-        rod end when within a radius of it). Returns the point's index and how far it moved
-        [m]."""
+        rod end when within a radius of it). A point outside every geom but within one radius
+        of a geom's surface (a cable's anchor on an end cap's outside, as labs often place
+        it) goes to the candidate whose surface it is nearest. Returns the point's index and
+        how far it moved [m]."""
         m, f = self.f.model, self.f
+        near: list[tuple[float, np.ndarray]] = []  # (distance outside, candidate) per geom
         for g in self.spheres if spheres else ():
             centre = f.data.geom_xpos[g]
-            if np.linalg.norm(position - centre) <= m.geom_size[g][0] + TOL:
+            radius = m.geom_size[g][0]
+            if np.linalg.norm(position - centre) <= radius + TOL:
                 return self._node(centre, ""), float(np.linalg.norm(position - centre))
+            near.append((float(np.linalg.norm(position - centre)) - radius, centre))
         for g in self.rods:
             p0, p1 = self._ends(g)
             length = float(np.linalg.norm(p1 - p0))
             axis = (p1 - p0) / length
             radius = m.geom_size[g][0]
             t = float(np.clip((position - p0) @ axis, 0.0, length))
-            on = p0 + t * axis
-            if np.linalg.norm(position - on) > radius + TOL:
-                continue
             end = max(radius, TOL)
-            on = p0 if t <= end else p1 if t >= length - end else on
-            return self._node(on, ""), float(np.linalg.norm(position - on))
+            on = p0 + t * axis
+            at = p0 if t <= end else p1 if t >= length - end else on
+            if np.linalg.norm(position - on) > radius + TOL:
+                near.append((float(np.linalg.norm(position - on)) - radius, at))
+                continue
+            return self._node(at, ""), float(np.linalg.norm(position - at))
+        outside = [(gap, c) for (gap, c), radius in zip(near, self._radii(spheres), strict=True)
+                   if gap <= radius]
+        if outside:
+            _, centre = min(outside, key=lambda item: item[0])
+            return self._node(centre, ""), float(np.linalg.norm(position - centre))
         raise f.refuse(self.item, f"{what} at {np.round(position, 6).tolist()} lies on none of "
                        "the body's rod axes" + (" or spheres" if spheres else "") +
                        ": tensim's nodes sit on rod axes (or at the centre of a lone sphere)")
+
+    def _radii(self, spheres: bool) -> list[float]:
+        """The radii of the geoms :meth:`_place` tries, in its order [m]."""
+        size = self.f.model.geom_size
+        return [float(size[g][0]) for g in (self.spheres if spheres else [])] + \
+            [float(size[g][0]) for g in self.rods]
 
     def _name_point(self, k: int, hint: str, rank: int) -> None:
         """Offers ``hint`` as point k's name; a higher ``rank`` wins (rod end 0, sphere 1,

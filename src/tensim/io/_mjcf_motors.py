@@ -12,13 +12,15 @@ toward a command at up to ``max_speed`` (a floor ``min_rest_length``, a stop at
   ``filter`` time constant tau the motor's lag (``Motor.lag_time``: the rest length is linear
   in the filtered input), its speed the range in one step (the file's actuator does not limit
   how fast its cable shortens);
-- a position actuator (``position``, or ``general`` with bias [b0, -kp, -kv]) is a PD on
-  tendon length, tension gear^2 kp (x - L) + gear^2 kv dx/dt with the target
-  L = (u + b0 / kp) / gear: beside a tendon spring it becomes tensim's PD motor
-  (``Motor.pd_stiffness``) on the spring's cable, the command a target length, exact where the
-  file's force range lets it only pull; without a spring (or with integrator dynamics, where
-  the control is the target's rate) it is one cable of stiffness k + gear^2 kp and damping
-  b + gear^2 kv whose rest length is the stiffness-weighted mean of the two targets;
+- a position actuator (``position``, or ``general`` with a fixed gain g and bias
+  [b0, -kp, -kv]) is a PD on tendon length, tension gear^2 kp (x - L) + gear^2 kv dx/dt with
+  the target L = (g u + b0) / (kp gear) (g = kp for ``position``): beside a tendon spring it
+  becomes tensim's PD motor (``Motor.pd_stiffness``) on the spring's cable, the command a
+  target length, exact where the file's force range lets it only pull; without a spring (or
+  with integrator dynamics, where the control is the target's rate) it is one cable of
+  stiffness k + gear^2 kp and damping b + gear^2 kv whose rest length is the
+  stiffness-weighted mean of the two targets (alone on its tendon, its force limit a
+  saturating cap, ``Motor.saturate``);
 - tensim's own export carries its motors in each actuator's ``user`` numbers (read back
   exactly);
 - anything else (velocity servos, muscles, user dynamics) leaves the cable passive.
@@ -128,8 +130,7 @@ def map_actuator(f: Loaded, a: int, cable: str, spring: Spring) -> ActuatorMappi
     dyn = _DYN(m.actuator_dyntype[a])
     if fixed and no_bias and dyn in (_DYN.mjDYN_NONE, *_FILTERS, _DYN.mjDYN_INTEGRATOR):
         return _force(f, a, name, cable, spring)
-    if fixed and affine and m.actuator_gainprm[a][0] > 0 and \
-            math.isclose(bias[1], -m.actuator_gainprm[a][0], rel_tol=1e-6) and bias[2] <= 0 \
+    if fixed and affine and m.actuator_gainprm[a][0] > 0 and bias[1] < 0 and bias[2] <= 0 \
             and dyn in (_DYN.mjDYN_NONE, *_FILTERS, _DYN.mjDYN_INTEGRATOR):
         return _position(f, a, name, cable, spring)
     what = _describe(f, a)
@@ -260,12 +261,20 @@ def _position(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> Actua
     return _stiffer_cable(f, a, name, cable, spring)
 
 
+def _servo_gains(f: Loaded, a: int) -> tuple[float, float, float]:
+    """A position actuator's gear, stiffness kp (-bias[1]) and the ratio of its control gain
+    to kp (1 for MuJoCo's ``position``; a ``general`` may scale its control)."""
+    m = f.model
+    kp = -float(m.actuator_biasprm[a][1])
+    return float(m.actuator_gear[a][0]), kp, float(m.actuator_gainprm[a][0]) / kp
+
+
 def _servo(f: Loaded, a: int, name: str, cable: str, spring: Spring) -> ActuatorMapping:
     """A position actuator beside a tendon spring: the spring's cable with a PD motor."""
     m = f.model
-    gear, kp = float(m.actuator_gear[a][0]), float(m.actuator_gainprm[a][0])
+    gear, kp, ratio = _servo_gains(f, a)
     b0, kv = float(m.actuator_biasprm[a][0]), -float(m.actuator_biasprm[a][2])
-    command = CommandMap(b0 / (kp * gear), 1.0 / gear)  # the target length L [m]
+    command = CommandMap(b0 / (kp * gear), ratio / gear)  # the target length L [m]
     lo, hi = _range(f, a)
     target = command.offset + command.scale * _start(f, a, lo, hi)
     if target <= 0:
@@ -302,14 +311,14 @@ def _stiffer_cable(f: Loaded, a: int, name: str, cable: str,
                    spring: Spring) -> ActuatorMapping:
     """A position actuator without a spring, or driven through its target's rate: one cable."""
     m = f.model
-    gear, kp = float(m.actuator_gear[a][0]), float(m.actuator_gainprm[a][0])
+    gear, kp, ratio = _servo_gains(f, a)
     b0, kv = float(m.actuator_biasprm[a][0]), -float(m.actuator_biasprm[a][2])
     k_act, b_act = gear**2 * kp, gear**2 * kv
     k = spring.stiffness + k_act
     # rest length = (k_s l_s + k_act (u + b0 / kp) / gear) / k
     rate = m.actuator_dyntype[a] == _DYN.mjDYN_INTEGRATOR  # intvelocity: ctrl moves the target
     command = CommandMap((spring.stiffness * spring.dead_band[1] + k_act * b0 / (kp * gear)) / k,
-                         k_act / (gear * k), rate=rate)
+                         ratio * (k_act / (gear * k)), rate=rate)
     lo, hi = _range(f, a)
     rests = sorted(command.offset + command.scale * u for u in (lo, hi))
     floor = max(rests[0], 0.0) if math.isfinite(rests[0]) else 0.0
@@ -334,7 +343,12 @@ def _stiffer_cable(f: Loaded, a: int, name: str, cable: str,
         notes.append("the actuator also pushes when the tendon is shorter than its target; "
                      "tensim's cable goes slack")
     cap = pull if math.isfinite(pull) and pull > 0 else k * spring.length
-    notes.append(f"the force limit: tensim stops reeling in above {cap:.4g} N of static tension "
+    # alone on its tendon, the servo's clamped pull is the cable's: a saturating force cap
+    saturate = math.isfinite(pull) and pull > 0 and spring.stiffness <= 0
+    notes.append(f"the force limit: the pull saturates at {cap:.4g} N (tensim's motor pays out "
+                 "above it, Motor.saturate; the cable's damping acts on top of the cap, where "
+                 "the file clamps the servo's damping with its pull)" if saturate else
+                 f"the force limit: tensim stops reeling in above {cap:.4g} N of static tension "
                  "rather than saturating the force" if math.isfinite(pull) else
                  f"no force limit in the file; chosen max_tension {cap:.4g} N (k x the "
                  "tendon's length: it never binds before the rest length reaches 0)")
@@ -342,7 +356,7 @@ def _stiffer_cable(f: Loaded, a: int, name: str, cable: str,
         notes.append(f"the tendon's spring ({spring.stiffness:g} N/m) and the actuator's "
                      f"kp ({k_act:g} N/m) make one cable of {k:g} N/m, exact while both pull")
     motor = Motor(max_speed=speed, max_tension=cap, min_rest_length=floor,
-                  min_length=_min_length(f, spring.tendon), lag_time=lag_time)
+                  min_length=_min_length(f, spring.tendon), lag_time=lag_time, saturate=saturate)
     rest = command.offset + command.scale * _start(f, a, lo, hi)
     if rest <= 0:
         raise f.refuse(f"actuator {name!r}", f"its initial target gives tendon {cable!r} a rest "

@@ -76,12 +76,16 @@ def world(f: Loaded) -> tuple[WorldOptions, dict[int, tuple[float, float]], list
              GEOM(m.geom_type[g]) in SHAPES]
     contacts = {g: _mix(m, g, ground) for g in robot}
     per_geom, fields = {}, _options(f, notes)
+    direct = {g: c.solref.tolist() for g, c in contacts.items() if c.solref[0] <= 0}
+    if direct:
+        values = sorted({tuple(v) for v in direct.values()})
+        notes.append(f"{', '.join(f.geom_item(g) for g in direct)}: a direct contact solref "
+                     f"{' or '.join(str(list(v)) for v in values)} (stiffness, damping) has no "
+                     "home in tensim: its rods take a time constant and a restitution; chosen "
+                     "MuJoCo's defaults (0.02 s, damping ratio 1)")
     for g, c in contacts.items():
-        if c.solref[0] <= 0:
-            notes.append(f"{f.geom_item(g)}: a direct contact solref {c.solref.tolist()} "
-                         "(stiffness, damping) has no home in tensim: its rods take a time "
-                         "constant and a restitution; chosen MuJoCo's defaults")
-            c = dataclasses.replace(c, solref=np.array([0.02, 1.0]))
+        if g in direct:
+            c = contacts[g] = dataclasses.replace(c, solref=np.array([0.02, 1.0]))
         sliding = float(c.friction[0]) if c.condim > 1 else 0.0
         per_geom[g] = (sliding, restitution(float(c.solref[1])))
     if contacts:

@@ -154,7 +154,8 @@ def import_mjcf(path: str | os.PathLike[str] | None = None, *, xml: str | None =
     used = _used_sites(f)
     bodies = _mjcf_bodies.convert(f, used, contact)
     notes += bodies.notes
-    cables, actuators = _cables(f, bodies.site_node, notes)
+    cables, actuators = _cables(f, bodies.site_node, notes,
+                                {n.name: np.asarray(n.position) for n in bodies.nodes})
     if f.model.nkey:
         key = f.name(mujoco.mjtObj.mjOBJ_KEY, 0, "#0")
         notes.append(f"the rest lengths start at the controls of keyframe {key!r}; the build "
@@ -237,9 +238,10 @@ def _spring(f: _mjcf_read.Loaded, t: int, name: str, notes: list[str]) -> Spring
                   float(f.data.ten_length[t]), t)
 
 
-def _cables(f: _mjcf_read.Loaded, site_node: dict[int, str],
-            notes: list[str]) -> tuple[list[Cable], list[ActuatorMapping]]:
+def _cables(f: _mjcf_read.Loaded, site_node: dict[int, str], notes: list[str],
+            positions: dict[str, np.ndarray]) -> tuple[list[Cable], list[ActuatorMapping]]:
     m = f.model
+    anchored: list[str] = []  # the tendons anchored off their nodes
     drives: dict[int, list[int]] = {}
     for a in range(m.nu):
         drives.setdefault(int(m.actuator_trnid[a][0]), []).append(a)
@@ -270,16 +272,35 @@ def _cables(f: _mjcf_read.Loaded, site_node: dict[int, str],
         item = f"tendon {name!r}"
         if len(set(path)) < len(path):
             raise f.refuse(item, f"passes a node twice ({path}): its sites sit on one rod end")
+        offset = _anchor_offset(positions, path, spring.length)
+        if offset > 0:
+            anchored.append(name)
         try:
             cables.append(Cable(name, (path[0], path[-1]), k, damping=b, rest_length=rest,
-                                motor=motor, via=tuple(path[1:-1])))
+                                motor=motor, via=tuple(path[1:-1]), anchor_offset=offset))
         except StructureError as err:
             raise f.refuse(item, err.detail) from None
+    if anchored:
+        notes.append(f"tendons {anchored}: their sites sit off the nodes they were moved to; "
+                     "each cable anchors anchor_offset from its nodes toward each other, so "
+                     "that its length in the build pose is the file's (its direction is the "
+                     "nodes', not the sites')")
     for text, names in differences.items():
         who = f"actuator {names[0]!r}" if len(names) == 1 else \
             f"actuators {', '.join(map(repr, names))}"
         notes.append(f"{who}: {text}")
     return cables, mappings
+
+
+def _anchor_offset(positions: dict[str, np.ndarray], path: list[str], length: float) -> float:
+    """The anchor offset [m] that gives a two-site tendon whose sites were moved onto nodes
+    the file's length ``length`` [m] between its anchors: half of what the move added, where
+    it added more than 1e-6 m (0 for a tendon through via nodes, or one the move shortened:
+    a cable's anchors only move inward)."""
+    if len(path) != 2:
+        return 0.0
+    added = float(np.linalg.norm(positions[path[0]] - positions[path[1]])) - length
+    return added / 2 if added > 1e-6 else 0.0
 
 
 def stable_step(structure: Structure) -> float:

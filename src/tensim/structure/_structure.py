@@ -379,15 +379,37 @@ def _unique(names: Iterable[str], what: str) -> None:
 
 def body_length(structure: Structure) -> float:
     """The robot's body length [m], the field's unit of a rolling or crawling robot's speed
-    (body lengths per second): its longest rod, end node to end node in the build pose; a
-    robot without rods, its longest cable, end node to end node.
+    (body lengths per second): its longest bar, end node to end node in the build pose, where
+    a bar is a rod together with the rods of its rigid body that lie on its line (a bar split
+    into pieces at its nodes, as an imported file's end caps and sleeves split it); a robot
+    without rods, its longest cable, end node to end node.
 
     Raises:
         StructureError: a structure with neither rods nor cables.
     """
-    members = structure.rods or structure.cables
-    if not members:
-        raise StructureError("has neither rods nor cables, so no body length",
-                             item=f"structure {structure.name!r}")
-    return max(structure.distance(*m.nodes) for m in members)
+    if not structure.rods:
+        if not structure.cables:
+            raise StructureError("has neither rods nor cables, so no body length",
+                                 item=f"structure {structure.name!r}")
+        return max(structure.distance(*c.nodes) for c in structure.cables)
+    return max(_bar_length(structure, group) for group in structure.rigid_groups() if group.rods)
+
+
+def _bar_length(structure: Structure, group: RigidGroup) -> float:
+    """The longest bar of one rigid body [m]: its rods' lengths, a rod's taken with the
+    nodes of the body's other rods on its line (within 1e-9 of its length)."""
+    members = set(group.rods)
+    rods = [r.nodes for r in structure.rods if r.name in members]
+    longest = 0.0
+    for a, b in rods:
+        start, length = structure.position(a), structure.distance(a, b)
+        axis = (structure.position(b) - start) / length
+        on_line = {a, b}
+        for c, d in rods:
+            ends = [structure.position(n) - start for n in (c, d)]
+            if all(np.linalg.norm(e - (e @ axis) * axis) <= 1e-9 * length for e in ends):
+                on_line.update((c, d))
+        longest = max(longest, length if len(on_line) == 2 else
+                      max(structure.distance(p, q) for p in on_line for q in on_line))
+    return longest
 
