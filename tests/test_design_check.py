@@ -61,6 +61,12 @@ def test_findings_name_what_to_change(tmp_path) -> None:
     text = "\n".join(map(str, found))
     assert "cable 'bottom_0': slack at the build pose" in text
     assert "exceeds its motor's max_tension 20 N" in text
+    # a saturating motor's cap is not a stop: it pays out to it, a note rather than an error
+    cables[2] = dataclasses.replace(cables[2], motor=Motor(max_speed=0.1, max_tension=20.0,
+                                                           saturate=True))
+    capped = [f for f in check_structure(dataclasses.replace(base, cables=tuple(cables)))
+              if f.item == "cable 'bottom_2'"]
+    assert [f.severity for f in capped] == ["note"] and "force cap 20 N" in str(capped[0])
     assert "far from equilibrium" in text
     scaled = check_structure(dataclasses.replace(base, nodes=nodes))
     assert any("centimetres" in str(f) for f in scaled)

@@ -198,3 +198,30 @@ def test_the_drawing_process_loads_no_mujoco_and_gets_only_the_channels_it_draws
                          check=True).stdout
     assert out.strip() == "[]"
     assert (tmp_path / "v.png").is_file() and (tmp_path / "l.png").is_file()
+
+
+def test_a_figure_is_sent_only_what_it_draws_and_draws_the_same_picture(tmp_path):
+    """Of a chosen few cables a per-cable figure is sent only theirs; of many (panels shared by
+    groups of cables, which draw no commanded tension) no commanded tensions. Drawn from what
+    is sent, each figure is the picture drawn from the whole run, pixel for pixel."""
+    from tensim.viz import plots
+    from tensim.viz.drawing import portable
+
+    many = [f"group_{k % 3}/cable_{k}" for k in range(plots.MAX_PANELS + 10)]
+    rng = np.random.default_rng(3)
+    t = np.arange(1001) * 0.01
+    channels = {f"{q}/{c}": rng.standard_normal(t.size).cumsum() for c in many
+                for q in ("tension", "setpoint", "length", "rest_length", "applied")}
+    series = TimeSeries(t, channels)
+    cases = [("tensions", {"cables": many[:3]}, ("tension", "setpoint"), many[:3]),
+             ("tensions", {"cables": many}, ("tension",), many),
+             ("tensions", {}, ("tension",), many),
+             ("lengths", {"cables": many}, ("length", "rest_length"), many)]
+    for k, (kind, options, quantities, cables) in enumerate(cases):
+        sent = portable(kind, series, options)
+        assert set(sent.channels) == {f"{q}/{c}" for q in quantities for c in cables}
+        draw = getattr(plots, {"tensions": "plot_cable_tensions",
+                               "lengths": "plot_lengths"}[kind])
+        images = [np.asarray(Image.open(draw(data, tmp_path / f"{k}_{n}.png", **options)))
+                  for n, data in enumerate((series, sent))]
+        assert np.array_equal(*images)

@@ -5,7 +5,6 @@ on MuJoCo's soft friction."""
 from __future__ import annotations
 
 import dataclasses
-import importlib
 
 import mujoco
 import numpy as np
@@ -55,15 +54,13 @@ def _frictionless(structure):
                                                      for r in structure.rods))
 
 
-def test_on_frictionless_ground_the_build_pose_needs_no_sideways_push(monkeypatch):
+def test_on_frictionless_ground_the_build_pose_needs_no_sideways_push():
     """With the rods' friction 0 the ground can only push straight up: the 3-bar built in
     its static pose on frictionless feet stays put (measured 0.18 mm), while the pose with
     its feet held where they first touched slides until its feet no longer push outward
     (measured 3.9 mm; with friction that push made it creep 14 mm)."""
     assert _drift(_frictionless(three_bar()))[1] < 5e-4
-    module = importlib.import_module("tensim.models.three_bar")
-    monkeypatch.setattr(module, "standing", lambda s: s)  # the lying form, unsettled
-    raw = module.three_bar()
+    raw = three_bar(standing=False)  # the lying form, unsettled
     raw = with_rest_lengths(raw, np.array([raw.rest_length(c) for c in raw.cables]))
     held = settle(raw, feet(raw)).pose
     assert _drift(_frictionless(held))[1] > 2e-3

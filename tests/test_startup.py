@@ -75,3 +75,14 @@ def test_the_pre_run_check_and_slack_cables_load_no_scipy_optimizer():
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "False"
+
+
+def test_the_rolling_presets_stand_without_the_design_tools_or_scipy():
+    # their standing pose is stored data (tensim.models._standing): built with their default
+    # arguments they solve nothing (the statics solve and scipy's import were 0.4 s of CPU)
+    probe = ("import sys; from tensim.models import six_bar, superball, three_bar; "
+             "six_bar(); superball(); three_bar(); "
+             "print(sorted(m for m in ('scipy', 'tensim.design') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "[]"

@@ -43,6 +43,17 @@ print(usage.ru_utime + usage.ru_stime, usage.ru_maxrss, os.waitstatus_to_exitcod
 """
 
 
+def with_bytecode(bytecode: str | None) -> dict[str, str]:
+    """This process's environment for a timed run whose Python reads and writes its compiled
+    bytecode in the folder ``bytecode`` (``PYTHONPYCACHEPREFIX``; a
+    ``PYTHONDONTWRITEBYTECODE`` removed: see the module's notes); None: unchanged."""
+    env = dict(os.environ)
+    if bytecode is not None:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = bytecode
+    return env
+
+
 def run_process(args: list[str], bytecode: str | None = None) -> tuple[float, float, float]:
     """Runs ``tensim ARGS`` in a fresh interpreter (this process's tensim).
 
@@ -59,10 +70,7 @@ def run_process(args: list[str], bytecode: str | None = None) -> tuple[float, fl
     """
     here = str(Path(__file__).resolve().parents[2])
     path = os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p)
-    env = {**os.environ, "PYTHONPATH": path}
-    if bytecode is not None:
-        env.pop("PYTHONDONTWRITEBYTECODE", None)
-        env["PYTHONPYCACHEPREFIX"] = bytecode
+    env = {**with_bytecode(bytecode), "PYTHONPATH": path}
     start = time.perf_counter()
     done = subprocess.run([sys.executable, "-c", _LAUNCHER, sys.executable, "-c", _MAIN, *args],
                           capture_output=True, text=True, check=False, env=env)

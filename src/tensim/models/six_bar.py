@@ -16,7 +16,7 @@ import itertools
 
 import numpy as np
 
-from tensim.models._standing import face_down
+from tensim.models._standing import lying, stored_standing
 from tensim.models._standing import standing as settled
 from tensim.structure import Cable, Motor, Node, PointMass, Rod, Structure
 
@@ -47,14 +47,15 @@ def six_bar(clearance: float = 0.0, standing: bool = True) -> Structure:
     static pose under gravity on frictionless feet (:func:`tensim.models._standing.standing`:
     it stands still as built), its lowest end cap ``clearance`` metres up before it
     settles. ``standing=False``: the symmetric self-stressed form, unsettled (rest lengths from
-    the pretension), lifted the same way."""
+    the pretension), lifted the same way. With the
+    default arguments the pose is read, bit for bit, from the stored file
+    (:func:`tensim.models._standing.stored_standing`), not solved again."""
     positions = six_bar_nodes()
     length = STRUT_LENGTH * np.sqrt(6) / 4
     pairs = [(a, b) for a, b in itertools.combinations(positions, 2)
              if abs(np.linalg.norm(positions[a] - positions[b]) - length) < 1e-9]
     face = next(f for f in itertools.combinations(positions, 3)
                 if all(p in pairs for p in itertools.combinations(f, 2)))
-    positions = face_down(positions, face, clearance + max(ROD_RADIUS, CAP_RADIUS))
     nodes = tuple(Node(n, tuple(p)) for n, p in positions.items())
     rods = tuple(
         Rod(f"rod_{axis}{pair}", (f"{axis}{pair}0", f"{axis}{pair}1"), ROD_RADIUS,
@@ -65,5 +66,8 @@ def six_bar(clearance: float = 0.0, standing: bool = True) -> Structure:
                          pretension=PRETENSION, motor=Motor(max_speed=0.2, max_tension=500.0))
                    for a, b in pairs)
     masses = tuple(PointMass(n, END_MASS, CAP_RADIUS) for n in positions)
-    robot = Structure("six_bar", nodes, rods, cables, masses)
+    form = Structure("six_bar", nodes, rods, cables, masses)
+    if standing and clearance == 0.0:  # the pose solved once and stored (_standing.STORED)
+        return stored_standing(form)
+    robot = lying(form, face, clearance + max(ROD_RADIUS, CAP_RADIUS))
     return settled(robot) if standing else robot

@@ -40,7 +40,7 @@ import itertools
 
 import numpy as np
 
-from tensim.models._standing import face_down
+from tensim.models._standing import lying, stored_standing
 from tensim.models._standing import standing as settled
 from tensim.models.six_bar import six_bar_nodes
 from tensim.structure import Cable, Motor, Node, Rod, Structure
@@ -61,14 +61,15 @@ def superball(clearance: float = 0.0, standing: bool = True) -> Structure:
     static pose under gravity on frictionless feet (:func:`tensim.models._standing.standing`:
     it stands still as built), its lowest strut surface ``clearance`` metres up before it
     settles. ``standing=False``: the symmetric self-stressed form, unsettled (rest lengths from
-    the pretension), lifted the same way."""
+    the pretension), lifted the same way. With the
+    default arguments the pose is read, bit for bit, from the stored file
+    (:func:`tensim.models._standing.stored_standing`), not solved again."""
     positions = six_bar_nodes(STRUT_LENGTH)
     length = STRUT_LENGTH * np.sqrt(6) / 4
     pairs = [(a, b) for a, b in itertools.combinations(positions, 2)
              if abs(np.linalg.norm(positions[a] - positions[b]) - length) < 1e-9]
     face = next(f for f in itertools.combinations(positions, 3)
                 if all(p in pairs for p in itertools.combinations(f, 2)))
-    positions = face_down(positions, face, clearance + ROD_RADIUS)
     nodes = tuple(Node(n, tuple(p)) for n, p in positions.items())
     rods = tuple(
         Rod(f"rod_{axis}{pair}", (f"{axis}{pair}0", f"{axis}{pair}1"), ROD_RADIUS,
@@ -80,5 +81,8 @@ def superball(clearance: float = 0.0, standing: bool = True) -> Structure:
               motor=MOTOR)
         for a, b in pairs
     )
-    robot = Structure("superball", nodes, rods, cables)
+    form = Structure("superball", nodes, rods, cables)
+    if standing and clearance == 0.0:  # the pose solved once and stored (_standing.STORED)
+        return stored_standing(form)
+    robot = lying(form, face, clearance + ROD_RADIUS)
     return settled(robot) if standing else robot

@@ -30,7 +30,8 @@ import math
 
 import numpy as np
 
-from tensim.models._standing import face_down, standing
+from tensim.models._standing import lying, stored_standing
+from tensim.models._standing import standing as settled
 from tensim.structure import PASSIVE, Cable, Motor, Node, Rod, Structure
 
 BAR_LENGTH = 1.376  # m
@@ -57,18 +58,15 @@ def _prism_nodes() -> dict[str, np.ndarray]:
     return nodes
 
 
-def _lying(nodes: dict[str, np.ndarray], clearance: float) -> dict[str, np.ndarray]:
-    """The prism turned onto its side face b0-b1-t2 (outward normal straight down), its
-    centre of mass over the origin."""
-    return face_down(nodes, ("b0", "b1", "t2"), clearance + BAR_RADIUS)
-
-
-def three_bar(clearance: float = 0.0) -> Structure:
-    """The 3-bar lying on its side, its lowest bar surface ``clearance`` metres up."""
+def three_bar(clearance: float = 0.0, standing: bool = True) -> Structure:
+    """The 3-bar lying on its side face b0-b1-t2, its lowest bar surface ``clearance`` metres
+    up, in its static pose on frictionless feet (:func:`tensim.models._standing.standing`).
+    ``standing=False``: the self-stressed prism, unsettled, lying the same way. With the default
+    arguments the pose is read, bit for bit, from the stored file
+    (:func:`tensim.models._standing.stored_standing`), not solved again."""
     upright = _prism_nodes()
-    pos = _lying(upright, clearance)
     nodes = tuple(Node(n, tuple(p), tags=("bottom" if n[0] == "b" else "top",))
-                  for n, p in pos.items())
+                  for n, p in upright.items())
     rods = tuple(Rod(f"bar_{i}", (f"b{i}", f"t{i}"), BAR_RADIUS,
                      linear_density=BAR_MASS / BAR_LENGTH, friction=FRICTION,
                      tags=(f"bar_{i}",)) for i in range(3))
@@ -84,4 +82,8 @@ def three_bar(clearance: float = 0.0) -> Structure:
               pretension=q * ratio * float(np.linalg.norm(upright[a] - upright[b])),
               motor=motor, tags=(tag,))
         for name, a, b, ratio, tag, motor in members)
-    return standing(Structure("three_bar", nodes, rods, cables))
+    form = Structure("three_bar", nodes, rods, cables)
+    if standing and clearance == 0.0:  # the pose solved once and stored (_standing.STORED)
+        return stored_standing(form)
+    robot = lying(form, ("b0", "b1", "t2"), clearance + BAR_RADIUS)
+    return settled(robot) if standing else robot

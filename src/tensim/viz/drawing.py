@@ -159,7 +159,8 @@ class FigureDrawer:
             return path
         if self._conn is not None:
             try:
-                self._conn.send((file, portable(plan.kind, data), path, late))
+                self._conn.send((file, portable(plan.kind, data, {**plan.options, **late}),
+                                 path, late))
                 self._pending[file] = (data, path, late)
                 return path
             except (OSError, ValueError) as err:
@@ -229,20 +230,50 @@ class FigureDrawer:
 # The channels (by quantity) each kind of figure draws from a time series.
 QUANTITIES = {"tensions": ("tension", "setpoint"), "lengths": ("length", "rest_length"),
               "path": ("pos_x", "pos_y")}
+# The per-cable kinds: the quantity that names their cables by default, and the quantities a
+# panel of several cables draws (a shared panel draws no commanded tension)
+_PER_CABLE: dict[str, tuple[str, tuple[str, ...]]] = {"tensions": ("tension", ("tension",)),
+              "lengths": ("length", ("length", "rest_length"))}
 
 
-def portable(kind: str, data: Any) -> Any:
+def portable(kind: str, data: Any, options: Mapping[str, Any] | None = None) -> Any:
     """What a figure of ``kind`` is sent of ``data``: of a time series, the channels it draws
-    (a quarter or less of a run's); of a V* table, its :class:`~tensim.viz._held.HeldInputs`
-    (which the drawing process loads without the controllers)."""
+    (a quarter or less of a run's: of a per-cable figure, its ``options``' cables only, and
+    no commanded tensions where cables share panels, which draw none); of a V* table, its
+    :class:`~tensim.viz._held.HeldInputs` (which the drawing process loads without the
+    controllers).
+
+    Args:
+        kind: the figure's kind (:data:`KINDS`).
+        data: what its plot function draws.
+        options: the plot function's options (``cables``, ``tags``), as it will be called.
+    """
     from tensim.viz._held import HeldInputs
 
     if kind in QUANTITIES and hasattr(data, "channels"):
-        return type(data)(data.time, {name: values for name, values in data.channels.items()
-                                      if name.partition("/")[0] in QUANTITIES[kind]})
+        wanted = _drawn_channels(kind, data, options or {})
+        return type(data)(data.time, {
+            name: values for name, values in data.channels.items()
+            if (name.partition("/")[0] in QUANTITIES[kind] if wanted is None
+                else name in wanted)})
     if kind == "velocity_input" and hasattr(data, "period"):
         return HeldInputs(tuple(data.cables), float(data.period), np.asarray(data.values))
     return data
+
+
+def _drawn_channels(kind: str, data: Any, options: Mapping[str, Any]) -> set[str] | None:
+    """The channels a per-cable figure draws of ``data`` (None: not a per-cable kind, all of
+    its quantities')."""
+    from tensim.viz._panels import cable_panels
+
+    if kind not in _PER_CABLE:
+        return None
+    naming, shared = _PER_CABLE[kind]
+    cables = list(options.get("cables") or data.items(naming))
+    quantities: tuple[str, ...] = QUANTITIES[kind]
+    if len(cable_panels(cables, options.get("tags"))) != len(cables):
+        quantities = shared
+    return {f"{q}/{c}" for q in quantities for c in cables}
 
 
 def _draw(plan: FigurePlan, data: Any, path: Path, late: Mapping[str, Any], grid: Any) -> Any:
