@@ -205,3 +205,28 @@ def test_a_robot_with_no_solid_hull_is_refused():
                             compiled=SimpleNamespace(structure=SimpleNamespace(nodes=flat)))
     with pytest.raises(InputError, match="no solid convex hull"):
         check_rolling(robot)  # type: ignore[arg-type]
+
+
+def test_an_imitated_policy_exports_to_onnx_acting_as_the_numpy_runner(tmp_path) -> None:
+    """`rl export` takes a folder that holds an exported policy (an imitation's): the ONNX
+    graph gives the NumPy runner's actions to 1e-5 (float32 against float64)."""
+    from pathlib import Path
+
+    from tensim.cli import main
+
+    shipped = Path(__file__).resolve().parent.parent / "examples" / "rl" / "six_bar_roll" \
+        / "imitate_seed1"
+    assert main(["--quiet", "rl", "export", str(shipped), "--onnx",
+                 str(tmp_path / "policy.onnx")]) == 0
+    runner = numpy_policy.load(tmp_path / "policy.json")
+    assert numpy_policy.load(shipped / "policy.json").meta == {
+        k: v for k, v in runner.meta.items() if k != "network"} | {
+        "network": {k: v for k, v in runner.meta["network"].items() if k != "onnx"}}
+    observations = np.random.default_rng(0).normal(
+        runner.mean, np.sqrt(runner.var), (64, runner.mean.size))
+    want = runner(observations)
+    assert np.abs(want).max() > 1e-2  # it acts
+    ort = pytest.importorskip("onnxruntime")
+    session = ort.InferenceSession(str(tmp_path / "policy.onnx"))
+    got = session.run(["action"], {"observation": observations.astype(np.float32)})[0]
+    np.testing.assert_allclose(got, want, atol=1e-5)

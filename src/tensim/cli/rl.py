@@ -131,7 +131,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     x = rl.add_parser("export", help="write the policy as ONNX and NumPy arrays, with its "
                       "observation/action layout and normalisation (policy.json)")
-    x.add_argument("run_dir", metavar="DIR", help="a `tensim rl train` folder")
+    x.add_argument("run_dir", metavar="DIR", help="a `tensim rl train` folder, or one that "
+                   "holds an exported policy.json (a `tensim rl imitate` folder)")
     x.add_argument("--onnx", default=None, metavar="FILE",
                    help="ONNX file (policy.json and policy.npz go beside it; without it they "
                    "go into DIR)")

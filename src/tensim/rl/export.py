@@ -120,12 +120,16 @@ def export(folder: Path, onnx: Path | None = None, where: Path | None = None
     Returns:
         the ``policy.json`` record.
     """
-    meta, arrays = policy_record(folder)
+    folder = Path(folder)
+    exported = _exported(folder)
+    meta, arrays = exported if exported is not None else policy_record(folder)
     where = Path(onnx).parent if onnx is not None else Path(where or folder)
     where.mkdir(parents=True, exist_ok=True)
-    if meta["settings"]["model"] not in PRESETS:  # the robot file, for `rl evaluate`
-        with atomic_path(where / meta["settings"]["model"]) as tmp:
-            shutil.copyfile(load_settings(folder).model, tmp)
+    robot = meta["settings"]["model"]
+    if robot not in PRESETS and (exported is None or where.resolve() != folder.resolve()):
+        with atomic_path(where / robot) as tmp:  # the robot file, for `rl evaluate`
+            shutil.copyfile(folder / robot if exported is not None else
+                            load_settings(folder).model, tmp)
     with atomic_path(where / "policy.npz") as tmp, open(tmp, "wb") as f:
         np.savez(f, **arrays)  # type: ignore[arg-type]
     if onnx is not None:
@@ -134,6 +138,20 @@ def export(folder: Path, onnx: Path | None = None, where: Path | None = None
                            [arrays[f"b{k}"] for k in range(len(arrays) // 2)]), Path(onnx))
     write_json(where / "policy.json", meta)
     return meta
+
+
+def _exported(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]] | None:
+    """The record and arrays of a folder that holds a policy already exported but no
+    training run (``tensim rl imitate``'s, or an export folder): None for a training run."""
+    path = folder / "policy.json"
+    if (folder / "policy.zip").is_file() or not path.is_file():
+        return None
+    meta = json.loads(path.read_text())
+    if meta.get("format") != "tensim-policy":
+        raise InputError(f"{path}: not a tensim policy (format {meta.get('format')!r})")
+    meta["network"].pop("onnx", None)
+    with np.load(folder / meta["network"]["weights"], allow_pickle=False) as saved:
+        return meta, {name: saved[name] for name in saved.files}
 
 
 def _write_onnx(policy: Policy, path: Path) -> None:
