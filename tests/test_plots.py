@@ -166,3 +166,19 @@ def test_panel_axes_make_only_the_ticks_they_draw():
     assert list(ax.yaxis.get_majorticklocs()) == drawn
     assert len(full()) > len(drawn)  # MaxNLocator alone gives ticks beyond the view
     assert len(ax.yaxis.majorTicks) == len(drawn)  # and no tick artists were made for them
+
+
+def test_each_column_labels_time_under_its_lowest_panel():
+    """7 panels on 3 columns: the last row holds one panel, so the other two columns end a
+    row higher, and their time axes are labelled there (else they carried no time labels)."""
+    from tensim.viz.plots import _grid
+
+    panels = tuple((f"p{k}", ()) for k in range(7))
+    grid = _grid("tensions", panels, 3, "test")  # type: ignore[arg-type]
+    axes = [ax for ax in grid.figure.axes if ax.get_visible()]
+    assert len(axes) == 7
+    labelled = [k for k, ax in enumerate(axes) if ax.get_xlabel() == "time [s]"]
+    assert labelled == [4, 5, 6]
+    shown = [k for k, ax in enumerate(axes)
+             if ax.xaxis.get_tick_params(which="major").get("labelbottom", True)]
+    assert shown == [4, 5, 6]

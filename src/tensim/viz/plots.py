@@ -174,10 +174,13 @@ def _grid(kind: str, panels: tuple[Panel, ...], columns: int, title: str) -> Pan
         ax.grid(alpha=0.3)
     for ax in axes.flat[len(panels):]:
         ax.set_visible(False)
-    for ax in axes[:-1].flat:  # the panels share their time axis (not as matplotlib's
-        ax.tick_params(labelbottom=False)  # shared axes: their transforms cost 0.2 s a figure)
-    for ax in axes[-1]:
-        ax.set_xlabel("time [s]", fontsize=8)
+    # the panels share their time axis (not as matplotlib's shared axes: their transforms
+    # cost 0.2 s a figure): its labels go under the lowest panel of each column only
+    for k, ax in enumerate(axes.flat[:len(panels)]):
+        if k + columns < len(panels):
+            ax.tick_params(labelbottom=False)
+        else:
+            ax.set_xlabel("time [s]", fontsize=8)
     return _label(PanelGrid(kind, panels, columns, title, fig), rows)
 
 
