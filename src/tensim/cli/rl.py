@@ -10,6 +10,27 @@ from pathlib import Path
 from tensim.cli._common import count, finite, nonnegative, positive
 
 
+def _env_options(p: argparse.ArgumentParser) -> None:
+    """The env's options, shared by `rl train` and `rl imitate` (one env, one set of names)."""
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--control-dt", type=positive, default=0.02, help="control period [s]")
+    p.add_argument("--episode", type=positive, default=10.0, help="episode length [s]")
+    p.add_argument("--dt", type=positive, default=0.002, help="physics step [s] (default "
+                   "0.002)")
+    p.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
+                   default="implicitfast", help="the cable law (default implicitfast: stiff "
+                   "cables at a 2 ms step)")
+    p.add_argument("--rest-span", type=positive, default=0.6, metavar="FRACTION",
+                   help="rest-length actions reach l0 (1 +- FRACTION), within the motor's "
+                   "minimum rest length (default 0.6)")
+    p.add_argument("--frame", choices=("heading", "robot"), default="heading",
+                   help="observations in the heading's frame (default) or the robot's")
+    p.add_argument("--randomize", choices=("start", "standard"), default="start",
+                   help="randomise each episode's start only (a random heading, 2 mm of pose "
+                   "noise; default) or also its physics, motor speeds and sensors (+-10-30 %%, "
+                   "tensim.rl.Randomization.standard)")
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("rl", help="reinforcement learning: train, evaluate, export a policy")
     rl = p.add_subparsers(dest="rl_command", required=True)
@@ -24,23 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="heading in the robot's start frame [deg] (default 0)")
     t.add_argument("--steps", type=count, default=100_000, help="env steps in all")
     t.add_argument("--envs", type=count, default=16, help="robots stepped together")
-    t.add_argument("--seed", type=int, default=0)
-    t.add_argument("--control-dt", type=positive, default=0.02, help="control period [s]")
-    t.add_argument("--episode", type=positive, default=10.0, help="episode length [s]")
-    t.add_argument("--dt", type=positive, default=0.002, help="physics step [s] (default "
-                   "0.002)")
-    t.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
-                   default="implicitfast", help="the cable law (default implicitfast: stiff "
-                   "cables at a 2 ms step)")
-    t.add_argument("--rest-span", type=positive, default=0.6, metavar="FRACTION",
-                   help="rest-length actions reach l0 (1 +- FRACTION), within the motor's "
-                   "minimum rest length (default 0.6)")
-    t.add_argument("--frame", choices=("heading", "robot"), default="heading",
-                   help="observations in the heading's frame (default) or the robot's")
-    t.add_argument("--randomize", choices=("start", "standard"), default="start",
-                   help="randomise each episode's start only (a random heading, 2 mm of pose "
-                   "noise; default) or also its physics, motor speeds and sensors (+-10-30 %%, "
-                   "tensim.rl.Randomization.standard)")
+    _env_options(t)
     t.add_argument("--bar-contact-cost", type=positive, default=None,
                    help="penalty per rod-rod contact per second (default none)")
     t.add_argument("--roll-reward", type=positive, default=None, metavar="M_PER_RAD",
@@ -111,20 +116,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "gait drives instead of the policy (default 0)")
     i.add_argument("--epochs", type=count, default=30, help="passes over the data per fit "
                    "(default 30)")
-    i.add_argument("--seed", type=int, default=0)
-    i.add_argument("--control-dt", type=positive, default=0.02, help="control period [s]")
-    i.add_argument("--episode", type=positive, default=10.0, help="episode length [s]")
-    i.add_argument("--dt", type=positive, default=0.002, help="physics step [s] (default "
-                   "0.002)")
-    i.add_argument("--cable-law", choices=("explicit", "implicit", "implicitfast"),
-                   default="implicitfast", help="the cable law (default implicitfast)")
-    i.add_argument("--rest-span", type=positive, default=0.6, metavar="FRACTION",
-                   help="rest-length actions reach l0 (1 +- FRACTION) (default 0.6)")
-    i.add_argument("--frame", choices=("heading", "robot"), default="heading",
-                   help="observations in the heading's frame (default) or the robot's")
-    i.add_argument("--randomize", choices=("start", "standard"), default="start",
-                   help="randomise each episode's start only (default) or also its physics "
-                   "and sensors (tensim.rl.Randomization.standard)")
+    _env_options(i)
     i.add_argument("--resume", action="store_true", help="continue the run in --out")
     i.add_argument("--out", default="runs/imitate", help="run folder")
     i.set_defaults(run=imitate)
