@@ -230,3 +230,30 @@ def test_an_imitated_policy_exports_to_onnx_acting_as_the_numpy_runner(tmp_path)
     session = ort.InferenceSession(str(tmp_path / "policy.onnx"))
     got = session.run(["action"], {"observation": observations.astype(np.float32)})[0]
     np.testing.assert_allclose(got, want, atol=1e-5)
+
+
+def test_a_structure_file_learns_rest_length_actions_when_asked(tmp_path) -> None:
+    """A robot file acts by V* by default (the laws that hold its build pose); with
+    --action rest_length it acts by rest lengths, as a lab's actuators, so the statics gait
+    can teach it; the default keeps the fingerprint of runs from before the option."""
+    import dataclasses
+
+    from tensim.models import three_bar
+    from tensim.rl._robot import Robot
+    from tensim.rl.expert import Expert
+    from tensim.rl.train import fingerprint
+    from tensim.structure import save_structure
+
+    path = tmp_path / "prism.yaml"
+    save_structure(dataclasses.replace(three_bar(), name="prism"), path)
+    plain = TrainSettings(model=str(path), episode_s=1.0)
+    assert Robot(plain.env_config()).action == "vstar"
+    with pytest.raises(InputError, match="give --action rest_length"):
+        Expert(Robot(plain.env_config()))
+    lengths = dataclasses.replace(plain, action="rest_length")
+    robot = Robot(lengths.env_config())
+    assert robot.action == "rest_length"
+    Expert(robot)  # the gait may teach it
+    assert fingerprint(lengths) != fingerprint(plain)  # (the default's: test_rl_roll_reward)
+    with pytest.raises(InputError, match="--action must be one of"):
+        TrainSettings(model="three_bar", action="torque")

@@ -195,7 +195,7 @@ def test_the_rolling_terms_are_validated_and_leave_old_fingerprints():
     import json
 
     record = dataclasses.asdict(plain) | {"steps": 0}
-    for name in ("randomization", "roll_reward", "slip_cost", "rollout_steps"):
+    for name in ("randomization", "roll_reward", "slip_cost", "rollout_steps", "action"):
         del record[name]
     old = hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:16]
     assert fingerprint(plain) == old != fingerprint(rolling)

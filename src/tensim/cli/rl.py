@@ -29,6 +29,11 @@ def _env_options(p: argparse.ArgumentParser) -> None:
                    help="randomise each episode's start only (a random heading, 2 mm of pose "
                    "noise; default) or also its physics, motor speeds and sensors (+-10-30 %%, "
                    "tensim.rl.Randomization.standard)")
+    p.add_argument("--action", choices=("auto", "rest_length", "vstar"), default="auto",
+                   help="the actions: auto (default) V* under the robot's impedance law where "
+                   "it has one (a structure file gets the laws that hold its build pose), else "
+                   "rest lengths; rest_length: each motorised cable's rest length, as a lab's "
+                   "length-commanding actuators (what `rl imitate`'s gait commands)")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -158,7 +163,8 @@ def train(args: argparse.Namespace) -> int:
                              bar_contact_cost=args.bar_contact_cost or 0.0,
                              roll_reward=args.roll_reward or 0.0,
                              slip_cost=args.slip_cost or 0.0,
-                             rollout_steps=args.rollout_steps or ROLLOUT_STEPS)
+                             rollout_steps=args.rollout_steps or ROLLOUT_STEPS,
+                             action=args.action)
     bar = Progress(f"rl train {args.algo}", args.quiet, unit="env steps",
                    rate_label="env steps/s")
     state = run_training(settings, Path(args.out), resume=args.resume,
@@ -245,7 +251,8 @@ def imitate(args: argparse.Namespace) -> int:
                              seed=args.seed, control_dt=args.control_dt,
                              episode_s=args.episode, timestep=args.dt,
                              cable_law=args.cable_law, rest_span=args.rest_span,
-                             frame=args.frame, randomization=args.randomize)
+                             frame=args.frame, randomization=args.randomize,
+                             action=args.action)
     imitation = ImitationSettings(iterations=args.iterations, episodes=args.episodes,
                                   noise=args.noise, beta=args.beta, epochs=args.epochs)
 

@@ -47,7 +47,8 @@ def check_rolling(robot: Robot) -> None:
     if robot.action != "rest_length":
         raise InputError(f"model {c.model!r}: its actions are {robot.action!r}; the statics "
                          "rolling gait commands rest lengths, so it can only teach a robot "
-                         "with rest-length actions (one without an impedance controller)")
+                         "with rest-length actions: give --action rest_length (a robot with "
+                         "an impedance controller, or a structure file, acts by V* otherwise)")
     nodes = np.array([n.position for n in robot.compiled.structure.nodes], dtype=float)
     try:
         ConvexHull(nodes)

@@ -91,6 +91,8 @@ def policy_meta(settings: TrainSettings, arrays: dict[str, np.ndarray], activati
     trained = dataclasses.asdict(settings) | {"model": Path(settings.model).name
                                               if settings.model not in PRESETS else
                                               settings.model}
+    if trained["action"] == "auto":  # as before it was a setting
+        del trained["action"]
     return {
         "format": "tensim-policy", "version": 1, "model": settings.model,
         "settings": trained, "training": training,

@@ -375,6 +375,8 @@ def _open(settings: TrainSettings, imitation: ImitationSettings, out: Path, resu
             "imitation": _plain(imitation)}
     if settings.model not in PRESETS:
         mine["env"]["model"] = Path(settings.model).name
+    if settings.action == "auto":  # as before it was a setting
+        del mine["env"]["action"]
     if (out / "record.json").is_file():
         if not resume:
             raise InputError(f"--out {out} already holds an imitation run: add --resume to "

@@ -25,7 +25,7 @@ from tensim._input import InputError
 from tensim.model import WorldOptions
 from tensim.model._law_layout import CABLE_LAWS
 from tensim.models import PRESETS
-from tensim.rl.config import FRAMES, ROLLING_OBSERVATION, EnvConfig, Randomization
+from tensim.rl.config import ACTIONS, FRAMES, ROLLING_OBSERVATION, EnvConfig, Randomization
 
 ALGOS = ("ppo", "sac")
 TASKS = {"roll": "direction", "turn": "turn", "goal": "goal"}
@@ -70,6 +70,11 @@ class TrainSettings:
         rollout_steps: PPO: env steps per update, all robots together (rounded down to a
             whole number per robot, at most ``steps``; minibatches of a quarter of it). A
             larger rollout averages each update's gradient over more episodes.
+        action: the actions (:class:`~tensim.rl.EnvConfig`): ``"auto"`` (V* under the
+            robot's impedance law where it has one, which a structure file gets from the laws
+            that hold its build pose; else rest lengths), ``"vstar"`` or ``"rest_length"``
+            (each motorised cable's rest length, as a lab's length-commanding actuators, and
+            what the statics rolling gait commands).
     """
 
     model: str
@@ -91,8 +96,12 @@ class TrainSettings:
     frame: str = "heading"
     randomization: str = "start"
     rollout_steps: int = ROLLOUT_STEPS
+    action: str = "auto"
 
     def __post_init__(self) -> None:
+        if self.action not in ACTIONS:
+            raise InputError(f"--action must be one of {', '.join(ACTIONS)}, got "
+                             f"{self.action!r}")
         if self.algo not in ALGOS:
             raise InputError(f"--algo must be one of {', '.join(ALGOS)}, got {self.algo!r}")
         if self.task not in TASKS:
@@ -148,7 +157,8 @@ class TrainSettings:
                          rest_span=self.rest_span, bar_contact_cost=self.bar_contact_cost,
                          roll_reward=self.roll_reward, slip_cost=self.slip_cost,
                          randomization=randomization or RANDOMIZATIONS[self.randomization](),
-                         world=WorldOptions(timestep=self.timestep, cable_law=self.cable_law))
+                         world=WorldOptions(timestep=self.timestep, cable_law=self.cable_law),
+                         action=self.action)
 
 
 ROBOT_FILE = "robot.yaml"  # a structure file's copy in the run folder
@@ -157,8 +167,8 @@ ROBOT_FILE = "robot.yaml"  # a structure file's copy in the run folder
 def fingerprint(settings: TrainSettings) -> str:
     """A hash of the settings, with a robot file's contents in place of its path (a preset:
     its name); ``steps`` is left out, so a resumed run may train longer, and so is the
-    default randomisation, reward terms that are off and the default rollout, so runs from
-    before they were settings keep their fingerprint."""
+    default randomisation, reward terms that are off, the default rollout and the default
+    actions, so runs from before they were settings keep their fingerprint."""
     record = dataclasses.asdict(settings) | {"steps": 0}
     if record["randomization"] == "start":
         del record["randomization"]
@@ -167,6 +177,8 @@ def fingerprint(settings: TrainSettings) -> str:
             del record[name]
     if record["rollout_steps"] == ROLLOUT_STEPS:
         del record["rollout_steps"]
+    if record["action"] == "auto":
+        del record["action"]
     if settings.model not in PRESETS:
         record["model"] = hashlib.sha256(Path(settings.model).read_bytes()).hexdigest()
     return hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()[:16]
