@@ -14,7 +14,7 @@ import numpy as np
 from tensim._files import atomic_path, write_json
 from tensim._input import InputError
 from tensim.models import PRESETS
-from tensim.rl.policy import Policy
+from tensim.rl.policy import Policy, from_arrays
 from tensim.rl.train import TrainSettings, load_settings
 
 FRAMES = {"robot": "robot frame: origin at the centre of mass, z up, x toward the first rigid "
@@ -59,15 +59,31 @@ def policy_record(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     with np.load(folder / "normalizer.npz") as norm:
         normalization = {"mean": norm["mean"].tolist(), "var": norm["var"].tolist(),
                          "clip": float(norm["clip"]), "epsilon": float(norm["epsilon"])}
-    arrays: dict[str, np.ndarray] = {}
-    for k, layer in enumerate(linears):
-        arrays[f"w{k}"] = layer.weight.detach().cpu().numpy().astype(np.float32)
-        arrays[f"b{k}"] = layer.bias.detach().cpu().numpy().astype(np.float32)
+    arrays = layer_arrays(linears)
     progress = json.loads((folder / "progress.json").read_text())
     training = {"env_steps": int(progress["steps_done"]),
                 "cpu_s": round(float(progress.get("cpu_s", 0.0)), 1)} \
         | ({"init": progress["init"]} if "init" in progress else {})
     return policy_meta(settings, arrays, activations, out, normalization, training), arrays
+
+
+def layer_arrays(linears: list[Any], dtype: Any = np.float32) -> dict[str, np.ndarray]:
+    """A network's torch Linear layers as ``policy.npz`` holds them: ``w0``, ``b0``, ...
+    (float32 by default, as exported)."""
+    arrays: dict[str, np.ndarray] = {}
+    for k, layer in enumerate(linears):
+        arrays[f"w{k}"] = layer.weight.detach().cpu().numpy().astype(dtype)
+        arrays[f"b{k}"] = layer.bias.detach().cpu().numpy().astype(dtype)
+    return arrays
+
+
+def write_policy(where: Path, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+    """Writes ``policy.npz`` (the arrays) and then ``policy.json`` (the record that names
+    them) into ``where``, each atomically."""
+    where.mkdir(parents=True, exist_ok=True)
+    with atomic_path(where / "policy.npz") as tmp, open(tmp, "wb") as f:
+        np.savez(f, **arrays)  # type: ignore[arg-type]
+    write_json(where / "policy.json", meta)
 
 
 def policy_meta(settings: TrainSettings, arrays: dict[str, np.ndarray], activations: list[str],
@@ -132,13 +148,10 @@ def export(folder: Path, onnx: Path | None = None, where: Path | None = None
         with atomic_path(where / robot) as tmp:  # the robot file, for `rl evaluate`
             shutil.copyfile(folder / robot if exported is not None else
                             load_settings(folder).model, tmp)
-    with atomic_path(where / "policy.npz") as tmp, open(tmp, "wb") as f:
-        np.savez(f, **arrays)  # type: ignore[arg-type]
     if onnx is not None:
         meta["network"]["onnx"] = Path(onnx).name
-        _write_onnx(Policy(meta, [arrays[f"w{k}"] for k in range(len(arrays) // 2)],
-                           [arrays[f"b{k}"] for k in range(len(arrays) // 2)]), Path(onnx))
-    write_json(where / "policy.json", meta)
+        _write_onnx(from_arrays(meta, arrays), Path(onnx))
+    write_policy(where, meta, arrays)
     return meta
 
 

@@ -33,7 +33,7 @@ import numpy as np
 
 from tensim._files import atomic_path, write_json
 from tensim._input import InputError
-from tensim.rl.policy import Policy
+from tensim.rl.policy import Policy, from_arrays, normalized
 from tensim.rl.train import CLIP_OBS, EPSILON, TrainSettings
 from tensim.structure import body_length
 
@@ -161,48 +161,21 @@ def fit(net: Any, inputs: np.ndarray, targets: np.ndarray, epochs: int, learning
         return float(torch.mean((net(x) - y) ** 2))
 
 
-def arrays_of(net: Any) -> dict[str, np.ndarray]:
-    """The network's layers as ``policy.npz`` holds them: ``w0``, ``b0``, ... (float32)."""
+def _linears(net: Any) -> list[Any]:
+    """The network's torch Linear layers, in order."""
     import torch
 
-    linears = [m for m in net if isinstance(m, torch.nn.Linear)]
-    out: dict[str, np.ndarray] = {}
-    for k, layer in enumerate(linears):
-        out[f"w{k}"] = layer.weight.detach().numpy().astype(np.float32)
-        out[f"b{k}"] = layer.bias.detach().numpy().astype(np.float32)
-    return out
+    return [m for m in net if isinstance(m, torch.nn.Linear)]
 
 
 def load_into(net: Any, arrays: dict[str, np.ndarray]) -> None:
-    """Sets ``net``'s layers to ``arrays`` (:func:`arrays_of`'s layout)."""
+    """Sets ``net``'s layers to ``arrays`` (``policy.npz``'s layout: ``w0``, ``b0``, ...)."""
     import torch
 
-    linears = [m for m in net if isinstance(m, torch.nn.Linear)]
     with torch.no_grad():
-        for k, layer in enumerate(linears):
+        for k, layer in enumerate(_linears(net)):
             layer.weight.copy_(torch.as_tensor(arrays[f"w{k}"], dtype=torch.float64))
             layer.bias.copy_(torch.as_tensor(arrays[f"b{k}"], dtype=torch.float64))
-
-
-def policy_of(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> Policy:
-    """The NumPy policy of a record and its arrays."""
-    n = len(arrays) // 2
-    return Policy(meta, [arrays[f"w{k}"].astype(float) for k in range(n)],
-                  [arrays[f"b{k}"].astype(float) for k in range(n)])
-
-
-def write_policy(out: Path, settings: TrainSettings, arrays: dict[str, np.ndarray],
-                 norm: dict[str, Any], training: dict[str, Any]) -> dict[str, Any]:
-    """Writes ``policy.json`` and ``policy.npz`` into ``out`` (atomically), as ``tensim rl
-    export`` writes them; returns the record."""
-    from tensim.rl.export import policy_meta
-
-    meta = policy_meta(settings, arrays, ["tanh"] * len(HIDDEN), "clip", norm, training)
-    out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out / "policy.npz") as tmp, open(tmp, "wb") as f:
-        np.savez(f, **arrays)  # type: ignore[arg-type]
-    write_json(out / "policy.json", meta)
-    return meta
 
 
 def imitate(settings: TrainSettings, imitation: ImitationSettings, out: Path, *,
@@ -252,8 +225,8 @@ def imitate(settings: TrainSettings, imitation: ImitationSettings, out: Path, *,
     policy: Policy | None = None
     if record["iterations"]:  # the fit's own float64 weights, so a resumed run is the same
         load_into(net, _arrays(out / NETWORK))
-        policy = policy_of(json.loads((out / "policy.json").read_text()),
-                           _arrays(out / "policy.npz"))
+        policy = from_arrays(json.loads((out / "policy.json").read_text()),
+                             _arrays(out / "policy.npz"))
     start_cpu = time.process_time() - record["cpu_s"]
     for it in range(len(record["iterations"]), imitation.iterations):
         control = _driver(policy, imitation, np.random.default_rng([settings.seed, it]), it)
@@ -307,23 +280,22 @@ def _write_iteration(out: Path, settings: TrainSettings, imitation: ImitationSet
     """Writes the iteration's policy (into ``out`` and ``out/iterations/N``), the network's
     weights, the pooled data and, last (it names the iteration done), the record; returns
     the policy."""
-    import torch
+    from tensim.rl.export import layer_arrays, policy_meta, write_policy
 
     done = len(record["iterations"])
-    arrays = arrays_of(net)
+    arrays = layer_arrays(_linears(net))
     training = {"env_steps": record["env_steps"], "cpu_s": record["cpu_s"],
                 "imitation": {"expert": "statics rolling gait", "iterations": done}
                 | _plain(imitation)}
-    meta = write_policy(out, settings, arrays, norm, training)
-    write_policy(out / "iterations" / str(done - 1), settings, arrays, norm, training)
-    weights = {f"{kind}{k}": getattr(layer, name).detach().numpy()
-               for k, layer in enumerate(m for m in net if isinstance(m, torch.nn.Linear))
-               for kind, name in (("w", "weight"), ("b", "bias"))}
+    meta = policy_meta(settings, arrays, ["tanh"] * len(HIDDEN), "clip", norm, training)
+    write_policy(out, meta, arrays)
+    write_policy(out / "iterations" / str(done - 1), meta, arrays)
+    weights = layer_arrays(_linears(net), np.float64)
     for name, arrays_out in ((NETWORK, weights), ("data.npz", data)):
         with atomic_path(out / name) as tmp, open(tmp, "wb") as f:
-            np.savez(f, **arrays_out)
+            np.savez(f, **arrays_out)  # type: ignore[arg-type]
     write_json(out / "record.json", record)
-    return policy_of(meta, arrays)
+    return from_arrays(meta, arrays)
 
 
 def _driver(policy: Policy | None, imitation: ImitationSettings, rng: np.random.Generator,
@@ -347,9 +319,8 @@ def _driver(policy: Policy | None, imitation: ImitationSettings, rng: np.random.
 
 def _normalized(observations: np.ndarray, norm: dict[str, Any]) -> np.ndarray:
     """As :meth:`Policy.normalize` with the normaliser ``norm``."""
-    mean, var = np.asarray(norm["mean"]), np.asarray(norm["var"])
-    return np.clip((observations - mean) / np.sqrt(var + norm["epsilon"]), -norm["clip"],
-                   norm["clip"])
+    return normalized(observations, np.asarray(norm["mean"]), np.asarray(norm["var"]),
+                      norm["clip"], norm["epsilon"])
 
 
 def _plain(imitation: ImitationSettings) -> dict[str, Any]:

@@ -28,6 +28,13 @@ def _relu(x: np.ndarray) -> np.ndarray:
 ACTIVATIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {"tanh": np.tanh, "relu": _relu}
 
 
+def normalized(obs: np.ndarray, mean: np.ndarray, var: np.ndarray, clip: float,
+               epsilon: float) -> np.ndarray:
+    """Observations as a policy's network sees them: clip((obs - mean) / sqrt(var + epsilon),
+    -clip, clip) (PPO's ``VecNormalize``)."""
+    return np.clip((obs - mean) / np.sqrt(var + epsilon), -clip, clip)
+
+
 class Policy:
     """A deterministic multilayer perceptron with the observation normaliser in front.
 
@@ -50,8 +57,7 @@ class Policy:
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
         """(..., n_obs) observations as the network sees them."""
-        return np.clip((obs - self.mean) / np.sqrt(self.var + self.epsilon), -self.clip,
-                       self.clip)
+        return normalized(obs, self.mean, self.var, self.clip, self.epsilon)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         """(..., n_motors) actions in [-1, 1] for (..., n_obs) observations."""
@@ -87,7 +93,12 @@ def load(path: str | Path) -> Policy:
     if meta.get("format") != "tensim-policy":
         raise ValueError(f"{path}: not a tensim policy (format {meta.get('format')!r})")
     with np.load(path.parent / meta["network"]["weights"], allow_pickle=False) as saved:
-        n = len(meta["network"]["layers"])
-        weights = [saved[f"w{k}"].astype(np.float64) for k in range(n)]
-        biases = [saved[f"b{k}"].astype(np.float64) for k in range(n)]
-    return Policy(meta, weights, biases)
+        return from_arrays(meta, {name: saved[name] for name in saved.files})
+
+
+def from_arrays(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> Policy:
+    """The policy of a ``policy.json`` record and its ``policy.npz`` arrays (``w0``, ``b0``,
+    ... per layer, as ``meta["network"]["layers"]`` counts them), in float64."""
+    n = len(meta["network"]["layers"])
+    return Policy(meta, [np.asarray(arrays[f"w{k}"], dtype=np.float64) for k in range(n)],
+                  [np.asarray(arrays[f"b{k}"], dtype=np.float64) for k in range(n)])
