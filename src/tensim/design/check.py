@@ -206,15 +206,16 @@ def _motors(structure: Structure, source: str | os.PathLike[str] | None) -> list
             f"{names} give no motor, so they are passive (their rest lengths never change)",
             "give a cable a motor if a controller should drive it"))
     for cable, tension in zip(structure.cables, cable_tensions(structure), strict=True):
-        if not cable.motor.passive and tension > cable.motor.max_tension \
-                and cable.motor.saturate:  # a force cap: the motor pays out to it at once
+        if cable.motor.passive or tension <= cable.motor.max_tension:
+            continue
+        if cable.motor.saturate:  # a force cap: the motor pays out to it at once
             out.append(Finding(
                 "note", f"cable {cable.name!r}",
                 f"its build tension {tension:.4g} N is above its motor's force cap "
                 f"{cable.motor.max_tension:.4g} N: the motor pays out at the start until the "
                 "cable pulls the cap (Motor.saturate)",
                 "lower the pretension if the robot should start at rest"))
-        elif not cable.motor.passive and tension > cable.motor.max_tension:
+        else:
             out.append(Finding(
                 "error", f"cable {cable.name!r}",
                 f"its build tension {tension:.4g} N exceeds its motor's max_tension "

@@ -128,13 +128,13 @@ class _Body:
         it) goes to the candidate whose surface it is nearest. Returns the point's index and
         how far it moved [m]."""
         m, f = self.f.model, self.f
-        near: list[tuple[float, np.ndarray]] = []  # (distance outside, candidate) per geom
+        near: list[tuple[float, float, np.ndarray]] = []  # (distance outside, radius, node)
         for g in self.spheres if spheres else ():
             centre = f.data.geom_xpos[g]
             radius = m.geom_size[g][0]
             if np.linalg.norm(position - centre) <= radius + TOL:
                 return self._node(centre, ""), float(np.linalg.norm(position - centre))
-            near.append((float(np.linalg.norm(position - centre)) - radius, centre))
+            near.append((float(np.linalg.norm(position - centre)) - radius, radius, centre))
         for g in self.rods:
             p0, p1 = self._ends(g)
             length = float(np.linalg.norm(p1 - p0))
@@ -145,23 +145,16 @@ class _Body:
             on = p0 + t * axis
             at = p0 if t <= end else p1 if t >= length - end else on
             if np.linalg.norm(position - on) > radius + TOL:
-                near.append((float(np.linalg.norm(position - on)) - radius, at))
+                near.append((float(np.linalg.norm(position - on)) - radius, radius, at))
                 continue
             return self._node(at, ""), float(np.linalg.norm(position - at))
-        outside = [(gap, c) for (gap, c), radius in zip(near, self._radii(spheres), strict=True)
-                   if gap <= radius]
+        outside = [(gap, node) for gap, radius, node in near if gap <= radius]
         if outside:
-            _, centre = min(outside, key=lambda item: item[0])
-            return self._node(centre, ""), float(np.linalg.norm(position - centre))
+            _, node = min(outside, key=lambda item: item[0])
+            return self._node(node, ""), float(np.linalg.norm(position - node))
         raise f.refuse(self.item, f"{what} at {np.round(position, 6).tolist()} lies on none of "
                        "the body's rod axes" + (" or spheres" if spheres else "") +
                        ": tensim's nodes sit on rod axes (or at the centre of a lone sphere)")
-
-    def _radii(self, spheres: bool) -> list[float]:
-        """The radii of the geoms :meth:`_place` tries, in its order [m]."""
-        size = self.f.model.geom_size
-        return [float(size[g][0]) for g in (self.spheres if spheres else [])] + \
-            [float(size[g][0]) for g in self.rods]
 
     def _name_point(self, k: int, hint: str, rank: int) -> None:
         """Offers ``hint`` as point k's name; a higher ``rank`` wins (rod end 0, sphere 1,
